@@ -1,0 +1,429 @@
+//! Display geometry: per-eye resolution, field of view, pixels per degree, and the conversion
+//! between screen pixels and eccentricity for a gaze point (VaFR Eq. 3).
+//!
+//! The screen is modelled as a rectilinear (pinhole) image plane, which is what a renderer
+//! draws before the HMD's lens-distortion pass. Its constant `c_r` (VaFR Sec. 3.2.1) is the
+//! film height divided by the focal length, divided by the display height in pixels:
+//! `c_r = 2·tan(vfov/2) / H`, so that a point `r` pixels from the gaze point lies at
+//! eccentricity `e = atan(c_r·r)` (Eq. 3). Like the paper, Eq. 3 treats the gaze point as if it
+//! were on the optical axis; [`DisplayProfile::eccentricity_exact`] gives the true angle between
+//! the gaze ray and a pixel's ray for comparison.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{check_range_open_lo, FoveaError, Result};
+use crate::units::{Degrees, ScreenPoint};
+
+/// Largest accepted per-eye resolution along one axis (a 16K-per-eye panel is 15360 wide).
+pub const MAX_RESOLUTION_PX: u32 = 32_768;
+
+/// How far (as a fraction of the screen size) a gaze point may lie outside the screen before it
+/// is rejected. Eye trackers report slightly off-screen points near the border; anything farther
+/// is a tracking failure, not a gaze.
+pub const GAZE_MARGIN_FRACTION: f64 = 0.05;
+
+/// A per-eye display profile of an HMD, or a flat test resolution.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DisplayProfile {
+    /// Preset or user name.
+    pub name: String,
+    /// Horizontal resolution per eye in pixels.
+    pub width_px: u32,
+    /// Vertical resolution per eye in pixels.
+    pub height_px: u32,
+    /// Horizontal field of view of the rectilinear render target, degrees, in (0, 180).
+    pub hfov: Degrees,
+    /// Vertical field of view of the rectilinear render target, degrees, in (0, 180).
+    pub vfov: Degrees,
+    /// Where the optical axis meets the screen, in pixels (HMD lenses are often off-centre).
+    /// `None` means the screen centre.
+    pub lens_centre_px: Option<ScreenPoint>,
+    /// The panel's pixels per degree at the lens centre as stated by the manufacturer, when the
+    /// HMD's lens is not rectilinear and the rectilinear figure would misstate it. `None` means
+    /// the rectilinear value `1 / (c_r · 180/π)`.
+    pub peak_ppd: Option<f64>,
+}
+
+/// Names accepted by [`DisplayProfile::preset`].
+pub const PRESET_NAMES: &[&str] = &[
+    "vive-pro-eye",
+    "pimax-crystal",
+    "varjo-xr4",
+    "2k",
+    "4k",
+    "6k",
+    "8k",
+    "retinal",
+];
+
+/// The VaFR test resolutions (Table 1), in order.
+pub const VAFR_TEST_PRESETS: &[&str] = &["2k", "4k", "6k", "8k", "retinal"];
+
+impl DisplayProfile {
+    /// A validated profile with the optical axis at the screen centre.
+    pub fn new(
+        name: impl Into<String>,
+        width_px: u32,
+        height_px: u32,
+        hfov: Degrees,
+        vfov: Degrees,
+    ) -> Result<Self> {
+        let p = Self {
+            name: name.into(),
+            width_px,
+            height_px,
+            hfov,
+            vfov,
+            lens_centre_px: None,
+            peak_ppd: None,
+        };
+        p.validate()?;
+        Ok(p)
+    }
+
+    /// A flat display of `width_px × height_px` with square pixels and the given vertical field
+    /// of view; the horizontal field of view follows from the aspect ratio.
+    pub fn with_vertical_fov(
+        name: impl Into<String>,
+        width_px: u32,
+        height_px: u32,
+        vfov: Degrees,
+    ) -> Result<Self> {
+        check_range_open_lo("vfov", vfov.0, 0.0, 179.0)?;
+        check_resolution(width_px, height_px)?;
+        let half_v = (vfov.0 / 2.0).to_radians().tan();
+        let half_h = half_v * width_px as f64 / height_px as f64;
+        Self::new(
+            name,
+            width_px,
+            height_px,
+            Degrees(2.0 * half_h.atan().to_degrees()),
+            vfov,
+        )
+    }
+
+    /// Checks every field; returns a typed error naming the first bad one.
+    pub fn validate(&self) -> Result<()> {
+        check_resolution(self.width_px, self.height_px)?;
+        check_range_open_lo("hfov", self.hfov.0, 0.0, 179.0)?;
+        check_range_open_lo("vfov", self.vfov.0, 0.0, 179.0)?;
+        if let Some(c) = self.lens_centre_px {
+            if !(c.x_px.is_finite() && c.y_px.is_finite())
+                || c.x_px < 0.0
+                || c.y_px < 0.0
+                || c.x_px > self.width_px as f64
+                || c.y_px > self.height_px as f64
+            {
+                return Err(FoveaError::invalid(
+                    "lens_centre",
+                    format!("{},{}", c.x_px, c.y_px),
+                    format!("a point on the {}×{} screen", self.width_px, self.height_px),
+                ));
+            }
+        }
+        if let Some(ppd) = self.peak_ppd {
+            check_range_open_lo("peak_ppd", ppd, 0.0, 1000.0)?;
+        }
+        Ok(())
+    }
+
+    /// A named preset (see [`PRESET_NAMES`]).
+    ///
+    /// * `vive-pro-eye`: HTC Vive Pro Eye, 1440×1600 per eye, about 100°×110° per eye; VaFR
+    ///   (Sec. 3.3, Fig. 3) states its display at 9 cpd, i.e. 18 ppd at the lens centre.
+    /// * `pimax-crystal`: 2880×2880 per eye, about 35 ppd at the centre (VaFR Fig. 3: 18 cpd),
+    ///   about 105°×105° per eye.
+    /// * `varjo-xr4`: 3840×3744 per eye, 120°×105°.
+    /// * `2k` … `retinal`: the VaFR test resolutions 2560×1440, 3840×2160, 5760×3240,
+    ///   7680×4320 and 11520×6480 on a flat display with a 90° vertical field of view
+    ///   (square pixels, so about 121° horizontally: the paper's "120° horizontally").
+    pub fn preset(name: &str) -> Result<Self> {
+        let lower = name.to_ascii_lowercase();
+        let flat = |w: u32, h: u32| Self::with_vertical_fov(lower.clone(), w, h, Degrees(90.0));
+        match lower.as_str() {
+            "vive-pro-eye" | "vive" => Ok(Self {
+                name: "vive-pro-eye".into(),
+                width_px: 1440,
+                height_px: 1600,
+                hfov: Degrees(100.0),
+                vfov: Degrees(110.0),
+                lens_centre_px: None,
+                peak_ppd: Some(18.0),
+            }),
+            "pimax-crystal" | "pimax" => Ok(Self {
+                name: "pimax-crystal".into(),
+                width_px: 2880,
+                height_px: 2880,
+                hfov: Degrees(105.0),
+                vfov: Degrees(105.0),
+                lens_centre_px: None,
+                peak_ppd: Some(35.0),
+            }),
+            "varjo-xr4" | "varjo-xr-4" | "xr4" => Ok(Self {
+                name: "varjo-xr4".into(),
+                width_px: 3840,
+                height_px: 3744,
+                hfov: Degrees(120.0),
+                vfov: Degrees(105.0),
+                lens_centre_px: None,
+                peak_ppd: None,
+            }),
+            "2k" => flat(2560, 1440),
+            "4k" => flat(3840, 2160),
+            "6k" => flat(5760, 3240),
+            "8k" => flat(7680, 4320),
+            "retinal" => flat(11520, 6480),
+            _ => Err(FoveaError::invalid(
+                "headset",
+                name,
+                format!("one of {}", PRESET_NAMES.join(", ")),
+            )),
+        }
+    }
+
+    /// All presets, in the order of [`PRESET_NAMES`].
+    pub fn presets() -> Vec<Self> {
+        PRESET_NAMES
+            .iter()
+            .map(|n| Self::preset(n).expect("built-in presets are valid"))
+            .collect()
+    }
+
+    /// Number of pixels per eye.
+    pub fn pixel_count(&self) -> u64 {
+        self.width_px as u64 * self.height_px as u64
+    }
+
+    /// VaFR's `c_r` (Sec. 3.2.1): film height over focal length, over the height in pixels.
+    /// Its reciprocal is the focal length in pixels.
+    pub fn c_r(&self) -> f64 {
+        2.0 * (self.vfov.0 / 2.0).to_radians().tan() / self.height_px as f64
+    }
+
+    /// Horizontal focal length in pixels of the rectilinear render target.
+    pub fn focal_x_px(&self) -> f64 {
+        self.width_px as f64 / 2.0 / (self.hfov.0 / 2.0).to_radians().tan()
+    }
+
+    /// Vertical focal length in pixels (`1 / c_r`).
+    pub fn focal_y_px(&self) -> f64 {
+        1.0 / self.c_r()
+    }
+
+    /// Where the optical axis meets the screen.
+    pub fn principal_point(&self) -> ScreenPoint {
+        self.lens_centre_px.unwrap_or(ScreenPoint::new(
+            self.width_px as f64 / 2.0,
+            self.height_px as f64 / 2.0,
+        ))
+    }
+
+    /// Pixels per degree at the lens centre: the manufacturer's figure if the profile has one,
+    /// otherwise that of the rectilinear target, `π / (180 · c_r)`.
+    pub fn ppd(&self) -> f64 {
+        self.peak_ppd
+            .unwrap_or_else(|| self.rectilinear_ppd(Degrees(0.0)))
+    }
+
+    /// The display's own limit in cycles per degree at the lens centre (half its ppd).
+    pub fn nyquist_cpd(&self) -> f64 {
+        self.ppd() / 2.0
+    }
+
+    /// Radial pixels per degree of the rectilinear target at eccentricity `e` (from Eq. 7:
+    /// `dr/de = 1 / (c_r · cos²e) · π/180`).
+    pub fn rectilinear_ppd(&self, e: Degrees) -> f64 {
+        let c = e.to_radians().cos();
+        std::f64::consts::PI / 180.0 / (self.c_r() * c * c)
+    }
+
+    /// Validates a gaze point: finite, and on the screen or within
+    /// [`GAZE_MARGIN_FRACTION`] of it.
+    pub fn gaze(&self, x_px: f64, y_px: f64) -> Result<Gaze> {
+        let w = self.width_px as f64;
+        let h = self.height_px as f64;
+        let (mx, my) = (w * GAZE_MARGIN_FRACTION, h * GAZE_MARGIN_FRACTION);
+        if !(x_px.is_finite() && y_px.is_finite())
+            || x_px < -mx
+            || x_px > w + mx
+            || y_px < -my
+            || y_px > h + my
+        {
+            return Err(FoveaError::invalid(
+                "gaze",
+                format!("{x_px},{y_px}"),
+                format!(
+                    "a finite point on the {}×{} screen (x in [{:.0}, {:.0}], y in [{:.0}, {:.0}] px)",
+                    self.width_px, self.height_px, -mx, w + mx, -my, h + my
+                ),
+            ));
+        }
+        Ok(Gaze {
+            point: ScreenPoint::new(x_px, y_px),
+        })
+    }
+
+    /// The gaze at the screen centre.
+    pub fn centre_gaze(&self) -> Gaze {
+        Gaze {
+            point: ScreenPoint::new(self.width_px as f64 / 2.0, self.height_px as f64 / 2.0),
+        }
+    }
+
+    /// Eccentricity of screen point `p` for gaze `g`, VaFR Eq. 3: `e = atan(c_r · r)` with `r`
+    /// the pixel distance from the gaze point.
+    pub fn eccentricity(&self, p: ScreenPoint, g: &Gaze) -> Degrees {
+        Degrees(eccentricity_deg(self.c_r(), p.distance(g.point)))
+    }
+
+    /// Pixel distance from the gaze point at which Eq. 3 gives eccentricity `e`:
+    /// `r = tan(e) / c_r`.
+    pub fn radius_px(&self, e: Degrees) -> f64 {
+        e.to_radians().tan() / self.c_r()
+    }
+
+    /// The true angle between the eye's ray through the gaze point and its ray through `p`,
+    /// for the rectilinear target with the eye on the optical axis through the principal point.
+    /// Equals [`Self::eccentricity`] when the gaze is at the principal point.
+    pub fn eccentricity_exact(&self, p: ScreenPoint, g: &Gaze) -> Degrees {
+        let c = self.principal_point();
+        let (fx, fy) = (self.focal_x_px(), self.focal_y_px());
+        let dir = |q: ScreenPoint| {
+            let v = [(q.x_px - c.x_px) / fx, (q.y_px - c.y_px) / fy, 1.0];
+            let n = (v[0] * v[0] + v[1] * v[1] + 1.0).sqrt();
+            [v[0] / n, v[1] / n, v[2] / n]
+        };
+        let (a, b) = (dir(p), dir(g.point));
+        let cross = [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ];
+        let sin = (cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]).sqrt();
+        let cos = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        Degrees(sin.atan2(cos).to_degrees())
+    }
+
+    /// Distance in pixels from the gaze point to the farthest screen corner.
+    pub fn farthest_corner_px(&self, g: &Gaze) -> f64 {
+        let (w, h) = (self.width_px as f64, self.height_px as f64);
+        [(0.0, 0.0), (w, 0.0), (0.0, h), (w, h)]
+            .iter()
+            .map(|&(x, y)| g.point.distance(ScreenPoint::new(x, y)))
+            .fold(0.0, f64::max)
+    }
+
+    /// Eccentricity (Eq. 3) of the farthest screen corner for gaze `g`.
+    pub fn farthest_corner_eccentricity(&self, g: &Gaze) -> Degrees {
+        Degrees(eccentricity_deg(self.c_r(), self.farthest_corner_px(g)))
+    }
+}
+
+/// A validated gaze point (point of regard) on the screen, in pixels.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Gaze {
+    /// The point of regard.
+    pub point: ScreenPoint,
+}
+
+/// VaFR Eq. 3 in degrees: `atan(c_r · r_px)`.
+#[inline]
+pub fn eccentricity_deg(c_r: f64, r_px: f64) -> f64 {
+    (c_r * r_px).atan().to_degrees()
+}
+
+fn check_resolution(w: u32, h: u32) -> Result<()> {
+    for (name, v) in [("width", w), ("height", h)] {
+        if v == 0 || v > MAX_RESOLUTION_PX {
+            return Err(FoveaError::invalid(
+                name,
+                v,
+                format!("a resolution in [1, {MAX_RESOLUTION_PX}] pixels"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Parses `WxH` (also `W×H`, `W,H`) into a resolution.
+pub fn parse_resolution(text: &str) -> Result<(u32, u32)> {
+    let bad = || {
+        FoveaError::invalid(
+            "res",
+            text,
+            format!("WIDTHxHEIGHT with both in [1, {MAX_RESOLUTION_PX}], e.g. 2560x1440"),
+        )
+    };
+    let parts: Vec<&str> = text.split(['x', 'X', '×', ',']).map(str::trim).collect();
+    if parts.len() != 2 {
+        return Err(bad());
+    }
+    let w: u32 = parts[0].parse().map_err(|_| bad())?;
+    let h: u32 = parts[1].parse().map_err(|_| bad())?;
+    check_resolution(w, h).map_err(|_| bad())?;
+    Ok((w, h))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn presets_are_valid_and_named() {
+        for p in DisplayProfile::presets() {
+            p.validate().unwrap();
+        }
+        let xr4 = DisplayProfile::preset("varjo-xr4").unwrap();
+        assert_eq!((xr4.width_px, xr4.height_px), (3840, 3744));
+        let retinal = DisplayProfile::preset("retinal").unwrap();
+        assert_eq!(retinal.pixel_count(), 74_649_600);
+        // 90° vertical with square pixels gives about 121° horizontally.
+        assert!((retinal.hfov.0 - 121.28).abs() < 0.05, "{}", retinal.hfov.0);
+    }
+
+    #[test]
+    fn eq3_round_trip_and_centre_agreement() {
+        let d = DisplayProfile::preset("2k").unwrap();
+        let g = d.centre_gaze();
+        for e in [0.5, 5.0, 20.0, 44.0] {
+            let r = d.radius_px(Degrees(e));
+            let p = ScreenPoint::new(g.point.x_px + r, g.point.y_px);
+            assert!((d.eccentricity(p, &g).0 - e).abs() < 1e-9);
+            // Gaze at the principal point: Eq. 3 is exact.
+            assert!((d.eccentricity_exact(p, &g).0 - e).abs() < 1e-9);
+        }
+        // 45° vertical half-FOV: the top edge centre is at 45°.
+        let top = ScreenPoint::new(g.point.x_px, 0.0);
+        assert!((d.eccentricity(top, &g).0 - 45.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn ppd_matches_rectilinear_and_peak() {
+        let d = DisplayProfile::preset("2k").unwrap();
+        let f = d.focal_y_px();
+        assert!((d.ppd() - f * std::f64::consts::PI / 180.0).abs() < 1e-9);
+        assert_eq!(DisplayProfile::preset("vive-pro-eye").unwrap().ppd(), 18.0);
+    }
+
+    #[test]
+    fn invalid_inputs_are_typed_errors() {
+        let e = DisplayProfile::new("x", 0, 10, Degrees(90.0), Degrees(90.0)).unwrap_err();
+        assert!(e.to_string().contains("width"), "{e}");
+        let e = DisplayProfile::new("x", 10, 10, Degrees(-5.0), Degrees(90.0)).unwrap_err();
+        assert!(
+            e.to_string().contains("hfov") && e.to_string().contains("-5"),
+            "{e}"
+        );
+        let d = DisplayProfile::preset("2k").unwrap();
+        assert!(d.gaze(f64::NAN, 3.0).is_err());
+        assert!(d.gaze(1e6, 3.0).unwrap_err().to_string().contains("gaze"));
+        assert!(
+            d.gaze(-10.0, 3.0).is_ok(),
+            "slightly off-screen is tolerated"
+        );
+        assert!(DisplayProfile::preset("nope").is_err());
+        assert_eq!(parse_resolution("2560x1440").unwrap(), (2560, 1440));
+        assert!(parse_resolution("0x10").is_err());
+        assert!(parse_resolution("abc").is_err());
+    }
+}

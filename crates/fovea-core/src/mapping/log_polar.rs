@@ -1,0 +1,134 @@
+//! The kernel log-polar frame shared by KFR/LMFR and LaFR (VaFR Eq. 1).
+//!
+//! `z = ln r / ln L` with `r` the pixel distance to the gaze point and `L` the distance to the
+//! farthest screen corner; the LP buffer column is `u = K(z)·w` and the row `v = θ/2π·h`, with
+//! `(w, h) = (W/δ, H/δ)`. Points closer than one pixel to the gaze (`z < 0`) fall in column 0,
+//! as in the paper's formula; the inverse of column 0 is the gaze point.
+//!
+//! Sample count: these methods shade the whole `W/δ × H/δ` buffer, `W·H/δ²` samples, which is
+//! how VaFR Table 1 counts them (LaFR(2.2) at 2560×1440: 761,652, printed as 761K). When `W/δ`
+//! is fractional the integer buffer that holds it is `⌈W/δ⌉ × ⌈H/δ⌉`, and a pixel is shaded
+//! when its centre lies inside the `W/δ × H/δ` rectangle.
+
+use super::{from_polar_deg, polar_deg, tangential_denominator, BufferSize, SamplePoint};
+use crate::display::{DisplayProfile, Gaze};
+use crate::error::{check_range, Result};
+use crate::units::ScreenPoint;
+
+/// A radial kernel: normalised column `U(z)` in [0, 1] for `z` in [0, 1], its derivative and
+/// its inverse.
+pub(crate) trait RadialKernel: Send + Sync {
+    fn u_of_z(&self, z: f64) -> f64;
+    fn du_dz(&self, z: f64) -> f64;
+    fn z_of_u(&self, u: f64) -> f64;
+}
+
+/// Geometry of a kernel log-polar buffer for one display and gaze.
+#[derive(Clone, Debug)]
+pub(crate) struct LogPolarFrame {
+    pub gaze: ScreenPoint,
+    pub c_r: f64,
+    /// `ln L`, L the farthest-corner distance in pixels.
+    pub ln_l: f64,
+    /// Continuous buffer width `W/δ`.
+    pub w: f64,
+    /// Continuous buffer height `H/δ`.
+    pub h: f64,
+    pub delta: f64,
+    pub screen_pixels: u64,
+}
+
+impl LogPolarFrame {
+    pub fn new(display: &DisplayProfile, gaze: Gaze, delta: f64) -> Result<Self> {
+        display.validate()?;
+        check_range("delta", delta, 1.0, 64.0)?;
+        let l = display.farthest_corner_px(&gaze).max(2.0);
+        Ok(Self {
+            gaze: gaze.point,
+            c_r: display.c_r(),
+            ln_l: l.ln(),
+            w: display.width_px as f64 / delta,
+            h: display.height_px as f64 / delta,
+            delta,
+            screen_pixels: display.pixel_count(),
+        })
+    }
+
+    /// `z(r)`, clamped to [0, 1].
+    pub fn z_of_r(&self, r_px: f64) -> f64 {
+        if r_px <= 1.0 {
+            0.0
+        } else {
+            (r_px.ln() / self.ln_l).min(1.0)
+        }
+    }
+
+    /// `z(e)` for an eccentricity in degrees (VaFR's `z(e) = ln(tan e / c_r)/ln L`).
+    pub fn z_of_e(&self, e_deg: f64) -> f64 {
+        self.z_of_r(e_deg.to_radians().tan() / self.c_r)
+    }
+
+    pub fn buffers(&self) -> Vec<BufferSize> {
+        vec![BufferSize {
+            width: self.w.ceil() as u32,
+            height: self.h.ceil() as u32,
+        }]
+    }
+
+    /// `W·H/δ²`, rounded (VaFR Table 1).
+    pub fn sample_count(&self) -> u64 {
+        (self.screen_pixels as f64 / (self.delta * self.delta)).round() as u64
+    }
+
+    pub fn is_shaded(&self, layer: u32, i: u32, j: u32) -> bool {
+        layer == 0 && (i as f64 + 0.5) <= self.w && (j as f64 + 0.5) <= self.h
+    }
+
+    pub fn forward(&self, k: &dyn RadialKernel, p: ScreenPoint) -> Option<SamplePoint> {
+        if !(p.x_px.is_finite() && p.y_px.is_finite()) {
+            return None;
+        }
+        let (r, theta) = polar_deg(p, self.gaze);
+        if r > self.ln_l.exp() * (1.0 + 1e-9) {
+            return None;
+        }
+        Some(SamplePoint::new(
+            k.u_of_z(self.z_of_r(r)) * self.w,
+            theta / 360.0 * self.h,
+        ))
+    }
+
+    pub fn inverse(&self, k: &dyn RadialKernel, s: SamplePoint) -> Option<ScreenPoint> {
+        if s.layer != 0 || !(s.u >= 0.0 && s.u <= self.w && s.v >= 0.0 && s.v <= self.h) {
+            return None;
+        }
+        if s.u == 0.0 {
+            return Some(self.gaze);
+        }
+        let z = k.z_of_u(s.u / self.w);
+        let r = (z * self.ln_l).exp();
+        Some(from_polar_deg(r, s.v / self.h * 360.0, self.gaze))
+    }
+
+    /// `½·du/de` with `du/de = w·U'(z)·dz/de` and `dz/de = (π/180)/(ln L·sin e·cos e)`.
+    pub fn radial_rate_cpd(&self, k: &dyn RadialKernel, e_deg: f64) -> f64 {
+        let r = e_deg.to_radians().tan() / self.c_r;
+        if r <= 1.0 || r > self.ln_l.exp() {
+            return 0.0;
+        }
+        let z = self.z_of_r(r);
+        let dz_de = std::f64::consts::PI
+            / 180.0
+            / (self.ln_l * e_deg.to_radians().sin() * e_deg.to_radians().cos());
+        0.5 * self.w * k.du_dz(z) * dz_de
+    }
+
+    /// VaFR Eq. 20: `(H/δ) / (720 sin e cos e)`.
+    pub fn tangential_rate_cpd(&self, e_deg: f64) -> f64 {
+        let d = tangential_denominator(e_deg);
+        if d <= 0.0 {
+            return f64::INFINITY;
+        }
+        self.h / d
+    }
+}

@@ -1,0 +1,293 @@
+//! VaFR: visual-acuity-consistent log-polar foveation (Zhang, Gai, Li), Eq. 3–12 and 19.
+//!
+//! The LP buffer column of eccentricity `e` is `u(e) = ∫₀ᵉ 2/ω` (Eq. 4–5, segmented as Eq. 12),
+//! so that the radial shading rate `½·du/de` (Eq. 13) equals the acuity `1/ω(e)` (Eq. 18) at
+//! every eccentricity. The row of polar angle `θ` (degrees) is
+//! `v(e, θ) = Δ(e)·θ·sin(2e)/ω(e)` (Eq. 8, with Eq. 19's tangential factor), so column `u` holds
+//! only the variable shading height `l(e) = v(e, 360°)` (Eq. 9) of valid samples: the buffer is a
+//! half-ellipse inside a constant-size rectangle, independent of display resolution and gaze.
+//! Inverse mapping: Eq. 10 for `e(u)`, Eq. 11 for the screen point.
+//!
+//! Sample count: buffer pixel `(i, j)` is shaded when its centre lies in the shaded region,
+//! i.e. `i + ½ ≤ u(e_max)` and `j + ½ < l(e(i + ½))`. With the default pivots and
+//! `e_max = 60°` this is 1,061,7xx samples, within 0.01 % of the integral
+//! `∫₀⁶⁰ l(e)·du/de de = 1,061,734` (the paper: 1,061,735).
+
+use serde::{Deserialize, Serialize};
+
+use super::{
+    from_polar_deg, polar_deg, tangential_denominator, BufferSize, FoveationMapping, Method,
+    SamplePoint,
+};
+use crate::acuity::{AcuityModel, TangentialFactor};
+use crate::display::{eccentricity_deg, DisplayProfile, Gaze};
+use crate::error::{check_range_open_lo, Result};
+use crate::units::{Degrees, ScreenPoint};
+
+/// Parameters of VaFR.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct VafrParams {
+    /// The acuity model the mapping follows (default: VaFR's segmented pivots).
+    pub acuity: AcuityModel,
+    /// Tangential-to-radial rate factor `Δ(e)` (Eq. 19); default isotropic.
+    pub tangential: TangentialFactor,
+    /// Largest eccentricity the buffer covers. The paper uses 60° (Sec. 3.2.2); screen points
+    /// beyond it have no sample. An off-centre gaze puts screen corners farther out (up to
+    /// [`DisplayProfile::farthest_corner_eccentricity`]); a renderer that must cover them
+    /// raises this (64° costs about 3.5 % more samples).
+    pub max_eccentricity: Degrees,
+}
+
+impl Default for VafrParams {
+    fn default() -> Self {
+        Self {
+            acuity: AcuityModel::vafr_default(),
+            tangential: TangentialFactor::isotropic(),
+            max_eccentricity: Degrees(60.0),
+        }
+    }
+}
+
+/// The VaFR mapping for one display and gaze.
+#[derive(Clone, Debug)]
+pub struct Vafr {
+    params: VafrParams,
+    c_r: f64,
+    gaze: ScreenPoint,
+    u_max: f64,
+    /// Shaded rows per buffer column.
+    rows: Vec<u32>,
+    height: u32,
+    count: u64,
+}
+
+impl Vafr {
+    /// Builds the mapping. Its buffer and sample count depend only on `params`.
+    pub fn new(display: &DisplayProfile, gaze: Gaze, params: VafrParams) -> Result<Self> {
+        display.validate()?;
+        check_range_open_lo("max_eccentricity", params.max_eccentricity.0, 0.0, 89.0)?;
+        let u_max = params.acuity.u_of_e(params.max_eccentricity.0);
+        let n_cols = if u_max >= 0.5 {
+            (u_max - 0.5).floor() as u32 + 1
+        } else {
+            0
+        };
+        let rows: Vec<u32> = (0..n_cols)
+            .map(|i| {
+                let e = params.acuity.e_of_u(i as f64 + 0.5);
+                let l = shading_height(&params, e);
+                if l > 0.5 {
+                    (l - 0.5).ceil() as u32
+                } else {
+                    0
+                }
+            })
+            .collect();
+        let height = rows.iter().copied().max().unwrap_or(0);
+        let count = rows.iter().map(|&r| r as u64).sum();
+        Ok(Self {
+            params,
+            c_r: display.c_r(),
+            gaze: gaze.point,
+            u_max,
+            rows,
+            height,
+            count,
+        })
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &VafrParams {
+        &self.params
+    }
+
+    /// `u(e_max)`: the continuous buffer width.
+    pub fn u_max(&self) -> f64 {
+        self.u_max
+    }
+
+    /// The shading height `l(e)·Δ(e)` of Eq. 9/19 at eccentricity `e_deg`, in buffer rows.
+    pub fn shading_height(&self, e_deg: f64) -> f64 {
+        shading_height(&self.params, e_deg)
+    }
+
+    /// The exact integral `∫₀^{e_max} l(e)·(du/de) de` that the pixel count approximates.
+    pub fn sample_integral(&self) -> f64 {
+        // Composite Simpson per acuity segment (the integrand is smooth inside each).
+        let e_max = self.params.max_eccentricity.0;
+        let mut knots: Vec<f64> = self
+            .params
+            .acuity
+            .pivots()
+            .iter()
+            .map(|p| p.eccentricity_deg)
+            .filter(|&e| e < e_max)
+            .collect();
+        knots.push(e_max);
+        let f = |e: f64| self.shading_height(e) * 2.0 / self.params.acuity.mar_deg(e);
+        let mut total = 0.0;
+        for w in knots.windows(2) {
+            let n = 2000;
+            let h = (w[1] - w[0]) / n as f64;
+            let mut s = f(w[0]) + f(w[1]);
+            for k in 1..n {
+                s += f(w[0] + k as f64 * h) * if k % 2 == 1 { 4.0 } else { 2.0 };
+            }
+            total += s * h / 3.0;
+        }
+        total
+    }
+}
+
+fn shading_height(params: &VafrParams, e_deg: f64) -> f64 {
+    params.tangential.at(e_deg) * 360.0 * (2.0 * e_deg).to_radians().sin()
+        / params.acuity.mar_deg(e_deg)
+}
+
+impl FoveationMapping for Vafr {
+    fn method(&self) -> Method {
+        Method::Vafr
+    }
+
+    fn params(&self) -> serde_json::Value {
+        serde_json::json!({
+            "pivots": self.params.acuity.pivots().iter()
+                .map(|p| [p.eccentricity_deg, p.cpd]).collect::<Vec<_>>(),
+            "max_eccentricity_deg": self.params.max_eccentricity.0,
+            "tangential_isotropic": self.params.tangential.is_isotropic(),
+        })
+    }
+
+    fn buffers(&self) -> Vec<BufferSize> {
+        vec![BufferSize {
+            width: self.rows.len() as u32,
+            height: self.height,
+        }]
+    }
+
+    fn sample_count(&self) -> u64 {
+        self.count
+    }
+
+    fn is_shaded(&self, layer: u32, i: u32, j: u32) -> bool {
+        layer == 0 && self.rows.get(i as usize).is_some_and(|&r| j < r)
+    }
+
+    fn forward(&self, p: ScreenPoint) -> Option<SamplePoint> {
+        if !(p.x_px.is_finite() && p.y_px.is_finite()) {
+            return None;
+        }
+        let (r, theta) = polar_deg(p, self.gaze);
+        let e = eccentricity_deg(self.c_r, r); // Eq. 3
+        if e > self.params.max_eccentricity.0 {
+            return None;
+        }
+        let u = self.params.acuity.u_of_e(e); // Eq. 5 / 12
+        let v = theta / 360.0 * self.shading_height(e); // Eq. 8 / 19
+        Some(SamplePoint::new(u, v))
+    }
+
+    fn inverse(&self, s: SamplePoint) -> Option<ScreenPoint> {
+        if s.layer != 0 || !(s.u >= 0.0 && s.u <= self.u_max) || !s.v.is_finite() {
+            return None;
+        }
+        let e = self.params.acuity.e_of_u(s.u); // Eq. 10
+        let l = self.shading_height(e);
+        if l <= 0.0 {
+            return (s.v == 0.0).then_some(self.gaze);
+        }
+        if !(s.v >= 0.0 && s.v <= l) {
+            return None;
+        }
+        let r = e.to_radians().tan() / self.c_r; // Eq. 3
+        Some(from_polar_deg(r, s.v / l * 360.0, self.gaze)) // Eq. 11
+    }
+
+    fn radial_rate_cpd(&self, e_deg: f64) -> f64 {
+        // Eq. 18: ½·du/de = 1/ω(e).
+        1.0 / self.params.acuity.mar_deg(e_deg)
+    }
+
+    fn tangential_rate_cpd(&self, e_deg: f64) -> f64 {
+        let d = tangential_denominator(e_deg);
+        if d < 1e-9 {
+            // Limit e → 0 of Δ·l(e)/(360·sin 2e).
+            return self.params.tangential.at(e_deg) / self.params.acuity.mar_deg(e_deg);
+        }
+        self.shading_height(e_deg) / d
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::display::VAFR_TEST_PRESETS;
+
+    #[test]
+    fn sample_count_is_constant_across_resolutions_and_gazes() {
+        for name in VAFR_TEST_PRESETS {
+            let d = DisplayProfile::preset(name).unwrap();
+            for (gx, gy) in [(0.5, 0.5), (0.0, 0.0), (1.0, 0.3), (0.1, 0.9)] {
+                let g = d
+                    .gaze(gx * d.width_px as f64, gy * d.height_px as f64)
+                    .unwrap();
+                let v = Vafr::new(&d, g, VafrParams::default()).unwrap();
+                let n = v.sample_count() as f64;
+                assert!(
+                    (n - 1_061_734.0).abs() / 1_061_734.0 < 1e-3,
+                    "{name} gaze ({gx},{gy}): {n}"
+                );
+                assert_eq!(v.buffers()[0].width, 900);
+            }
+        }
+    }
+
+    #[test]
+    fn integral_matches_design_figure() {
+        let d = DisplayProfile::preset("2k").unwrap();
+        let v = Vafr::new(&d, d.centre_gaze(), VafrParams::default()).unwrap();
+        let i = v.sample_integral();
+        assert!((i - 1_061_734.0).abs() < 1.0, "{i}");
+        // max l(e) = 1638 at e ≈ 38.7° (DESIGN.md).
+        let (mut best, mut at) = (0.0, 0.0);
+        for k in 0..6000 {
+            let e = k as f64 * 0.01;
+            let l = v.shading_height(e);
+            if l > best {
+                best = l;
+                at = e;
+            }
+        }
+        assert!(
+            (best - 1638.0).abs() < 1.0 && (at - 38.7).abs() < 0.1,
+            "{best} at {at}"
+        );
+        assert_eq!(v.buffers()[0].height, 1638);
+    }
+
+    #[test]
+    fn radial_rate_equals_acuity_exactly() {
+        let d = DisplayProfile::preset("8k").unwrap();
+        let v = Vafr::new(&d, d.centre_gaze(), VafrParams::default()).unwrap();
+        let a = AcuityModel::vafr_default();
+        for k in 0..600 {
+            let e = k as f64 * 0.1;
+            let want = a.cpd(Degrees(e)).0;
+            assert!((v.radial_rate_cpd(e) - want).abs() / want < 1e-6);
+            assert!((v.tangential_rate_cpd(e) - want).abs() / want < 1e-6);
+        }
+    }
+
+    #[test]
+    fn wider_coverage_costs_more_samples() {
+        let d = DisplayProfile::preset("2k").unwrap();
+        let p = VafrParams {
+            max_eccentricity: Degrees(64.0),
+            ..Default::default()
+        };
+        let v = Vafr::new(&d, d.centre_gaze(), p).unwrap();
+        assert_eq!(v.buffers()[0].width, 932);
+        let extra = v.sample_count() as f64 / 1_061_734.0 - 1.0;
+        assert!((extra - 0.035).abs() < 0.005, "{extra}");
+    }
+}
