@@ -1,1 +1,65 @@
-fn main() {}
+//! The `fovea` command-line tool.
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+mod common;
+mod curves;
+mod optics;
+mod plot;
+mod table;
+
+/// Perception-driven foveated rendering and depth of field for head-mounted displays.
+#[derive(Parser, Debug)]
+#[command(name = "fovea", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Plot radial and tangential shading rate against eccentricity for every mapping
+    /// (PNG + CSV), with the acuity curve (VaFR Figs. 5, 8, 9, 10, 21).
+    Curves(curves::CurvesArgs),
+    /// Print samples per eye of every method at 2K…retinal (VaFR Table 1).
+    Table(table::TableArgs),
+    /// Print the eye's depth-of-field limits and circles of confusion for a focus distance.
+    Optics(optics::OpticsArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            use clap::error::ErrorKind;
+            if matches!(
+                e.kind(),
+                ErrorKind::DisplayHelp
+                    | ErrorKind::DisplayVersion
+                    | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+            ) {
+                e.exit();
+            }
+            // Usage errors in one line too; --help has the details.
+            let text = e.to_string();
+            let first = text.lines().next().unwrap_or("invalid arguments");
+            eprintln!("{first} (see fovea --help)");
+            return ExitCode::from(2);
+        }
+    };
+    let result = match cli.command {
+        Command::Curves(a) => curves::run(a),
+        Command::Table(a) => table::run(a),
+        Command::Optics(a) => optics::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            // One actionable line.
+            eprintln!("error: {}", format!("{e:#}").replace('\n', " "));
+            ExitCode::from(2)
+        }
+    }
+}

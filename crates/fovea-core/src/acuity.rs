@@ -94,7 +94,7 @@ impl AcuityModel {
     /// VaFR Eq. 2: `ω(e) = m·e + ω₀` with `m` ≥ 0 (degrees per cycle per degree) and
     /// `ω₀ > 0` (degrees per cycle; `1/ω₀` is the foveal acuity in cpd).
     pub fn linear(m: f64, omega0: f64) -> Result<Self> {
-        if !(m.is_finite() && m >= 0.0 && m < 10.0) {
+        if !(0.0..10.0).contains(&m) {
             return Err(FoveaError::invalid(
                 "mar_slope",
                 m,
@@ -167,7 +167,7 @@ impl AcuityModel {
         }
         let mut segments = Vec::with_capacity(pivots.len() - 1);
         let mut u = 0.0;
-        for (i, w) in pivots.windows(2).enumerate() {
+        for w in pivots.windows(2) {
             let (a, b) = (w[0], w[1]);
             let (wa, wb) = (1.0 / a.cpd, 1.0 / b.cpd);
             let seg = Segment {

@@ -106,7 +106,7 @@ mod tests {
         let w = 2560.0 / 1.8;
         let ln_l = (1280.0f64).hypot(720.0).ln();
         for e in [2.0f64, 10.0, 30.0, 50.0] {
-            let z = ((e as f64).to_radians().tan() / d.c_r()).ln() / ln_l;
+            let z = (e.to_radians().tan() / d.c_r()).ln() / ln_l;
             let lw = w * std::f64::consts::PI
                 / (180.0 * ln_l * e.to_radians().sin() * e.to_radians().cos());
             let want = 2.0 * z.powi(3) * lw; // Eq. 16

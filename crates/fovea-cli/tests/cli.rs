@@ -1,0 +1,145 @@
+//! End-to-end tests of the `fovea` binary.
+
+use assert_cmd::Command;
+
+fn fovea() -> Command {
+    Command::cargo_bin("fovea").unwrap()
+}
+
+#[test]
+fn table_json_reproduces_vafr_table1() {
+    let out = fovea().args(["table", "--json"]).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = rows.as_array().unwrap();
+    let find = |label: &str, w: u64| {
+        rows.iter()
+            .find(|r| r["label"] == label && r["width"] == w)
+            .unwrap_or_else(|| panic!("{label} at {w}"))
+    };
+    for r in rows {
+        for key in ["method", "width", "height", "samples", "params"] {
+            assert!(r.get(key).is_some(), "missing {key} in {r}");
+        }
+        assert_eq!(
+            r["method"].as_str().unwrap(),
+            r["method"].as_str().unwrap().to_lowercase()
+        );
+    }
+    // VaFR: 1,061,734 ± 0.1 % at every resolution.
+    for w in [2560, 3840, 5760, 7680, 11520] {
+        let n = find("vafr", w)["samples"].as_f64().unwrap();
+        assert!((n - 1_061_734.0).abs() / 1_061_734.0 < 1e-3, "{w}: {n}");
+    }
+    // LaFR(2.2): 761K at 2K and 15,423K at retinal (thousands, truncated as in Table 1).
+    assert_eq!(
+        find("lafr(2.2)", 2560)["samples"].as_u64().unwrap() / 1000,
+        761
+    );
+    assert_eq!(
+        find("lafr(2.2)", 11520)["samples"].as_u64().unwrap() / 1000,
+        15_423
+    );
+    assert_eq!(
+        find("lafr(1.8)", 7680)["samples"].as_u64().unwrap() / 1000,
+        10_240
+    );
+    assert_eq!(find("full", 11520)["samples"].as_u64().unwrap(), 74_649_600);
+    assert_eq!(
+        find("lafr(2.2)", 2560)["params"]["delta"].as_f64().unwrap(),
+        2.2
+    );
+}
+
+#[test]
+fn curves_writes_png_and_csv() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = fovea()
+        .args([
+            "curves",
+            "--headset",
+            "vive-pro-eye",
+            "--gaze",
+            "100,1500",
+            "--samples",
+            "50",
+        ])
+        .arg("--out")
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for f in ["curves-radial.png", "curves-tangential.png", "curves.csv"] {
+        let p = dir.path().join(f);
+        assert!(std::fs::metadata(&p).unwrap().len() > 1000, "{f} too small");
+    }
+    let png = std::fs::read(dir.path().join("curves-radial.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    let csv = std::fs::read_to_string(dir.path().join("curves.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 51);
+    assert!(csv.lines().next().unwrap().contains("vafr radial_cpd"));
+    for fig in ["5", "8", "9", "10", "21"] {
+        let out = fovea()
+            .args(["curves", "--figure", fig, "--samples", "40"])
+            .arg("--out")
+            .arg(dir.path())
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "fig {fig}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(dir.path().join(format!("fig{fig}-radial.png")).exists());
+    }
+}
+
+#[test]
+fn optics_reports_liu_coefficients() {
+    let out = fovea()
+        .args(["optics", "--focus", "1", "--lux", "300", "--json"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!((v["pupil_mm"].as_f64().unwrap() - 4.485).abs() < 1e-9);
+    assert!((v["liu_coefficients"]["b_far"].as_f64().unwrap() - 498.01).abs() < 0.01);
+    assert!((v["liu_coefficients"]["b_near"].as_f64().unwrap() - 496.57).abs() < 0.01);
+    assert!(v["near_m"].as_f64().unwrap() < 1.0 && v["far_m"].as_f64().unwrap() > 1.0);
+}
+
+/// Bad input: one line on stderr naming the parameter, non-zero exit, no panic.
+#[test]
+fn invalid_parameters_fail_in_one_line() {
+    let cases: &[(&[&str], &str)] = &[
+        (&["curves", "--res", "0x1080"], "res"),
+        (&["curves", "--res", "1920x1080", "--vfov=-90"], "vfov"),
+        (&["curves", "--res", "1920x1080", "--vfov", "-90"], "vfov"),
+        (&["curves", "--bogus"], "unexpected argument"),
+        (&["curves", "--gaze", "NaN,3"], "gaze"),
+        (&["curves", "--gaze", "99999,3"], "gaze"),
+        (&["curves", "--pivots", "0:40,20:10,10:6"], "pivots"),
+        (&["curves", "--figure", "7"], "figure"),
+        (&["curves", "--methods", "nope"], "method"),
+        (&["table", "--headsets", "8k,nope"], "headset"),
+        (&["optics", "--focus", "-2"], "distance"),
+        (&["optics", "--pupil", "0"], "pupil"),
+        (&["optics", "--lux", "nan"], "lux"),
+    ];
+    for (args, needle) in cases {
+        let out = fovea().args(*args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+}
