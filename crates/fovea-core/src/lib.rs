@@ -9,6 +9,23 @@
 //!   sampling and full resolution, each a forward/inverse/shading-rate triple.
 //! * [`optics`]: the thin-lens eye (Liu Eq. 4–13, Weier Eq. 3) and pupil models.
 //! * [`analysis`]: sample-count tables and shading-rate curves for reports.
+//!
+//! ```
+//! use fovea_core::display::DisplayProfile;
+//! use fovea_core::mapping::{build, FoveationMapping, MappingConfig, Method};
+//! use fovea_core::units::ScreenPoint;
+//!
+//! # fn main() -> fovea_core::Result<()> {
+//! let display = DisplayProfile::preset("vive-pro-eye")?;
+//! let gaze = display.gaze(700.0, 820.0)?;
+//! let vafr = build(Method::Vafr, &display, gaze, &MappingConfig::default())?;
+//! let lp = vafr.forward(ScreenPoint::new(900.0, 600.0)).unwrap(); // screen → LP buffer
+//! let back = vafr.inverse(lp).unwrap(); // LP buffer → screen
+//! assert!(back.distance(ScreenPoint::new(900.0, 600.0)) < 1e-6);
+//! println!("{} samples, {:.2} cpd at 20°", vafr.sample_count(), vafr.radial_rate_cpd(20.0));
+//! # Ok(())
+//! # }
+//! ```
 
 pub mod acuity;
 pub mod analysis;
