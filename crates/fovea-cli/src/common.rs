@@ -91,3 +91,86 @@ mod tests {
         assert_eq!(thousands(0), "0");
     }
 }
+
+/// Method parameters that can be set from the command line (each method's documented default
+/// otherwise).
+#[derive(Args, Debug, Clone, Default)]
+pub struct MethodOptions {
+    /// Reduction ratio δ ≥ 1 of KFR/LMFR and LaFR (buffer W/δ × H/δ).
+    #[arg(long)]
+    pub delta: Option<f64>,
+    /// KFR kernel exponent α (u = z^α·W/δ).
+    #[arg(long)]
+    pub kfr_alpha: Option<f64>,
+    /// Tangential factor Δ(e) of VaFR: isotropic, radial2x30, or ECC:RATIO pairs.
+    #[arg(long)]
+    pub tangential: Option<String>,
+    /// VaFR's largest covered eccentricity in degrees (paper: 60).
+    #[arg(long)]
+    pub vafr_emax: Option<f64>,
+    /// Visual-polar inverse CDF: exact (Lambert W) or paper-fit (Liu Eq. 3).
+    #[arg(long)]
+    pub vp_inverse: Option<String>,
+    /// Inset placement: dynamic (follows the gaze) or fixed (screen centre).
+    #[arg(long)]
+    pub inset: Option<String>,
+    /// Weier's r0,r1 in degrees and p_min, e.g. 10,20,0.2.
+    #[arg(long)]
+    pub weier: Option<String>,
+}
+
+impl MethodOptions {
+    /// Applies the options to `config`.
+    pub fn apply(&self, config: &mut fovea_core::mapping::MappingConfig) -> Result<()> {
+        use fovea_core::acuity::TangentialFactor;
+        use fovea_core::mapping::VisualPolarInverse;
+        if let Some(d) = self.delta {
+            config.kfr.delta = d;
+            config.lafr.delta = d;
+        }
+        if let Some(a) = self.kfr_alpha {
+            config.kfr.alpha = a;
+        }
+        if let Some(t) = &self.tangential {
+            config.vafr.tangential = TangentialFactor::parse(t)?;
+        }
+        if let Some(e) = self.vafr_emax {
+            config.vafr.max_eccentricity = Degrees(e);
+        }
+        if let Some(v) = &self.vp_inverse {
+            config.visual_polar.inverse = match v.as_str() {
+                "exact" => VisualPolarInverse::Exact,
+                "paper-fit" | "fit" => VisualPolarInverse::PaperFit,
+                _ => anyhow::bail!(
+                    "invalid parameter `vp-inverse` = {v}: expected exact or paper-fit"
+                ),
+            };
+        }
+        if let Some(i) = &self.inset {
+            config.inset.dynamic = match i.as_str() {
+                "dynamic" => true,
+                "fixed" => false,
+                _ => anyhow::bail!("invalid parameter `inset` = {i}: expected dynamic or fixed"),
+            };
+        }
+        if let Some(w) = &self.weier {
+            let bad = || {
+                anyhow::anyhow!(
+                    "invalid parameter `weier` = {w}: expected R0,R1,PMIN, e.g. 10,20,0.2"
+                )
+            };
+            let v: Vec<f64> = w
+                .split(',')
+                .map(|s| s.trim().parse::<f64>())
+                .collect::<Result<_, _>>()
+                .map_err(|_| bad())?;
+            if v.len() != 3 {
+                return Err(bad());
+            }
+            config.weier.r0 = Degrees(v[0]);
+            config.weier.r1 = Degrees(v[1]);
+            config.weier.p_min = v[2];
+        }
+        Ok(())
+    }
+}

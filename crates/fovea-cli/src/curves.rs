@@ -11,7 +11,7 @@ use fovea_core::display::{DisplayProfile, Gaze};
 use fovea_core::mapping::Method;
 use fovea_core::units::Degrees;
 
-use crate::common::{acuity, parse_gaze, DisplayArgs};
+use crate::common::{acuity, parse_gaze, DisplayArgs, MethodOptions};
 use crate::plot::{line_plot, Series, Style};
 
 #[derive(Args, Debug)]
@@ -45,6 +45,8 @@ pub struct CurvesArgs {
     /// Output folder.
     #[arg(long, default_value = "fovea-out/curves")]
     out: PathBuf,
+    #[command(flatten)]
+    options: MethodOptions,
 }
 
 struct Spec {
@@ -200,7 +202,13 @@ pub fn run(a: CurvesArgs) -> Result<()> {
             let g = parse_gaze(&d, a.gaze.as_deref())?;
             let mut specs = Vec::new();
             for m in &a.methods {
-                let e = entry(Method::parse(m)?, &acuity);
+                let mut e = entry(Method::parse(m)?, &acuity);
+                a.options.apply(&mut e.config)?;
+                if let Some(d) = a.options.delta {
+                    if matches!(e.method, Method::Kfr | Method::Lafr) {
+                        e.label = format!("{}({d})", e.method);
+                    }
+                }
                 specs.push(Spec {
                     label: e.label.clone(),
                     display: d.clone(),

@@ -6,7 +6,7 @@ use fovea_core::analysis::{default_entries, sample_table, MethodEntry};
 use fovea_core::display::{DisplayProfile, VAFR_TEST_PRESETS};
 use fovea_core::mapping::Method;
 
-use crate::common::thousands;
+use crate::common::{thousands, MethodOptions};
 
 #[derive(Args, Debug)]
 #[command(allow_negative_numbers = true)]
@@ -25,6 +25,9 @@ pub struct TableArgs {
     /// layers and insets depend on it; VaFR's does not).
     #[arg(long, default_value = "0.5,0.5")]
     gaze_frac: String,
+    /// Extra rows with these parameters (e.g. --delta 8 adds kfr(8) and lafr(8)).
+    #[command(flatten)]
+    options: MethodOptions,
 }
 
 pub fn run(a: TableArgs) -> Result<()> {
@@ -41,6 +44,26 @@ pub fn run(a: TableArgs) -> Result<()> {
             .map(|m| Method::parse(m))
             .collect::<Result<Vec<_>, _>>()?;
         entries.retain(|e| wanted.contains(&e.method));
+    }
+    // Options apply to the methods' defaults; δ adds KFR/LaFR rows at that ratio.
+    for e in entries.iter_mut() {
+        let delta = e.config.kfr.delta;
+        let lafr_delta = e.config.lafr.delta;
+        a.options.apply(&mut e.config)?;
+        e.config.kfr.delta = delta;
+        e.config.lafr.delta = lafr_delta;
+    }
+    if let Some(d) = a.options.delta {
+        let mut extra = vec![MethodEntry::kfr(d), MethodEntry::lafr(d)];
+        for e in extra.iter_mut() {
+            a.options.apply(&mut e.config)?;
+        }
+        entries.extend(extra.into_iter().filter(|e| {
+            a.methods.is_empty()
+                || a.methods
+                    .iter()
+                    .any(|m| Method::parse(m).ok() == Some(e.method))
+        }));
     }
     let gaze = parse_frac(&a.gaze_frac)?;
     let rows = sample_table(&displays, &entries, gaze)?;

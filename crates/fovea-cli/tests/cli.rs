@@ -133,6 +133,11 @@ fn invalid_parameters_fail_in_one_line() {
         (&["optics", "--focus", "-2"], "distance"),
         (&["optics", "--pupil", "0"], "pupil"),
         (&["optics", "--lux", "nan"], "lux"),
+        (&["table", "--delta", "0.5"], "delta"),
+        (&["curves", "--delta", "0.9"], "delta"),
+        (&["curves", "--tangential", "0:1,30:2"], "tangential"),
+        (&["curves", "--weier", "20,10,0.2"], "r1"),
+        (&["curves", "--inset", "sideways"], "inset"),
     ];
     for (args, needle) in cases {
         let out = fovea().args(*args).output().unwrap();

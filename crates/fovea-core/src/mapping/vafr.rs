@@ -315,7 +315,17 @@ mod tests {
             assert!((counted - saved).abs() < 1e-3);
         }
         // The presets' own Nyquist rates are those caps.
-        assert_eq!(DisplayProfile::preset("vive-pro-eye").unwrap().nyquist_cpd(), 9.0);
-        assert_eq!(DisplayProfile::preset("pimax-crystal").unwrap().nyquist_cpd(), 17.5);
+        assert_eq!(
+            DisplayProfile::preset("vive-pro-eye")
+                .unwrap()
+                .nyquist_cpd(),
+            9.0
+        );
+        assert_eq!(
+            DisplayProfile::preset("pimax-crystal")
+                .unwrap()
+                .nyquist_cpd(),
+            17.5
+        );
     }
 }
