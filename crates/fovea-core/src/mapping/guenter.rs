@@ -10,7 +10,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::layered::{Layer, Layers, Region};
+use super::layered::{delegate_to_layers, Layer, Layers, Region};
 use super::{BufferSize, FoveationMapping, Method, SamplePoint};
 use crate::display::{DisplayProfile, Gaze};
 use crate::error::{check_range, FoveaError, Result};
@@ -111,31 +111,5 @@ impl FoveationMapping for GuenterLayers {
             "outer_scale": self.params.outer_scale,
         })
     }
-    fn buffers(&self) -> Vec<BufferSize> {
-        self.layers.buffers()
-    }
-    fn sample_count(&self) -> u64 {
-        self.layers.sample_count()
-    }
-    fn is_shaded(&self, layer: u32, i: u32, j: u32) -> bool {
-        self.layers.is_shaded(layer, i, j)
-    }
-    fn forward(&self, p: ScreenPoint) -> Option<SamplePoint> {
-        if !(0.0..self.layers.screen_w).contains(&p.x_px)
-            || !(0.0..self.layers.screen_h).contains(&p.y_px)
-        {
-            return None;
-        }
-        self.layers.forward(p)
-    }
-    fn inverse(&self, s: SamplePoint) -> Option<ScreenPoint> {
-        self.layers.inverse(s)
-    }
-    fn radial_rate_cpd(&self, e_deg: f64) -> f64 {
-        self.layers.rate_along(e_deg, self.layers.probe_direction())
-    }
-    fn tangential_rate_cpd(&self, e_deg: f64) -> f64 {
-        // Square pixels: the same rate in every direction.
-        self.radial_rate_cpd(e_deg)
-    }
+    delegate_to_layers!();
 }

@@ -8,6 +8,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::log_polar::delegate_to_log_polar_frame;
 use super::log_polar::{LogPolarFrame, RadialKernel};
 use super::{BufferSize, FoveationMapping, Method, SamplePoint};
 use crate::display::{DisplayProfile, Gaze};
@@ -72,27 +73,7 @@ impl FoveationMapping for Kfr {
     fn params(&self) -> serde_json::Value {
         serde_json::json!({"delta": self.params.delta, "alpha": self.params.alpha})
     }
-    fn buffers(&self) -> Vec<BufferSize> {
-        self.frame.buffers()
-    }
-    fn sample_count(&self) -> u64 {
-        self.frame.sample_count()
-    }
-    fn is_shaded(&self, layer: u32, i: u32, j: u32) -> bool {
-        self.frame.is_shaded(layer, i, j)
-    }
-    fn forward(&self, p: ScreenPoint) -> Option<SamplePoint> {
-        self.frame.forward(&self.kernel, p)
-    }
-    fn inverse(&self, s: SamplePoint) -> Option<ScreenPoint> {
-        self.frame.inverse(&self.kernel, s)
-    }
-    fn radial_rate_cpd(&self, e_deg: f64) -> f64 {
-        self.frame.radial_rate_cpd(&self.kernel, e_deg)
-    }
-    fn tangential_rate_cpd(&self, e_deg: f64) -> f64 {
-        self.frame.tangential_rate_cpd(e_deg)
-    }
+    delegate_to_log_polar_frame!();
 }
 
 #[cfg(test)]

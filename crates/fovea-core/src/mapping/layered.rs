@@ -175,3 +175,38 @@ impl Layers {
         (dx / n, dy / n)
     }
 }
+
+/// Implements the geometric part of [`super::FoveationMapping`] for a type with a field
+/// `layers: Layers`. Forward maps only on-screen points; rates are reported towards the
+/// farthest corner, the same in every direction (square pixels).
+macro_rules! delegate_to_layers {
+    () => {
+        fn buffers(&self) -> Vec<BufferSize> {
+            self.layers.buffers()
+        }
+        fn sample_count(&self) -> u64 {
+            self.layers.sample_count()
+        }
+        fn is_shaded(&self, layer: u32, i: u32, j: u32) -> bool {
+            self.layers.is_shaded(layer, i, j)
+        }
+        fn forward(&self, p: ScreenPoint) -> Option<SamplePoint> {
+            if !(0.0..self.layers.screen_w).contains(&p.x_px)
+                || !(0.0..self.layers.screen_h).contains(&p.y_px)
+            {
+                return None;
+            }
+            self.layers.forward(p)
+        }
+        fn inverse(&self, s: SamplePoint) -> Option<ScreenPoint> {
+            self.layers.inverse(s)
+        }
+        fn radial_rate_cpd(&self, e_deg: f64) -> f64 {
+            self.layers.rate_along(e_deg, self.layers.probe_direction())
+        }
+        fn tangential_rate_cpd(&self, e_deg: f64) -> f64 {
+            self.radial_rate_cpd(e_deg)
+        }
+    };
+}
+pub(crate) use delegate_to_layers;

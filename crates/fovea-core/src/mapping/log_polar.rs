@@ -132,3 +132,32 @@ impl LogPolarFrame {
         self.h / d
     }
 }
+
+/// Implements the geometric part of [`super::FoveationMapping`] for a type with fields
+/// `frame: LogPolarFrame` and `kernel: impl RadialKernel`.
+macro_rules! delegate_to_log_polar_frame {
+    () => {
+        fn buffers(&self) -> Vec<BufferSize> {
+            self.frame.buffers()
+        }
+        fn sample_count(&self) -> u64 {
+            self.frame.sample_count()
+        }
+        fn is_shaded(&self, layer: u32, i: u32, j: u32) -> bool {
+            self.frame.is_shaded(layer, i, j)
+        }
+        fn forward(&self, p: ScreenPoint) -> Option<SamplePoint> {
+            self.frame.forward(&self.kernel, p)
+        }
+        fn inverse(&self, s: SamplePoint) -> Option<ScreenPoint> {
+            self.frame.inverse(&self.kernel, s)
+        }
+        fn radial_rate_cpd(&self, e_deg: f64) -> f64 {
+            self.frame.radial_rate_cpd(&self.kernel, e_deg)
+        }
+        fn tangential_rate_cpd(&self, e_deg: f64) -> f64 {
+            self.frame.tangential_rate_cpd(e_deg)
+        }
+    };
+}
+pub(crate) use delegate_to_log_polar_frame;
