@@ -120,14 +120,11 @@ pub struct MethodOptions {
 }
 
 impl MethodOptions {
-    /// Applies the options to `config`.
+    /// Applies every option but `delta` to `config` (δ also names the KFR/LaFR entries, so
+    /// callers build those with [`fovea_core::analysis::MethodEntry::kfr`] / `lafr`).
     pub fn apply(&self, config: &mut fovea_core::mapping::MappingConfig) -> Result<()> {
         use fovea_core::acuity::TangentialFactor;
         use fovea_core::mapping::VisualPolarInverse;
-        if let Some(d) = self.delta {
-            config.kfr.delta = d;
-            config.lafr.delta = d;
-        }
         if let Some(a) = self.kfr_alpha {
             config.kfr.alpha = a;
         }

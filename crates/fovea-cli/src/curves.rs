@@ -57,9 +57,13 @@ struct Spec {
 }
 
 fn entry(method: Method, acuity: &AcuityModel) -> MethodEntry {
+    entry_with_delta(method, acuity, 1.8)
+}
+
+fn entry_with_delta(method: Method, acuity: &AcuityModel, delta: f64) -> MethodEntry {
     let mut e = match method {
-        Method::Kfr => MethodEntry::kfr(1.8),
-        Method::Lafr => MethodEntry::lafr(1.8),
+        Method::Kfr => MethodEntry::kfr(delta),
+        Method::Lafr => MethodEntry::lafr(delta),
         m => MethodEntry::plain(m),
     };
     e.config.vafr.acuity = acuity.clone();
@@ -202,13 +206,9 @@ pub fn run(a: CurvesArgs) -> Result<()> {
             let g = parse_gaze(&d, a.gaze.as_deref())?;
             let mut specs = Vec::new();
             for m in &a.methods {
-                let mut e = entry(Method::parse(m)?, &acuity);
+                let mut e =
+                    entry_with_delta(Method::parse(m)?, &acuity, a.options.delta.unwrap_or(1.8));
                 a.options.apply(&mut e.config)?;
-                if let Some(d) = a.options.delta {
-                    if matches!(e.method, Method::Kfr | Method::Lafr) {
-                        e.label = format!("{}({d})", e.method);
-                    }
-                }
                 specs.push(Spec {
                     label: e.label.clone(),
                     display: d.clone(),

@@ -36,34 +36,19 @@ pub fn run(a: TableArgs) -> Result<()> {
         .iter()
         .map(|h| DisplayProfile::preset(h))
         .collect::<Result<Vec<_>, _>>()?;
+    let wanted = a
+        .methods
+        .iter()
+        .map(|m| Method::parse(m))
+        .collect::<Result<Vec<_>, _>>()?;
     let mut entries = default_entries();
-    if !a.methods.is_empty() {
-        let wanted = a
-            .methods
-            .iter()
-            .map(|m| Method::parse(m))
-            .collect::<Result<Vec<_>, _>>()?;
-        entries.retain(|e| wanted.contains(&e.method));
-    }
-    // Options apply to the methods' defaults; δ adds KFR/LaFR rows at that ratio.
-    for e in entries.iter_mut() {
-        let delta = e.config.kfr.delta;
-        let lafr_delta = e.config.lafr.delta;
-        a.options.apply(&mut e.config)?;
-        e.config.kfr.delta = delta;
-        e.config.lafr.delta = lafr_delta;
-    }
+    // δ adds KFR/LaFR rows at that ratio beside Table 1's.
     if let Some(d) = a.options.delta {
-        let mut extra = vec![MethodEntry::kfr(d), MethodEntry::lafr(d)];
-        for e in extra.iter_mut() {
-            a.options.apply(&mut e.config)?;
-        }
-        entries.extend(extra.into_iter().filter(|e| {
-            a.methods.is_empty()
-                || a.methods
-                    .iter()
-                    .any(|m| Method::parse(m).ok() == Some(e.method))
-        }));
+        entries.extend([MethodEntry::kfr(d), MethodEntry::lafr(d)]);
+    }
+    entries.retain(|e| wanted.is_empty() || wanted.contains(&e.method));
+    for e in entries.iter_mut() {
+        a.options.apply(&mut e.config)?;
     }
     let gaze = parse_frac(&a.gaze_frac)?;
     let rows = sample_table(&displays, &entries, gaze)?;

@@ -131,10 +131,7 @@ impl WeierSparse {
                 }
             }
         }
-        let shift = (
-            unit_from_seed(params.seed),
-            unit_from_seed(params.seed ^ 0xA5A5_A5A5),
-        );
+        let shift = halton_shift(params.seed);
         let mut set = 0u64;
         let max_draws = 64 * transition_target + 1024;
         let mut index = 1u64;
@@ -223,10 +220,7 @@ impl WeierSparse {
     /// The radii in degrees of the first `n` transition draws (before de-duplication), for
     /// checking the distribution of Eq. 1.
     pub fn transition_draws_deg(&self, n: usize) -> Vec<f64> {
-        let shift = (
-            unit_from_seed(self.params.seed),
-            unit_from_seed(self.params.seed ^ 0xA5A5_A5A5),
-        );
+        let shift = halton_shift(self.params.seed);
         (1..=n as u64)
             .map(|i| transition_radius(&self.params, halton2(i, shift).0))
             .collect()
@@ -309,6 +303,11 @@ pub fn transition_radius(p: &WeierParams, u: f64) -> f64 {
         }
     };
     r0 + (r1 - r0) * x
+}
+
+/// Cranley–Patterson rotation of the transition's Halton sequence for `seed`.
+fn halton_shift(seed: u64) -> (f64, f64) {
+    (unit_from_seed(seed), unit_from_seed(seed ^ 0xA5A5_A5A5))
 }
 
 fn px_to_deg(c_r: f64, r_px: f64) -> f64 {
