@@ -1,0 +1,3 @@
+//! # fovea-post
+//!
+//! Image-space passes of the foveated frame.
