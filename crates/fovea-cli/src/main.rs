@@ -7,7 +7,10 @@ use clap::{Parser, Subcommand};
 mod common;
 mod curves;
 mod optics;
+mod output;
 mod plot;
+mod render;
+mod scene_args;
 mod table;
 
 /// Perception-driven foveated rendering and depth of field for head-mounted displays.
@@ -27,6 +30,9 @@ enum Command {
     Table(table::TableArgs),
     /// Print the eye's depth-of-field limits and circles of confusion for a focus distance.
     Optics(optics::OpticsArgs),
+    /// Ray-trace one frame of a scene through a foveation method (PNG/EXR, depth and
+    /// sample-density views, per-stage timings as JSON).
+    Render(Box<render::RenderArgs>),
 }
 
 fn main() -> ExitCode {
@@ -53,6 +59,7 @@ fn main() -> ExitCode {
         Command::Curves(a) => curves::run(a),
         Command::Table(a) => table::run(a),
         Command::Optics(a) => optics::run(a),
+        Command::Render(a) => render::run(*a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -31,9 +31,11 @@ pub mod acuity;
 pub mod analysis;
 pub mod display;
 pub mod error;
+pub mod image;
 pub mod mapping;
 pub mod math;
 pub mod optics;
 pub mod units;
 
 pub use error::{FoveaError, Result};
+pub use image::Image;

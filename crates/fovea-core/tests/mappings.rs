@@ -294,3 +294,42 @@ fn nan_and_far_gazes_are_errors_not_panics() {
         .inverse(fovea_core::mapping::SamplePoint::new(f64::NAN, 0.0))
         .is_none());
 }
+
+#[test]
+fn polar_layout_describes_where_inverse_puts_each_row() {
+    let d = DisplayProfile::preset("2k").unwrap();
+    let g = d.gaze(900.0, 500.0).unwrap();
+    for m in [Method::Vafr, Method::Kfr, Method::Lafr, Method::VisualPolar] {
+        let map = build(m, &d, g, &MappingConfig::default()).unwrap();
+        let layout = map.polar_layout().expect("polar mapping");
+        let b = map.buffers()[0];
+        assert_eq!(layout.rows.len(), b.width as usize, "{m}");
+        assert_eq!(layout.centre, g.point);
+        for i in (0..b.width).step_by(37) {
+            let rows = layout.rows[i as usize];
+            for j in (0..b.height).step_by(53) {
+                assert_eq!(map.is_shaded(0, i, j), j < rows, "{m} ({i},{j})");
+                if j >= rows || i == 0 {
+                    continue;
+                }
+                let s = fovea_core::mapping::SamplePoint::new(i as f64 + 0.5, j as f64 + 0.5);
+                let p = map.inverse(s).unwrap();
+                let angle = (p.y_px - g.point.y_px)
+                    .atan2(p.x_px - g.point.x_px)
+                    .to_degrees()
+                    .rem_euclid(360.0);
+                let expected = 360.0 * (j as f64 + 0.5) / layout.period[i as usize];
+                let diff = (angle - expected + 180.0).rem_euclid(360.0) - 180.0;
+                assert!(diff.abs() < 1e-6, "{m} ({i},{j}): {angle} vs {expected}");
+                // The column depends only on the radius.
+                let r = p.distance(g.point);
+                let q = map
+                    .forward(ScreenPoint::new(g.point.x_px + r, g.point.y_px))
+                    .unwrap();
+                assert!((q.u - s.u).abs() < 1e-6, "{m} column at r={r}");
+            }
+        }
+    }
+    let full = build(Method::Full, &d, g, &MappingConfig::default()).unwrap();
+    assert!(full.polar_layout().is_none());
+}

@@ -1,3 +1,38 @@
 //! # fovea-post
 //!
-//! Image-space passes of the foveated frame.
+//! Image-space passes of the foveated frame (DESIGN.md stages 5–7):
+//!
+//! * [`grid`]: neighbour lookups in a sample buffer — clamped for screen-aligned buffers,
+//!   angle-aligned and wrapping for polar (log-polar) buffers, so filters see no seam.
+//! * [`fxaa`]: FXAA inside the sample buffer (VaFR Sec. 6).
+//! * [`gaussian_aa`]: the 3×3 Gaussian KFR applies in its LP buffer.
+//! * [`inverse_map`]: sample buffers back to screen pixels with filtered lookups.
+//! * [`pull_push`]: hole filling for sparse screen masks (Weier et al.).
+//! * [`tonemap`]: exposure, tone curve and sRGB encoding.
+
+#![allow(clippy::needless_range_loop)] // per-channel pixel loops read best indexed
+
+pub mod fxaa;
+pub mod gaussian_aa;
+pub mod grid;
+pub mod inverse_map;
+pub mod pull_push;
+pub mod tonemap;
+
+/// Linear RGB.
+pub type Rgb = [f32; 3];
+
+/// Rec. 601 luma of linear RGB.
+#[inline]
+pub fn luma(c: Rgb) -> f32 {
+    0.299 * c[0] + 0.587 * c[1] + 0.114 * c[2]
+}
+
+#[inline]
+pub(crate) fn lerp3(a: Rgb, b: Rgb, t: f32) -> Rgb {
+    [
+        a[0] + (b[0] - a[0]) * t,
+        a[1] + (b[1] - a[1]) * t,
+        a[2] + (b[2] - a[2]) * t,
+    ]
+}

@@ -123,6 +123,19 @@ impl LogPolarFrame {
         0.5 * self.w * k.du_dz(z) * dz_de
     }
 
+    /// Every column wraps after `H/δ` rows; `⌈H/δ − ½⌉` of them are shaded.
+    pub fn polar_layout(&self) -> super::PolarLayout {
+        let b = self.buffers()[0];
+        let rows = (0..b.height).filter(|&j| self.is_shaded(0, 0, j)).count() as u32;
+        super::PolarLayout {
+            centre: self.gaze,
+            period: vec![self.h; b.width as usize],
+            rows: (0..b.width)
+                .map(|i| if self.is_shaded(0, i, 0) { rows } else { 0 })
+                .collect(),
+        }
+    }
+
     /// VaFR Eq. 20: `(H/δ) / (720 sin e cos e)`.
     pub fn tangential_rate_cpd(&self, e_deg: f64) -> f64 {
         let d = tangential_denominator(e_deg);
@@ -157,6 +170,9 @@ macro_rules! delegate_to_log_polar_frame {
         }
         fn tangential_rate_cpd(&self, e_deg: f64) -> f64 {
             self.frame.tangential_rate_cpd(e_deg)
+        }
+        fn polar_layout(&self) -> Option<super::PolarLayout> {
+            Some(self.frame.polar_layout())
         }
     };
 }

@@ -182,6 +182,27 @@ pub trait FoveationMapping: Send + Sync {
 
     /// Tangential shading rate at eccentricity `e_deg`, cycles per degree (VaFR Eq. 20).
     fn tangential_rate_cpd(&self, e_deg: f64) -> f64;
+
+    /// For polar (log-polar, visual-polar) mappings: how the buffer's angle axis wraps, so
+    /// that filters and the inverse mapping can treat each column as periodic. `None` for
+    /// screen-aligned mappings.
+    fn polar_layout(&self) -> Option<PolarLayout> {
+        None
+    }
+}
+
+/// The angle axis of a polar sample buffer. Column `i` (a ring around `centre`) holds
+/// `rows[i]` samples at `v = j + ½`, and `v` advances by `period[i]` over a full turn, i.e.
+/// sample `j` of column `i` lies at the angle `360° · (j + ½) / period[i]`. The column of a
+/// screen point depends only on its distance to `centre` (read it through `forward`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PolarLayout {
+    /// The pole (the gaze point).
+    pub centre: ScreenPoint,
+    /// Buffer rows per full turn for every column (continuous; VaFR: `l(e)`, KFR: `H/δ`).
+    pub period: Vec<f64>,
+    /// Shaded rows of every column.
+    pub rows: Vec<u32>,
 }
 
 /// Polar coordinates of `p` around `centre`: (radius in pixels, angle in degrees in [0, 360)),

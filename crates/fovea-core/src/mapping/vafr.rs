@@ -203,6 +203,16 @@ impl FoveationMapping for Vafr {
         Some(from_polar_deg(r, s.v / l * 360.0, self.gaze)) // Eq. 11
     }
 
+    fn polar_layout(&self) -> Option<super::PolarLayout> {
+        Some(super::PolarLayout {
+            centre: self.gaze,
+            period: (0..self.rows.len())
+                .map(|i| self.shading_height(self.params.acuity.e_of_u(i as f64 + 0.5)))
+                .collect(),
+            rows: self.rows.clone(),
+        })
+    }
+
     fn radial_rate_cpd(&self, e_deg: f64) -> f64 {
         // Eq. 18: ½·du/de = 1/ω(e).
         1.0 / self.params.acuity.mar_deg(e_deg)

@@ -321,6 +321,13 @@ impl FoveationMapping for VisualPolar {
         let r = alpha.to_radians().tan() / self.c_r;
         Some(from_polar_deg(r, s.v / h * 360.0, self.gaze))
     }
+    fn polar_layout(&self) -> Option<super::PolarLayout> {
+        Some(super::PolarLayout {
+            centre: self.gaze,
+            period: vec![self.buffer.height as f64; self.buffer.width as usize],
+            rows: vec![self.buffer.height; self.buffer.width as usize],
+        })
+    }
     fn radial_rate_cpd(&self, e_deg: f64) -> f64 {
         if e_deg > self.params.max_eccentricity.0 {
             return 0.0;

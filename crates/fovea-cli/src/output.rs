@@ -1,0 +1,104 @@
+//! Writing frames: PNG (8-bit sRGB after exposure and tone curve) or OpenEXR (linear float),
+//! chosen by the file extension, plus false-colour views of depth and sample density.
+
+use std::path::Path;
+
+use anyhow::{bail, Context, Result};
+use fovea_core::Image;
+use fovea_post::tonemap::{to_srgb8, ToneCurve};
+use fovea_post::Rgb;
+
+fn ensure_parent(path: &Path) -> Result<()> {
+    if let Some(dir) = path.parent() {
+        if !dir.as_os_str().is_empty() {
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("cannot create directory {}", dir.display()))?;
+        }
+    }
+    Ok(())
+}
+
+fn extension(path: &Path) -> String {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .unwrap_or_default()
+}
+
+/// Checks that `path` names a format we write.
+pub fn check_image_path(path: &Path) -> Result<()> {
+    match extension(path).as_str() {
+        "png" | "exr" => Ok(()),
+        _ => bail!(
+            "invalid parameter `out` = {}: expected a .png (8-bit sRGB) or .exr (linear float) file",
+            path.display()
+        ),
+    }
+}
+
+/// Writes a linear RGB image.
+pub fn write_rgb(path: &Path, img: &Image<Rgb>, exposure: f32, curve: ToneCurve) -> Result<()> {
+    check_image_path(path)?;
+    ensure_parent(path)?;
+    let (w, h) = (img.width(), img.height());
+    match extension(path).as_str() {
+        "exr" => {
+            let data: Vec<f32> = img.data().iter().flat_map(|c| *c).collect();
+            let buf = image::Rgb32FImage::from_raw(w, h, data).context("image size")?;
+            buf.save(path)
+                .with_context(|| format!("cannot write {}", path.display()))?;
+        }
+        _ => {
+            let bytes = to_srgb8(img, exposure, curve);
+            let buf = image::RgbImage::from_raw(w, h, bytes).context("image size")?;
+            buf.save(path)
+                .with_context(|| format!("cannot write {}", path.display()))?;
+        }
+    }
+    Ok(())
+}
+
+/// A perceptual-ish false-colour ramp (dark blue → cyan → yellow → white) for `t` in [0, 1].
+fn ramp(t: f32) -> [f32; 3] {
+    let t = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let stops = [
+        [0.02, 0.02, 0.15],
+        [0.1, 0.3, 0.8],
+        [0.1, 0.8, 0.8],
+        [0.95, 0.85, 0.2],
+        [1.0, 1.0, 1.0],
+    ];
+    let x = t * 4.0;
+    let k = (x.floor() as usize).min(3);
+    let f = x - k as f32;
+    let (a, b) = (stops[k], stops[k + 1]);
+    [
+        a[0] + (b[0] - a[0]) * f,
+        a[1] + (b[1] - a[1]) * f,
+        a[2] + (b[2] - a[2]) * f,
+    ]
+}
+
+/// Writes a scalar view: EXR keeps raw values (R = G = B); PNG maps `log10` of the value over
+/// `[lo, hi]` through a colour ramp (non-finite values black).
+pub fn write_scalar(path: &Path, img: &Image<f32>, lo: f32, hi: f32) -> Result<()> {
+    check_image_path(path)?;
+    if extension(path) == "exr" {
+        let rgb = img.map(|&v| [v, v, v]);
+        return write_rgb(path, &rgb, 0.0, ToneCurve::Clamp);
+    }
+    let (l0, l1) = (lo.max(1e-6).log10(), hi.max(lo * 1.0001).log10());
+    let rgb = img.map(|&v| {
+        if !v.is_finite() || v <= 0.0 {
+            [0.0; 3]
+        } else {
+            // The ramp is in display space: undo sRGB so the PNG shows the ramp's values.
+            ramp((v.log10() - l0) / (l1 - l0)).map(fovea_render::scene::texture::srgb_to_linear)
+        }
+    });
+    write_rgb(path, &rgb, 0.0, ToneCurve::Clamp)
+}

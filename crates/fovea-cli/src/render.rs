@@ -1,0 +1,227 @@
+//! `fovea render`: one frame of a scene through one foveation method.
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+
+use fovea_core::mapping::{MappingConfig, Method};
+use fovea_post::tonemap::ToneCurve;
+use fovea_render::pipeline::{default_memory_limit, render_frame, AaMode, FrameSettings};
+use fovea_render::shade::ShadingMode;
+
+use crate::common::{thousands, DisplayArgs, MethodOptions};
+use crate::output::{check_image_path, write_rgb, write_scalar};
+use crate::scene_args::{gaze, prepare, SceneArgs};
+
+/// Options of `fovea render`.
+#[derive(Args, Debug)]
+#[command(allow_negative_numbers = true)]
+pub struct RenderArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    #[command(flatten)]
+    pub display: DisplayArgs,
+    /// Foveation method: full, vafr, kfr, lafr, visual-polar, guenter, inset, weier.
+    #[arg(long, default_value = "vafr")]
+    pub method: String,
+    #[command(flatten)]
+    pub options: MethodOptions,
+    /// Gaze point X,Y in screen pixels (default: the screen centre).
+    #[arg(long, conflicts_with = "gaze_at")]
+    pub gaze: Option<String>,
+    /// Gaze at a world point X,Y,Z (metres) instead of a screen point.
+    #[arg(long)]
+    pub gaze_at: Option<String>,
+    /// Sample-space anti-aliasing: auto (the method's own), none, fxaa, gaussian.
+    #[arg(long, default_value = "auto")]
+    pub aa: String,
+    /// Shading: direct (lights + shadows) or path (path tracing with next-event estimation).
+    #[arg(long, default_value = "direct")]
+    pub shading: String,
+    /// Indirect bounces of --shading path.
+    #[arg(long, default_value_t = 2)]
+    pub bounces: u32,
+    /// Paths per sample of --shading path.
+    #[arg(long, default_value_t = 4)]
+    pub spp: u32,
+    /// Random seed of --shading path.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Output image: .png (8-bit sRGB) or .exr (linear float).
+    #[arg(long, default_value = "fovea-out/render.png")]
+    pub out: PathBuf,
+    /// Also write the depth view (.png false colour, .exr metres).
+    #[arg(long)]
+    pub depth_out: Option<PathBuf>,
+    /// Also write the sample-density view (samples per pixel; .png false colour or .exr).
+    #[arg(long)]
+    pub density_out: Option<PathBuf>,
+    /// Statistics JSON (default: the output path with .json).
+    #[arg(long)]
+    pub stats: Option<PathBuf>,
+    /// Exposure in stops for PNG output.
+    #[arg(long, default_value_t = 0.0)]
+    pub exposure: f32,
+    /// Tone curve for PNG output: clamp or reinhard.
+    #[arg(long, default_value = "reinhard")]
+    pub tonemap: String,
+    /// Refuse frames needing more memory than this (e.g. 8G, 512M; default 80 % of available).
+    #[arg(long)]
+    pub max_memory: Option<String>,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// Parses sizes like `8G`, `512M`, `1.5GiB`, `1000000` (bytes).
+pub fn parse_bytes(text: &str) -> Result<u64> {
+    let t = text.trim().to_ascii_uppercase();
+    let t = t.trim_end_matches("IB").trim_end_matches('B');
+    let (num, mult) = match t.chars().last() {
+        Some('K') => (&t[..t.len() - 1], 1u64 << 10),
+        Some('M') => (&t[..t.len() - 1], 1 << 20),
+        Some('G') => (&t[..t.len() - 1], 1 << 30),
+        Some('T') => (&t[..t.len() - 1], 1 << 40),
+        _ => (t, 1),
+    };
+    let v: f64 = num.trim().parse().map_err(|_| {
+        anyhow::anyhow!("invalid parameter `max-memory` = {text}: expected a size like 8G or 512M")
+    })?;
+    if !(v.is_finite() && v > 0.0) {
+        bail!("invalid parameter `max-memory` = {text}: expected a positive size like 8G");
+    }
+    Ok((v * mult as f64) as u64)
+}
+
+/// Parses shading options.
+pub fn shading(kind: &str, bounces: u32, spp: u32, seed: u64) -> Result<ShadingMode> {
+    match kind {
+        "direct" => Ok(ShadingMode::Direct),
+        "path" => {
+            if !(1..=16).contains(&bounces) {
+                bail!("invalid parameter `bounces` = {bounces}: expected 1 to 16");
+            }
+            if !(1..=1024).contains(&spp) {
+                bail!("invalid parameter `spp` = {spp}: expected 1 to 1024");
+            }
+            Ok(ShadingMode::Path { bounces, spp, seed })
+        }
+        _ => bail!("invalid parameter `shading` = {kind}: expected direct or path"),
+    }
+}
+
+/// A progress bar over samples (hidden when quiet or not a terminal).
+pub fn progress_bar(quiet: bool, label: &str) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    let pb = ProgressBar::new(1);
+    pb.set_style(
+        ProgressStyle::with_template(
+            "{msg:>14} [{bar:40}] {percent:>3}% {pos}/{len} samples, eta {eta}",
+        )
+        .expect("valid template")
+        .progress_chars("=> "),
+    );
+    pb.set_message(label.to_string());
+    pb
+}
+
+pub fn run(args: RenderArgs) -> Result<()> {
+    check_image_path(&args.out)?;
+    for p in [&args.depth_out, &args.density_out].into_iter().flatten() {
+        check_image_path(p)?;
+    }
+    let display = args.display.display("vive-pro-eye")?;
+    let method = Method::parse(&args.method)?;
+    let mut config = MappingConfig::default();
+    args.options.apply(&mut config)?;
+    if let Some(d) = args.options.delta {
+        config.kfr.delta = d;
+        config.lafr.delta = d;
+    }
+    let tone = match args.tonemap.as_str() {
+        "clamp" => ToneCurve::Clamp,
+        "reinhard" => ToneCurve::Reinhard,
+        t => bail!("invalid parameter `tonemap` = {t}: expected clamp or reinhard"),
+    };
+    let shading_mode = shading(&args.shading, args.bounces, args.spp, args.seed)?;
+    let aa = AaMode::parse(&args.aa)?;
+    let memory_limit = match &args.max_memory {
+        Some(m) => parse_bytes(m)?,
+        None => default_memory_limit(),
+    };
+    let prepared = prepare(&args.scene, &display)?;
+    let gaze = gaze(
+        &display,
+        &prepared.camera,
+        args.gaze.as_deref(),
+        args.gaze_at.as_deref(),
+    )?;
+    let mut settings = FrameSettings::new(method, gaze);
+    settings.mapping = config;
+    settings.shading = shading_mode;
+    settings.aa = aa;
+    settings.density_view = args.density_out.is_some();
+    settings.memory_limit_bytes = memory_limit;
+
+    let pb = progress_bar(args.quiet, method.name());
+    let frame = render_frame(
+        &prepared.world,
+        &prepared.camera,
+        &settings,
+        &|done, total| {
+            pb.set_length(total);
+            pb.set_position(done);
+        },
+    )?;
+    pb.finish_and_clear();
+
+    write_rgb(&args.out, &frame.color, args.exposure, tone)?;
+    if let Some(p) = &args.depth_out {
+        write_scalar(p, &frame.depth, 0.1, 100.0)?;
+    }
+    if let (Some(p), Some(d)) = (&args.density_out, &frame.density) {
+        write_scalar(p, d, 1e-3, 10.0)?;
+    }
+    let s = &frame.stats;
+    let stats_path = args
+        .stats
+        .clone()
+        .unwrap_or_else(|| args.out.with_extension("json"));
+    let json = serde_json::json!({
+        "scene": prepared.world.scene.name,
+        "triangles": prepared.world.tris.len(),
+        "lights": prepared.world.lights.len(),
+        "bvh": prepared.world.caster.backend().name(),
+        "bvh_build_ms": prepared.world.build_ms,
+        "display": display.name,
+        "gaze": [gaze.point.x_px, gaze.point.y_px],
+        "frame": s,
+    });
+    std::fs::write(&stats_path, serde_json::to_string_pretty(&json)? + "\n")
+        .with_context(|| format!("cannot write {}", stats_path.display()))?;
+
+    println!(
+        "{} {}x{} {} | {} samples, {} rays ({} primary, {} shadow, {} bounce) | {:.0} ms",
+        prepared.world.scene.name,
+        s.width,
+        s.height,
+        s.method,
+        thousands(s.samples),
+        thousands(s.rays),
+        thousands(s.rays_primary),
+        thousands(s.rays_shadow),
+        thousands(s.rays_bounce),
+        s.total_ms
+    );
+    let stages: Vec<String> = ["plan", "trace", "shade", "aa", "reconstruct"]
+        .iter()
+        .map(|k| format!("{k} {:.1}", s.stages_ms.get(*k).copied().unwrap_or(0.0)))
+        .collect();
+    println!("stages (ms): {}", stages.join(", "));
+    println!("wrote {} and {}", args.out.display(), stats_path.display());
+    Ok(())
+}

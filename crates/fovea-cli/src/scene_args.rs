@@ -1,0 +1,181 @@
+//! Scene, camera, eye and light options shared by `render` and `bench`.
+
+use std::path::Path;
+
+use anyhow::{anyhow, bail, Result};
+use clap::Args;
+use glam::Vec3;
+
+use fovea_core::display::{DisplayProfile, Gaze};
+use fovea_render::bvh::Backend;
+use fovea_render::camera::{Eye, EyeCamera, HmdRig};
+use fovea_render::lights::view_lights;
+use fovea_render::scene::{builtin, CameraDesc, Scene};
+use fovea_render::world::World;
+
+/// Where the scene and the viewer come from.
+#[derive(Args, Debug, Clone)]
+pub struct SceneArgs {
+    /// Scene file (.gltf, .glb, .obj, .xml Mitsuba, .ply) or a built-in scene name
+    /// (depth-range).
+    #[arg(long, default_value = "depth-range")]
+    pub scene: String,
+    /// Metres per scene unit (default: the file's own; glTF and the Mitsuba classroom are in
+    /// metres; e.g. 0.002 for the chess board).
+    #[arg(long)]
+    pub scene_scale: Option<f32>,
+    /// Camera position X,Y,Z in metres (after --scene-scale); default: the file's camera.
+    #[arg(long)]
+    pub camera_pos: Option<String>,
+    /// Point the camera looks at, X,Y,Z in metres (with --camera-pos; default 1 m ahead along −Z).
+    #[arg(long)]
+    pub look_at: Option<String>,
+    /// Which of the file's cameras to use (0 = first).
+    #[arg(long, default_value_t = 0)]
+    pub camera_index: usize,
+    /// Which eye to render: left, right or centre (the camera position is the head).
+    #[arg(long, default_value = "centre")]
+    pub eye: String,
+    /// Interpupillary distance in metres for --eye left/right.
+    #[arg(long, default_value_t = 0.063)]
+    pub ipd: f32,
+    /// Replace the scene's lights by N generated point lights with shadows (the papers use 1,
+    /// 12, 21, 31).
+    #[arg(long)]
+    pub lights: Option<u32>,
+    /// Ray-casting backend: obvhs (default build) or embree (`--features embree`).
+    #[arg(long)]
+    pub bvh: Option<String>,
+    /// Render even when the camera seems to be inside a closed mesh.
+    #[arg(long)]
+    pub allow_inside: bool,
+}
+
+/// Parses `X,Y,Z`.
+pub fn parse_vec3(name: &str, text: &str) -> Result<Vec3> {
+    let bad =
+        || anyhow!("invalid parameter `{name}` = {text}: expected X,Y,Z (three finite numbers)");
+    let v: Vec<f32> = text
+        .split(',')
+        .map(|s| s.trim().parse::<f32>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| bad())?;
+    if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {
+        return Err(bad());
+    }
+    Ok(Vec3::new(v[0], v[1], v[2]))
+}
+
+/// Loads the scene (file or built-in) in metres.
+pub fn load_scene(args: &SceneArgs) -> Result<Scene> {
+    let path = Path::new(&args.scene);
+    let looks_like_file = path.extension().is_some() || args.scene.contains('/');
+    let mut scene = if looks_like_file {
+        Scene::load(path)?
+    } else {
+        builtin::by_name(&args.scene)?
+    };
+    scene.scale_to_metres(args.scene_scale)?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok(scene)
+}
+
+/// The camera pose: command line, else the file's camera, else one framing the scene.
+fn camera_desc(args: &SceneArgs, scene: &Scene) -> Result<CameraDesc> {
+    if let Some(p) = &args.camera_pos {
+        let pos = parse_vec3("camera-pos", p)?;
+        let target = match &args.look_at {
+            Some(t) => parse_vec3("look-at", t)?,
+            None => pos - Vec3::Z,
+        };
+        return Ok(CameraDesc::look_at("command line", pos, target, None)?);
+    }
+    if args.look_at.is_some() {
+        bail!("invalid parameter `look-at`: needs --camera-pos too");
+    }
+    if !scene.cameras.is_empty() {
+        return scene
+            .cameras
+            .get(args.camera_index)
+            .cloned()
+            .ok_or_else(|| {
+                anyhow!(
+                    "invalid parameter `camera-index` = {}: the scene has {} camera(s)",
+                    args.camera_index,
+                    scene.cameras.len()
+                )
+            });
+    }
+    let b = scene
+        .bounds()
+        .ok_or_else(|| anyhow!("the scene is empty"))?;
+    let c = b.centre();
+    let ext = b.extent();
+    let pos = c + Vec3::new(0.0, 0.25 * ext.y, 1.2 * ext.max_element());
+    Ok(CameraDesc::look_at("framing", pos, c, None)?)
+}
+
+/// Scene + world + eye camera, ready to render `display`.
+pub struct Prepared {
+    /// The BVH and lights.
+    pub world: World,
+    /// The eye's camera.
+    pub camera: EyeCamera,
+}
+
+/// Builds the world and camera for `display`.
+pub fn prepare(args: &SceneArgs, display: &DisplayProfile) -> Result<Prepared> {
+    let scene = load_scene(args)?;
+    let backend = match &args.bvh {
+        Some(b) => Backend::parse(b)?,
+        None => Backend::best_available(),
+    };
+    let desc = camera_desc(args, &scene)?;
+    let mut world = World::new(scene, backend)?;
+    let eye = match args.eye.to_ascii_lowercase().as_str() {
+        "left" => Eye::Left,
+        "right" => Eye::Right,
+        "centre" | "center" | "mono" => Eye::Centre,
+        other => bail!("invalid parameter `eye` = {other}: expected left, right or centre"),
+    };
+    let rig = HmdRig::new(desc.position, desc.forward, desc.up, args.ipd)?;
+    let camera = rig.eye(eye, display)?;
+    if !args.allow_inside {
+        if let Some(mesh) = world.enclosing_mesh(camera.position) {
+            bail!(
+                "the camera at {} is inside mesh `{mesh}` (almost every ray from it hits a back face); move it with --camera-pos, or pass --allow-inside",
+                camera.position
+            );
+        }
+    }
+    match args.lights {
+        Some(n) => world.lights = view_lights(&world, &camera, n)?,
+        None if world.lights.is_empty() => {
+            eprintln!(
+                "warning: the scene has no lights; using 4 generated point lights (set the number with --lights N)"
+            );
+            world.lights = view_lights(&world, &camera, 4)?;
+        }
+        None => {}
+    }
+    Ok(Prepared { world, camera })
+}
+
+/// Gaze from `--gaze X,Y` (pixels) or `--gaze-at X,Y,Z` (a world point), default the centre.
+pub fn gaze(
+    display: &DisplayProfile,
+    camera: &EyeCamera,
+    gaze_px: Option<&str>,
+    gaze_at: Option<&str>,
+) -> Result<Gaze> {
+    if let Some(t) = gaze_at {
+        let p = parse_vec3("gaze-at", t)?;
+        let s = camera.screen_point_of(p - camera.position).ok_or_else(|| {
+            anyhow!("invalid parameter `gaze-at` = {t}: the point is behind the eye")
+        })?;
+        return Ok(display.gaze(s.x_px, s.y_px)?);
+    }
+    crate::common::parse_gaze(display, gaze_px)
+}

@@ -1,0 +1,425 @@
+//! One foveated frame, end to end (DESIGN.md "How a frame flows", VaFR Sec. 3.4 and 6):
+//!
+//! 1. **plan**: build the method's mapping for the display and gaze;
+//! 2. **trace**: for every shaded buffer pixel, its centre goes through the inverse mapping to
+//!    a screen point, which gets one primary ray (so an LP method casts exactly
+//!    `sample_count()` rays); the closest hit becomes a G-buffer record;
+//! 3. **shade**: direct light with shadow rays (or path tracing) per record;
+//! 4. **aa**: sample-space anti-aliasing — FXAA in the LP buffer (VaFR, visual-polar),
+//!    the 3×3 Gaussian (KFR, LaFR), none for the others unless asked;
+//! 5. **reconstruct**: the inverse mapping to screen pixels with filtered lookups
+//!    (`fovea_post::inverse_map`).
+//!
+//! Full resolution runs through the same code with the identity mapping: every pixel is a
+//! sample, no AA, the buffer is the screen. Trace and shade run chunk by chunk (about
+//! 2¹⁸ samples), so G-buffer memory stays bounded at any resolution; per-stage wall times are
+//! summed over chunks.
+//!
+//! **Sample footprint.** Each sample's ray cone angle is its sample spacing: one pixel
+//! (`1/f_y` rad) at full resolution; otherwise `1/(2√(ρ_r ρ_t))` degrees from the mapping's
+//! radial and tangential shading rates (cycles per degree) at the sample's eccentricity.
+
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use fovea_core::display::{DisplayProfile, Gaze};
+use fovea_core::mapping::{build, FoveationMapping, MappingConfig, Method, SamplePoint};
+use fovea_core::Image;
+use fovea_post::fxaa::{fxaa, FxaaParams};
+use fovea_post::gaussian_aa::gaussian_3x3;
+use fovea_post::grid::Grid;
+use fovea_post::inverse_map::{reconstruct, SampleBuffers};
+use fovea_post::Rgb;
+
+use crate::camera::EyeCamera;
+use crate::error::{RenderError, Result};
+use crate::shade::{shade, RayCounts, ShadingMode};
+use crate::trace::{trace_sample, GSample};
+use crate::world::World;
+
+/// Samples per trace/shade chunk.
+const CHUNK_SAMPLES: usize = 1 << 18;
+
+/// Sample-space anti-aliasing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AaMode {
+    /// The method's own: FXAA for VaFR and visual-polar, Gaussian for KFR and LaFR, none
+    /// otherwise.
+    Auto,
+    /// No anti-aliasing.
+    None,
+    /// FXAA in sample space.
+    Fxaa,
+    /// 3×3 Gaussian in sample space.
+    Gaussian,
+}
+
+impl AaMode {
+    /// Parses `auto`, `none`, `fxaa`, `gaussian`.
+    pub fn parse(s: &str) -> Result<Self> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "auto" => Ok(AaMode::Auto),
+            "none" | "off" => Ok(AaMode::None),
+            "fxaa" => Ok(AaMode::Fxaa),
+            "gaussian" | "gauss" => Ok(AaMode::Gaussian),
+            _ => Err(RenderError::invalid(
+                "aa",
+                s,
+                "auto, none, fxaa or gaussian",
+            )),
+        }
+    }
+
+    /// What `Auto` means for `method`.
+    pub fn resolve(self, method: Method) -> AaMode {
+        match (self, method) {
+            (AaMode::Auto, Method::Vafr | Method::VisualPolar) => AaMode::Fxaa,
+            (AaMode::Auto, Method::Kfr | Method::Lafr) => AaMode::Gaussian,
+            (AaMode::Auto, _) => AaMode::None,
+            (m, _) => m,
+        }
+    }
+}
+
+/// Everything that decides a frame besides the scene and camera.
+#[derive(Clone, Debug)]
+pub struct FrameSettings {
+    /// Foveation method.
+    pub method: Method,
+    /// Parameters of every method.
+    pub mapping: MappingConfig,
+    /// Gaze point.
+    pub gaze: Gaze,
+    /// Shading.
+    pub shading: ShadingMode,
+    /// Sample-space anti-aliasing.
+    pub aa: AaMode,
+    /// Also produce the sample-density view.
+    pub density_view: bool,
+    /// Refuse frames whose buffers would need more than this many bytes.
+    pub memory_limit_bytes: u64,
+}
+
+impl FrameSettings {
+    /// Defaults: direct shading, the method's own AA, a memory limit from
+    /// [`default_memory_limit`].
+    pub fn new(method: Method, gaze: Gaze) -> Self {
+        Self {
+            method,
+            mapping: MappingConfig::default(),
+            gaze,
+            shading: ShadingMode::Direct,
+            aa: AaMode::Auto,
+            density_view: false,
+            memory_limit_bytes: default_memory_limit(),
+        }
+    }
+}
+
+/// 80 % of the memory the OS reports available (`MemAvailable`), or 16 GiB where unknown.
+pub fn default_memory_limit() -> u64 {
+    let avail = std::fs::read_to_string("/proc/meminfo").ok().and_then(|s| {
+        s.lines()
+            .find(|l| l.starts_with("MemAvailable:"))
+            .and_then(|l| l.split_whitespace().nth(1))
+            .and_then(|kb| kb.parse::<u64>().ok())
+    });
+    avail.map_or(16 << 30, |kb| kb * 1024 / 10 * 8)
+}
+
+/// Per-frame statistics, as `fovea render` prints and writes to JSON.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameStats {
+    /// Method name.
+    pub method: String,
+    /// Display width, pixels.
+    pub width: u32,
+    /// Display height, pixels.
+    pub height: u32,
+    /// Samples shaded (= primary rays).
+    pub samples: u64,
+    /// Primary rays.
+    pub rays_primary: u64,
+    /// Shadow rays.
+    pub rays_shadow: u64,
+    /// Bounce rays (path-traced mode).
+    pub rays_bounce: u64,
+    /// All rays.
+    pub rays: u64,
+    /// Wall time per stage, milliseconds: plan, trace, shade, aa, reconstruct.
+    pub stages_ms: BTreeMap<String, f64>,
+    /// Total wall time, milliseconds.
+    pub total_ms: f64,
+    /// Sample buffers (width × height per layer).
+    pub buffers: Vec<[u32; 2]>,
+    /// Anti-aliasing used.
+    pub aa: AaMode,
+    /// Estimated peak memory of the frame's buffers, bytes.
+    pub memory_bytes: u64,
+}
+
+/// A rendered frame.
+#[derive(Clone, Debug)]
+pub struct Frame {
+    /// Linear RGB at display resolution.
+    pub color: Image<Rgb>,
+    /// Depth along the view axis, metres (∞ where nothing was hit).
+    pub depth: Image<f32>,
+    /// Samples per screen pixel predicted by the mapping's shading rates (when asked).
+    pub density: Option<Image<f32>>,
+    /// Counts and timings.
+    pub stats: FrameStats,
+}
+
+/// Bytes a frame of `mapping` on `display` needs at its peak: sample buffers (colour + depth,
+/// twice during AA), the screen image and depth, the density view, and one chunk of G-buffer.
+pub fn memory_estimate(
+    mapping: &dyn FoveationMapping,
+    display: &DisplayProfile,
+    density: bool,
+) -> u64 {
+    let screen = display.pixel_count();
+    let buf: u64 = mapping.buffers().iter().map(|b| b.pixels()).sum();
+    let per_px = (std::mem::size_of::<Rgb>() + 4) as u64;
+    let gbuf = (CHUNK_SAMPLES * (std::mem::size_of::<GSample>() + 16)) as u64;
+    let samples = if mapping.method() == Method::Full {
+        screen * per_px
+    } else {
+        2 * buf * per_px + screen * per_px
+    };
+    samples + if density { screen * 4 } else { 0 } + gbuf
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+/// Renders one frame. `progress(done, total)` is called after each chunk of samples.
+pub fn render_frame(
+    world: &World,
+    camera: &EyeCamera,
+    settings: &FrameSettings,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<Frame> {
+    let t_total = Instant::now();
+    let display = &camera.display;
+    let mut stages = BTreeMap::new();
+
+    // 1. Plan.
+    let t = Instant::now();
+    let mapping = build(settings.method, display, settings.gaze, &settings.mapping)?;
+    let memory = memory_estimate(mapping.as_ref(), display, settings.density_view);
+    if memory > settings.memory_limit_bytes {
+        return Err(RenderError::ResourceLimit {
+            what: format!(
+                "a {} frame at {}x{}",
+                settings.method, display.width_px, display.height_px
+            ),
+            needed: format!("{:.2} GiB", memory as f64 / (1u64 << 30) as f64),
+            limit: format!(
+                "{:.2} GiB (set with --max-memory)",
+                settings.memory_limit_bytes as f64 / (1u64 << 30) as f64
+            ),
+        });
+    }
+    let sizes = mapping.buffers();
+    let aa = settings.aa.resolve(settings.method);
+    stages.insert("plan".to_string(), ms(t));
+
+    // 2–3. Trace and shade, layer by layer, chunk by chunk.
+    let total_samples = mapping.sample_count();
+    let mut trace_ms = 0.0;
+    let mut shade_ms = 0.0;
+    let mut primary = 0u64;
+    let mut counts = RayCounts::default();
+    let mut colors = Vec::with_capacity(sizes.len());
+    let mut depths = Vec::with_capacity(sizes.len());
+    let full = settings.method == Method::Full;
+    let pixel_spread = (1.0 / display.focal_y_px()) as f32;
+    let mut done = 0u64;
+    for (layer, size) in sizes.iter().enumerate() {
+        let layer = layer as u32;
+        let (bw, bh) = (size.width, size.height);
+        let mut color = Image::new(bw, bh, [0.0f32; 3])?;
+        let mut depth = Image::new(bw, bh, f32::INFINITY)?;
+        let rows_per_chunk = (CHUNK_SAMPLES / bw as usize).max(1);
+        let row_len = bw as usize;
+        for (chunk_idx, (c_chunk, d_chunk)) in color
+            .data_mut()
+            .chunks_mut(rows_per_chunk * row_len)
+            .zip(depth.data_mut().chunks_mut(rows_per_chunk * row_len))
+            .enumerate()
+        {
+            let j0 = (chunk_idx * rows_per_chunk) as u32;
+            // Trace: one G-buffer record per shaded pixel of the chunk.
+            let t = Instant::now();
+            let gbuf: Vec<Option<GSample>> = (0..c_chunk.len())
+                .into_par_iter()
+                .map(|k| {
+                    let (i, j) = ((k % row_len) as u32, j0 + (k / row_len) as u32);
+                    if !mapping.is_shaded(layer, i, j) {
+                        return None;
+                    }
+                    let s = SamplePoint {
+                        layer,
+                        u: i as f64 + 0.5,
+                        v: j as f64 + 0.5,
+                    };
+                    let p = mapping.inverse(s)?;
+                    let spread = if full {
+                        pixel_spread
+                    } else {
+                        sample_spread_rad(mapping.as_ref(), display, &settings.gaze, p)
+                    };
+                    Some(trace_sample(world, &camera.ray(p), spread))
+                })
+                .collect();
+            trace_ms += ms(t);
+            primary += gbuf.iter().filter(|g| g.is_some()).count() as u64;
+
+            // Shade.
+            let t = Instant::now();
+            let chunk_counts = c_chunk
+                .par_iter_mut()
+                .zip(d_chunk.par_iter_mut())
+                .zip(gbuf.par_iter())
+                .enumerate()
+                .map(|(k, ((c, d), g))| {
+                    let mut rc = RayCounts::default();
+                    if let Some(g) = g {
+                        let key =
+                            ((layer as u64) << 48) ^ ((j0 as u64 * row_len as u64) + k as u64);
+                        let v = shade(world, g, settings.shading, key, &mut rc);
+                        *c = v.to_array();
+                        *d = camera.view_depth(-g.to_eye, g.t);
+                    }
+                    rc
+                })
+                .reduce(RayCounts::default, |mut a, b| {
+                    a += b;
+                    a
+                });
+            counts += chunk_counts;
+            shade_ms += ms(t);
+            done = (done + gbuf.len() as u64).min(total_samples.max(done));
+            progress(primary.min(total_samples), total_samples);
+        }
+        colors.push(color);
+        depths.push(depth);
+    }
+    stages.insert("trace".to_string(), trace_ms);
+    stages.insert("shade".to_string(), shade_ms);
+
+    // 4. Sample-space anti-aliasing.
+    let t = Instant::now();
+    if aa != AaMode::None {
+        let polar = mapping.polar_layout();
+        for c in colors.iter_mut() {
+            let grid = match &polar {
+                Some(l) => Grid::polar(l),
+                None => Grid::Rect {
+                    width: c.width(),
+                    height: c.height(),
+                },
+            };
+            *c = match aa {
+                AaMode::Fxaa => fxaa(c, &grid, &FxaaParams::default()),
+                AaMode::Gaussian => gaussian_3x3(c, &grid),
+                AaMode::None | AaMode::Auto => unreachable!("resolved above"),
+            };
+        }
+    }
+    stages.insert("aa".to_string(), ms(t));
+
+    // 5. Reconstruct.
+    let t = Instant::now();
+    let screen = reconstruct(
+        mapping.as_ref(),
+        display,
+        SampleBuffers {
+            color: colors,
+            depth: depths,
+        },
+    )?;
+    stages.insert("reconstruct".to_string(), ms(t));
+
+    let density = if settings.density_view {
+        Some(density_view(mapping.as_ref(), display, &settings.gaze)?)
+    } else {
+        None
+    };
+    let total_ms = ms(t_total);
+    let stats = FrameStats {
+        method: settings.method.name().to_string(),
+        width: display.width_px,
+        height: display.height_px,
+        samples: total_samples,
+        rays_primary: primary,
+        rays_shadow: counts.shadow,
+        rays_bounce: counts.bounce,
+        rays: primary + counts.shadow + counts.bounce,
+        stages_ms: stages,
+        total_ms,
+        buffers: sizes.iter().map(|b| [b.width, b.height]).collect(),
+        aa,
+        memory_bytes: memory,
+    };
+    Ok(Frame {
+        color: screen.color,
+        depth: screen.depth,
+        density,
+        stats,
+    })
+}
+
+/// Angle a sample of `mapping` spans at screen point `p`: its spacing `1/(2√(ρ_r ρ_t))`
+/// degrees from the shading rates, at least the display's pixel at that eccentricity... and
+/// at most 10°.
+pub fn sample_spread_rad(
+    mapping: &dyn FoveationMapping,
+    display: &DisplayProfile,
+    gaze: &Gaze,
+    p: fovea_core::units::ScreenPoint,
+) -> f32 {
+    let e = display.eccentricity(p, gaze).0;
+    let rr = mapping.radial_rate_cpd(e);
+    let rt = mapping.tangential_rate_cpd(e);
+    let rate = (rr.max(0.0) * rt.max(0.0)).sqrt();
+    let spacing_deg = if rate.is_finite() && rate > 0.0 {
+        0.5 / rate
+    } else if rr.is_finite() && rr > 0.0 {
+        0.5 / rr
+    } else {
+        0.0
+    };
+    let pixel_deg = 1.0 / display.rectilinear_ppd(fovea_core::units::Degrees(e));
+    spacing_deg.clamp(0.25 * pixel_deg, 10.0).to_radians() as f32
+}
+
+/// Samples per screen pixel predicted by the mapping's rates: `ρ_r ρ_t / (ppd(e)/2)²`.
+pub fn density_view(
+    mapping: &dyn FoveationMapping,
+    display: &DisplayProfile,
+    gaze: &Gaze,
+) -> Result<Image<f32>> {
+    let (w, h) = (display.width_px, display.height_px);
+    let mut img = Image::new(w, h, 0.0f32)?;
+    img.data_mut()
+        .par_chunks_mut(w as usize)
+        .enumerate()
+        .for_each(|(y, row)| {
+            for (x, v) in row.iter_mut().enumerate() {
+                let p = fovea_core::units::ScreenPoint::new(x as f64 + 0.5, y as f64 + 0.5);
+                let e = display.eccentricity(p, gaze).0;
+                let screen = display.rectilinear_ppd(fovea_core::units::Degrees(e)) / 2.0;
+                let rr = mapping.radial_rate_cpd(e).clamp(0.0, 1e6);
+                let rt = mapping.tangential_rate_cpd(e).clamp(0.0, 1e6);
+                *v = (rr * rt / (screen * screen)) as f32;
+            }
+        });
+    Ok(img)
+}
