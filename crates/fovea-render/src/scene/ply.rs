@@ -1,12 +1,202 @@
-//! (being written)
-use super::Scene;
-use crate::error::{RenderError, Result};
+//! Stanford PLY loader (through `ply-rs-bw`), ASCII and binary (either endianness).
+//!
+//! Format facts used here:
+//! * element `vertex` with scalar properties `x`, `y`, `z` (any numeric type), optional
+//!   normals `nx`, `ny`, `nz`, optional texture coordinates named `u`/`v`, `s`/`t`,
+//!   `texture_u`/`texture_v` or `texture_s`/`texture_t`;
+//! * element `face` with a list property `vertex_indices` (or `vertex_index`) of any integer
+//!   type; polygons with more than three vertices are fan-triangulated, faces with fewer are
+//!   skipped; other elements (`edge`, `material`, …) and properties (colours, …) are ignored.
+//!
+//! Texture coordinates: PLY does not fix the direction of `v`; the files met in practice
+//! (Blender, MeshLab) store OpenGL-style coordinates with `v` up the image, so `v` is flipped
+//! to the glTF convention of [`Mesh::uvs`] (`uv = (u, 1 − v)`). The Mitsuba loader flips it
+//! back, because Mitsuba reads PLY coordinates as they are.
+//!
+//! Errors: an unreadable file → [`RenderError::Io`]; a malformed header or payload
+//! (truncated binary data, a header that announces more elements than there are, a face
+//! index out of range, a negative index, a vertex without `x`/`y`/`z`, no vertex element)
+//! → [`RenderError::BadInput`] with the parser's message. When a vertex normal is zero, the
+//! normals are dropped and geometric normals used (non-finite ones are dropped by
+//! [`Scene::validate`] with a warning). The parser caps its pre-allocation, so a header
+//! announcing billions of elements fails at the end of the data instead of allocating.
+//!
+//! Units: PLY has none; `metres_per_unit` is 1.
+
 use std::path::Path;
 
-/// Loads a PLY file as a scene with one mesh.
+use glam::{Vec2, Vec3};
+use ply_rs_bw::parser::Parser;
+use ply_rs_bw::ply::{Property, PropertyAccess, PropertyAccessResult};
+
+use super::{Material, MaterialId, Mesh, Scene};
+use crate::error::{RenderError, Result};
+
+/// One PLY element as read: the vertex fields and the face index list this loader uses.
+#[derive(Debug, Default)]
+struct Element {
+    /// x, y, z, nx, ny, nz, u, v.
+    f: [f32; 8],
+    /// Bit `i` set when `f[i]` was present.
+    set: u8,
+    /// Face indices (`None` inside when one was negative).
+    indices: Option<Vec<u32>>,
+    negative_index: bool,
+}
+
+const X: usize = 0;
+const NX: usize = 3;
+const U: usize = 6;
+
+fn slot(name: &str) -> Option<usize> {
+    Some(match name {
+        "x" => 0,
+        "y" => 1,
+        "z" => 2,
+        "nx" => 3,
+        "ny" => 4,
+        "nz" => 5,
+        "u" | "s" | "texture_u" | "texture_s" => 6,
+        "v" | "t" | "texture_v" | "texture_t" => 7,
+        _ => return None,
+    })
+}
+
+fn signed_list<T: Copy + TryInto<u32>>(v: &[T], e: &mut Element) {
+    let mut out = Vec::with_capacity(v.len());
+    for &x in v {
+        match x.try_into() {
+            Ok(i) => out.push(i),
+            Err(_) => e.negative_index = true,
+        }
+    }
+    e.indices = Some(out);
+}
+
+impl PropertyAccess for Element {
+    fn new() -> Self {
+        Self::default()
+    }
+
+    fn set_property(&mut self, name: &str, property: Property) -> PropertyAccessResult {
+        if name == "vertex_indices" || name == "vertex_index" {
+            match property {
+                Property::ListUChar(v) => {
+                    self.indices = Some(v.iter().map(|&i| i as u32).collect())
+                }
+                Property::ListUShort(v) => {
+                    self.indices = Some(v.iter().map(|&i| i as u32).collect())
+                }
+                Property::ListUInt(v) => self.indices = Some(v),
+                Property::ListChar(v) => signed_list(&v, self),
+                Property::ListShort(v) => signed_list(&v, self),
+                Property::ListInt(v) => signed_list(&v, self),
+                _ => return PropertyAccessResult::UnsupportedType,
+            }
+            return PropertyAccessResult::Set;
+        }
+        if let Some(i) = slot(name) {
+            if let Some(x) = property.to_f32_lossy() {
+                self.f[i] = x;
+                self.set |= 1 << i;
+                return PropertyAccessResult::Set;
+            }
+        }
+        PropertyAccessResult::Ignored
+    }
+}
+
+/// Loads a PLY file as one mesh with the given material (see the module docs).
+pub fn load_mesh(path: &Path, material: MaterialId) -> Result<Mesh> {
+    let file = std::fs::File::open(path).map_err(|e| RenderError::io(path, &e))?;
+    let mut reader = std::io::BufReader::new(file);
+    let ply = Parser::<Element>::new()
+        .read_ply(&mut reader)
+        .map_err(|e| RenderError::bad(path, format!("malformed PLY: {e}")))?;
+    let vertices = ply
+        .payload
+        .get("vertex")
+        .ok_or_else(|| RenderError::bad(path, "PLY without a `vertex` element"))?;
+    let n = vertices.len();
+    let mut positions = Vec::with_capacity(n);
+    let has = |bits: u8| vertices.iter().all(|v| v.set & bits == bits);
+    if !has(0b111) {
+        return Err(RenderError::bad(
+            path,
+            "PLY vertices without `x`, `y` and `z` properties",
+        ));
+    }
+    let with_normals = n > 0 && has(0b111 << NX);
+    let with_uvs = n > 0 && has(0b11 << U);
+    let mut normals = Vec::with_capacity(if with_normals { n } else { 0 });
+    let mut uvs = Vec::with_capacity(if with_uvs { n } else { 0 });
+    for v in vertices {
+        positions.push(Vec3::new(v.f[X], v.f[X + 1], v.f[X + 2]));
+        if with_normals {
+            normals.push(Vec3::new(v.f[NX], v.f[NX + 1], v.f[NX + 2]).normalize_or_zero());
+        }
+        if with_uvs {
+            uvs.push(Vec2::new(v.f[U], 1.0 - v.f[U + 1]));
+        }
+    }
+    if normals.contains(&Vec3::ZERO) {
+        normals.clear();
+    }
+    let mut indices = Vec::new();
+    if let Some(faces) = ply.payload.get("face") {
+        indices.reserve(faces.len());
+        for (k, f) in faces.iter().enumerate() {
+            if f.negative_index {
+                return Err(RenderError::bad(
+                    path,
+                    format!("PLY face {k} has a negative vertex index"),
+                ));
+            }
+            let Some(idx) = &f.indices else {
+                return Err(RenderError::bad(
+                    path,
+                    "PLY faces without a `vertex_indices` list",
+                ));
+            };
+            if let Some(bad) = idx.iter().find(|&&i| i as usize >= n) {
+                return Err(RenderError::bad(
+                    path,
+                    format!("PLY face {k} uses vertex {bad} but there are only {n} vertices"),
+                ));
+            }
+            for j in 2..idx.len() {
+                indices.push([idx[0], idx[j - 1], idx[j]]);
+            }
+        }
+    }
+    Ok(Mesh {
+        name: path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+        positions,
+        normals,
+        uvs,
+        tangents: Vec::new(),
+        indices,
+        material,
+    })
+}
+
+/// Loads a PLY file as a scene: one mesh with a default grey material, no lights or
+/// cameras, a dim grey environment, `metres_per_unit` 1.
 pub fn load_scene(path: &Path) -> Result<Scene> {
-    Err(RenderError::Unsupported(format!(
-        "{} loader not yet written",
-        path.display()
-    )))
+    let mesh = load_mesh(path, 0)?;
+    Ok(Scene {
+        name: String::new(),
+        source: Some(path.to_path_buf()),
+        meshes: vec![mesh],
+        materials: vec![Material::default()],
+        textures: Vec::new(),
+        lights: Vec::new(),
+        cameras: Vec::new(),
+        environment: super::obj::DEFAULT_ENVIRONMENT,
+        metres_per_unit: 1.0,
+        warnings: Vec::new(),
+    })
 }
