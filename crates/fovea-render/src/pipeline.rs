@@ -140,7 +140,9 @@ pub struct FrameStats {
     pub width: u32,
     /// Display height, pixels.
     pub height: u32,
-    /// Samples shaded (= primary rays).
+    /// Samples the mapping shades (`sample_count()`); buffer pixels whose centre maps off the
+    /// screen (corners of layered and kernel mappings) get no ray, so `rays_primary` may be
+    /// slightly lower.
     pub samples: u64,
     /// Primary rays.
     pub rays_primary: u64,
@@ -377,8 +379,11 @@ pub fn render_frame(
 }
 
 /// Angle a sample of `mapping` spans at screen point `p`: its spacing `1/(2√(ρ_r ρ_t))`
-/// degrees from the shading rates, at least the display's pixel at that eccentricity... and
-/// at most 10°.
+/// degrees from the shading rates, at least one screen pixel (the full-resolution ray's
+/// footprint, `1/f_px` rad) and at most 10°. The lower bound matters where a mapping samples
+/// more densely than the screen (VaFR near the gaze on low-resolution displays): detail finer
+/// than a pixel would be resampled onto the pixel grid by the inverse mapping and alias into
+/// moiré, so textures are filtered to the screen's Nyquist rate there, as in the full frame.
 pub fn sample_spread_rad(
     mapping: &dyn FoveationMapping,
     display: &DisplayProfile,
@@ -396,8 +401,10 @@ pub fn sample_spread_rad(
     } else {
         0.0
     };
-    let pixel_deg = 1.0 / display.rectilinear_ppd(fovea_core::units::Degrees(e));
-    spacing_deg.clamp(0.25 * pixel_deg, 10.0).to_radians() as f32
+    let pixel_rad = 1.0 / display.focal_y_px();
+    spacing_deg
+        .to_radians()
+        .clamp(pixel_rad, 10f64.to_radians()) as f32
 }
 
 /// Samples per screen pixel predicted by the mapping's rates: `ρ_r ρ_t / (ppd(e)/2)²`.

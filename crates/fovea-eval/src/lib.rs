@@ -1,0 +1,9 @@
+//! # fovea-eval
+//!
+//! Metrics that compare a rendered frame with a reference, over the whole image or a region:
+//!
+//! * [`metrics::luma_psnr`]: PSNR of display-encoded luma (the papers' "luma PSNR");
+//! * [`metrics::flip_mean`]: mean ꟻLIP error (Andersson et al. 2020, NVIDIA's reference
+//!   implementation through the `nv-flip` crate) at the display's pixels per degree.
+
+pub mod metrics;
