@@ -4,6 +4,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod bench;
 mod common;
 mod curves;
 mod optics;
@@ -33,6 +34,9 @@ enum Command {
     /// Ray-trace one frame of a scene through a foveation method (PNG/EXR, depth and
     /// sample-density views, per-stage timings as JSON).
     Render(Box<render::RenderArgs>),
+    /// Time full resolution against foveated methods at several resolutions (rays, per-stage
+    /// milliseconds, speedup) and the BVH backends' primary-ray throughput.
+    Bench(Box<bench::BenchArgs>),
 }
 
 fn main() -> ExitCode {
@@ -60,6 +64,7 @@ fn main() -> ExitCode {
         Command::Table(a) => table::run(a),
         Command::Optics(a) => optics::run(a),
         Command::Render(a) => render::run(*a),
+        Command::Bench(a) => bench::run(*a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

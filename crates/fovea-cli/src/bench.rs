@@ -1,0 +1,276 @@
+//! `fovea bench`: the same view at several resolutions, full resolution against foveated
+//! methods in one run, with rays, per-stage times and speedups; and the primary-ray throughput
+//! of each available BVH backend on the same scene.
+
+use std::time::Instant;
+
+use anyhow::{bail, Result};
+use clap::Args;
+use rayon::prelude::*;
+
+use fovea_core::display::DisplayProfile;
+use fovea_core::mapping::{MappingConfig, Method};
+use fovea_render::bvh::{self, Backend, Ray};
+use fovea_render::camera::EyeCamera;
+use fovea_render::pipeline::{default_memory_limit, render_frame, FrameSettings, FrameStats};
+use fovea_render::world::World;
+
+use crate::common::{thousands, MethodOptions};
+use crate::render::{parse_bytes, progress_bar, shading};
+use crate::scene_args::{prepare, SceneArgs};
+
+/// Options of `fovea bench`.
+#[derive(Args, Debug)]
+#[command(allow_negative_numbers = true)]
+pub struct BenchArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// Resolutions or presets, comma-separated: 2k, 4k, 6k, 8k, retinal, a headset, or WxH.
+    #[arg(long, default_value = "2k,4k,8k,retinal")]
+    pub res: String,
+    /// Vertical field of view in degrees for WxH resolutions.
+    #[arg(long, default_value_t = 90.0)]
+    pub vfov: f64,
+    /// Methods to compare with full resolution (always run), comma-separated.
+    #[arg(long, default_value = "vafr")]
+    pub methods: String,
+    #[command(flatten)]
+    pub options: MethodOptions,
+    /// Shading: direct or path.
+    #[arg(long, default_value = "direct")]
+    pub shading: String,
+    /// Indirect bounces of --shading path.
+    #[arg(long, default_value_t = 2)]
+    pub bounces: u32,
+    /// Paths per sample of --shading path.
+    #[arg(long, default_value_t = 1)]
+    pub spp: u32,
+    /// Primary rays per backend for the BVH throughput test (0 to skip).
+    #[arg(long, default_value_t = 2_000_000)]
+    pub bvh_rays: u64,
+    /// Refuse frames needing more memory than this (e.g. 8G).
+    #[arg(long)]
+    pub max_memory: Option<String>,
+    /// Print JSON only.
+    #[arg(long)]
+    pub json: bool,
+    /// No progress bars.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+fn display_of(text: &str, vfov: f64) -> Result<DisplayProfile> {
+    if text.contains('x') && text.chars().next().is_some_and(|c| c.is_ascii_digit()) {
+        let (w, h) = fovea_core::display::parse_resolution(text)?;
+        Ok(DisplayProfile::with_vertical_fov(
+            text,
+            w,
+            h,
+            fovea_core::units::Degrees(vfov),
+        )?)
+    } else {
+        Ok(DisplayProfile::preset(text)?)
+    }
+}
+
+/// Primary-ray throughput of `world`'s BVH through `camera`: `n` rays on a jittered grid over
+/// the screen, Mrays/s (wall time, all threads).
+fn primary_throughput(
+    world: &World,
+    caster: &dyn bvh::RayCaster,
+    camera: &EyeCamera,
+    n: u64,
+) -> f64 {
+    let d = &camera.display;
+    let (w, h) = (d.width_px as u64, d.height_px as u64);
+    let side = ((n as f64) * (w as f64 / h as f64)).sqrt().max(1.0) as u64;
+    let rows = (n / side).max(1);
+    let t = Instant::now();
+    let hits: u64 = (0..rows)
+        .into_par_iter()
+        .map(|j| {
+            let mut c = 0u64;
+            for i in 0..side {
+                let x = (i as f32 + 0.5) * w as f32 / side as f32;
+                let y = (j as f32 + 0.5) * h as f32 / rows as f32;
+                let r = Ray {
+                    origin: camera.position,
+                    dir: camera.direction(x, y),
+                    t_min: 0.0,
+                    t_max: f32::INFINITY,
+                };
+                c += caster.intersect(&r).is_some() as u64;
+            }
+            c
+        })
+        .sum();
+    std::hint::black_box(hits);
+    let _ = world;
+    (side * rows) as f64 / t.elapsed().as_secs_f64() / 1e6
+}
+
+pub fn run(args: BenchArgs) -> Result<()> {
+    let displays: Vec<DisplayProfile> = args
+        .res
+        .split(',')
+        .map(|s| display_of(s.trim(), args.vfov))
+        .collect::<Result<_>>()?;
+    let mut methods = vec![Method::Full];
+    for m in args.methods.split(',') {
+        let m = Method::parse(m)?;
+        if !methods.contains(&m) {
+            methods.push(m);
+        }
+    }
+    let mut config = MappingConfig::default();
+    args.options.apply(&mut config)?;
+    if let Some(d) = args.options.delta {
+        config.kfr.delta = d;
+        config.lafr.delta = d;
+    }
+    let shading_mode = shading(&args.shading, args.bounces, args.spp, 1)?;
+    let memory_limit = match &args.max_memory {
+        Some(m) => parse_bytes(m)?,
+        None => default_memory_limit(),
+    };
+    if displays.is_empty() {
+        bail!("invalid parameter `res`: give at least one resolution");
+    }
+
+    let mut runs: Vec<(FrameStats, f64)> = Vec::new();
+    let mut scene_name = String::new();
+    let mut triangles = 0;
+    let mut n_lights = 0;
+    let mut bvh_report = Vec::new();
+    let mut backend_name = "";
+    for (k, display) in displays.iter().enumerate() {
+        // The scene and lights are rebuilt per display (lights are placed from the camera).
+        let prepared = prepare(&args.scene, display)?;
+        scene_name = prepared.world.scene.name.clone();
+        triangles = prepared.world.tris.len();
+        n_lights = prepared.world.lights.len();
+        backend_name = prepared.world.caster.backend().name();
+        if k == 0 && args.bvh_rays > 0 {
+            for b in [Backend::Obvhs, Backend::Embree] {
+                if !b.available() {
+                    bvh_report.push(serde_json::json!({
+                        "backend": b.name(), "available": false,
+                        "note": "build with --features embree (Debian libembree-dev)",
+                    }));
+                    continue;
+                }
+                let t = Instant::now();
+                let caster = bvh::build(b, &prepared.world.tris)?;
+                let build_ms = t.elapsed().as_secs_f64() * 1e3;
+                let mrays = primary_throughput(
+                    &prepared.world,
+                    caster.as_ref(),
+                    &prepared.camera,
+                    args.bvh_rays,
+                );
+                bvh_report.push(serde_json::json!({
+                    "backend": b.name(), "available": true,
+                    "build_ms": build_ms, "primary_mrays_per_s": mrays,
+                    "chosen": b.name() == backend_name,
+                }));
+            }
+        }
+        let gaze = display.centre_gaze();
+        let mut full_ms = None;
+        for &m in &methods {
+            let mut s = FrameSettings::new(m, gaze);
+            s.mapping = config.clone();
+            s.shading = shading_mode;
+            s.memory_limit_bytes = memory_limit;
+            let pb = progress_bar(args.quiet || args.json, &format!("{} {}", display.name, m));
+            let frame = render_frame(&prepared.world, &prepared.camera, &s, &|d, t| {
+                pb.set_length(t);
+                pb.set_position(d);
+            })?;
+            pb.finish_and_clear();
+            let stats = frame.stats;
+            drop(frame.color);
+            if m == Method::Full {
+                full_ms = Some(stats.total_ms);
+            }
+            let speedup = full_ms.map_or(1.0, |f| f / stats.total_ms);
+            if !args.json {
+                print_run(&stats, speedup);
+            }
+            runs.push((stats, speedup));
+        }
+    }
+    let json = serde_json::json!({
+        "scene": scene_name,
+        "triangles": triangles,
+        "lights": n_lights,
+        "bvh": backend_name,
+        "threads": rayon::current_num_threads(),
+        "bvh_throughput": bvh_report,
+        "runs": runs.iter().map(|(s, speedup)| {
+            let post = s.stages_ms.get("aa").copied().unwrap_or(0.0)
+                + s.stages_ms.get("reconstruct").copied().unwrap_or(0.0);
+            serde_json::json!({
+                "method": s.method,
+                "width": s.width,
+                "height": s.height,
+                "samples": s.samples,
+                "rays": s.rays,
+                "rays_primary": s.rays_primary,
+                "rays_shadow": s.rays_shadow,
+                "rays_bounce": s.rays_bounce,
+                "total_ms": s.total_ms,
+                "stages_ms": s.stages_ms,
+                "post_fraction": post / s.total_ms,
+                "speedup_vs_full": speedup,
+            })
+        }).collect::<Vec<_>>(),
+    });
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&json)?);
+    } else {
+        println!(
+            "scene {scene_name}: {} triangles, {n_lights} lights, BVH {backend_name}, {} threads",
+            thousands(triangles as u64),
+            rayon::current_num_threads()
+        );
+        for b in &bvh_report {
+            if b["available"].as_bool() == Some(true) {
+                println!(
+                    "BVH {:>6}: {:.2} Mrays/s primary, build {:.0} ms{}",
+                    b["backend"].as_str().unwrap_or(""),
+                    b["primary_mrays_per_s"].as_f64().unwrap_or(0.0),
+                    b["build_ms"].as_f64().unwrap_or(0.0),
+                    if b["chosen"].as_bool() == Some(true) {
+                        " (chosen)"
+                    } else {
+                        ""
+                    }
+                );
+            } else {
+                println!(
+                    "BVH {:>6}: not in this build",
+                    b["backend"].as_str().unwrap_or("")
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+fn print_run(s: &FrameStats, speedup: f64) {
+    let st = |k: &str| s.stages_ms.get(k).copied().unwrap_or(0.0);
+    println!(
+        "{:>5}x{:<5} {:>6} rays {:>13} | trace {:>9.1} shade {:>9.1} aa {:>7.1} reconstruct {:>7.1} | total {:>9.1} ms | speedup {:>6.2}x",
+        s.width,
+        s.height,
+        s.method,
+        thousands(s.rays),
+        st("trace"),
+        st("shade"),
+        st("aa"),
+        st("reconstruct"),
+        s.total_ms,
+        speedup
+    );
+}
