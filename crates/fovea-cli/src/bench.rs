@@ -15,7 +15,7 @@ use fovea_render::camera::EyeCamera;
 use fovea_render::pipeline::{default_memory_limit, render_frame, FrameSettings, FrameStats};
 use fovea_render::world::World;
 
-use crate::common::{thousands, MethodOptions};
+use crate::common::{display_of, thousands, MethodOptions};
 use crate::render::{parse_bytes, progress_bar, shading};
 use crate::scene_args::{prepare, SceneArgs};
 
@@ -59,20 +59,6 @@ pub struct BenchArgs {
     pub quiet: bool,
 }
 
-fn display_of(text: &str, vfov: f64) -> Result<DisplayProfile> {
-    if text.contains('x') && text.chars().next().is_some_and(|c| c.is_ascii_digit()) {
-        let (w, h) = fovea_core::display::parse_resolution(text)?;
-        Ok(DisplayProfile::with_vertical_fov(
-            text,
-            w,
-            h,
-            fovea_core::units::Degrees(vfov),
-        )?)
-    } else {
-        Ok(DisplayProfile::preset(text)?)
-    }
-}
-
 /// Primary-ray throughput of `world`'s BVH through `camera`: `n` rays on a jittered grid over
 /// the screen, Mrays/s (wall time, all threads).
 fn primary_throughput(
@@ -109,11 +95,30 @@ fn primary_throughput(
     (side * rows) as f64 / t.elapsed().as_secs_f64() / 1e6
 }
 
+/// Jiffies of the whole machine from `/proc/stat`: (stolen by the hypervisor, all).
+fn machine_jiffies() -> Option<(u64, u64)> {
+    let stat = std::fs::read_to_string("/proc/stat").ok()?;
+    let fields: Vec<u64> = stat
+        .lines()
+        .next()?
+        .split_whitespace()
+        .skip(1)
+        .filter_map(|f| f.parse().ok())
+        .collect();
+    Some((*fields.get(7)?, fields.iter().take(8).sum()))
+}
+
+/// Share of the machine's time the hypervisor gave to other guests between two readings.
+fn steal_fraction(a: Option<(u64, u64)>, b: Option<(u64, u64)>) -> Option<f64> {
+    let ((s0, t0), (s1, t1)) = (a?, b?);
+    (t1 > t0).then(|| (s1 - s0) as f64 / (t1 - t0) as f64)
+}
+
 pub fn run(args: BenchArgs) -> Result<()> {
     let displays: Vec<DisplayProfile> = args
         .res
         .split(',')
-        .map(|s| display_of(s.trim(), args.vfov))
+        .map(|s| display_of(s, args.vfov))
         .collect::<Result<_>>()?;
     let mut methods = vec![Method::Full];
     for m in args.methods.split(',') {
@@ -137,7 +142,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         bail!("invalid parameter `res`: give at least one resolution");
     }
 
-    let mut runs: Vec<(FrameStats, f64)> = Vec::new();
+    let mut runs: Vec<Run> = Vec::new();
     let mut scene_name = String::new();
     let mut triangles = 0;
     let mut n_lights = 0;
@@ -176,28 +181,36 @@ pub fn run(args: BenchArgs) -> Result<()> {
             }
         }
         let gaze = display.centre_gaze();
-        let mut full_ms = None;
+        let mut full: Option<(f64, f64)> = None;
         for &m in &methods {
             let mut s = FrameSettings::new(m, gaze);
             s.mapping = config.clone();
             s.shading = shading_mode;
             s.memory_limit_bytes = memory_limit;
             let pb = progress_bar(args.quiet || args.json, &format!("{} {}", display.name, m));
+            let jiffies = machine_jiffies();
             let frame = render_frame(&prepared.world, &prepared.camera, &s, &|d, t| {
                 pb.set_length(t);
                 pb.set_position(d);
             })?;
+            let steal = steal_fraction(jiffies, machine_jiffies());
             pb.finish_and_clear();
             let stats = frame.stats;
             drop(frame.color);
+            drop(frame.depth);
             if m == Method::Full {
-                full_ms = Some(stats.total_ms);
+                full = Some((stats.total_ms, stats.total_cpu_ms));
             }
-            let speedup = full_ms.map_or(1.0, |f| f / stats.total_ms);
+            let run = Run {
+                speedup: full.map_or(1.0, |f| f.0 / stats.total_ms),
+                speedup_cpu: full.map_or(1.0, |f| f.1 / stats.total_cpu_ms),
+                steal,
+                stats,
+            };
             if !args.json {
-                print_run(&stats, speedup);
+                print_run(&run);
             }
-            runs.push((stats, speedup));
+            runs.push(run);
         }
     }
     let json = serde_json::json!({
@@ -207,9 +220,11 @@ pub fn run(args: BenchArgs) -> Result<()> {
         "bvh": backend_name,
         "threads": rayon::current_num_threads(),
         "bvh_throughput": bvh_report,
-        "runs": runs.iter().map(|(s, speedup)| {
-            let post = s.stages_ms.get("aa").copied().unwrap_or(0.0)
-                + s.stages_ms.get("reconstruct").copied().unwrap_or(0.0);
+        "runs": runs.iter().map(|r| {
+            let s = &r.stats;
+            let post = |st: &std::collections::BTreeMap<String, f64>| {
+                st.get("aa").copied().unwrap_or(0.0) + st.get("reconstruct").copied().unwrap_or(0.0)
+            };
             serde_json::json!({
                 "method": s.method,
                 "width": s.width,
@@ -221,8 +236,13 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 "rays_bounce": s.rays_bounce,
                 "total_ms": s.total_ms,
                 "stages_ms": s.stages_ms,
-                "post_fraction": post / s.total_ms,
-                "speedup_vs_full": speedup,
+                "cpu_ms": s.total_cpu_ms,
+                "stages_cpu_ms": s.stages_cpu_ms,
+                "post_fraction": post(&s.stages_ms) / s.total_ms,
+                "post_fraction_cpu": post(&s.stages_cpu_ms) / s.total_cpu_ms,
+                "speedup_vs_full": r.speedup,
+                "speedup_vs_full_cpu": r.speedup_cpu,
+                "machine_steal_fraction": r.steal,
             })
         }).collect::<Vec<_>>(),
     });
@@ -258,10 +278,22 @@ pub fn run(args: BenchArgs) -> Result<()> {
     Ok(())
 }
 
-fn print_run(s: &FrameStats, speedup: f64) {
+/// One timed frame and its comparison with the full-resolution frame of the same display.
+struct Run {
+    stats: FrameStats,
+    /// Full-resolution wall time over this frame's.
+    speedup: f64,
+    /// Full-resolution CPU time over this frame's.
+    speedup_cpu: f64,
+    /// Share of the machine's time stolen by the hypervisor during the frame.
+    steal: Option<f64>,
+}
+
+fn print_run(r: &Run) {
+    let s = &r.stats;
     let st = |k: &str| s.stages_ms.get(k).copied().unwrap_or(0.0);
     println!(
-        "{:>5}x{:<5} {:>6} rays {:>13} | trace {:>9.1} shade {:>9.1} aa {:>7.1} reconstruct {:>7.1} | total {:>9.1} ms | speedup {:>6.2}x",
+        "{:>5}x{:<5} {:>6} rays {:>13} | trace {:>8.0} shade {:>8.0} aa {:>6.0} reconstruct {:>6.0} | wall {:>8.0} ms, cpu {:>8.0} ms{} | speedup {:>6.2}x wall, {:>6.2}x cpu",
         s.width,
         s.height,
         s.method,
@@ -271,6 +303,10 @@ fn print_run(s: &FrameStats, speedup: f64) {
         st("aa"),
         st("reconstruct"),
         s.total_ms,
-        speedup
+        s.total_cpu_ms,
+        r.steal
+            .map_or(String::new(), |f| format!(" ({:.0}% stolen)", f * 100.0)),
+        r.speedup,
+        r.speedup_cpu,
     );
 }

@@ -13,7 +13,7 @@ pub struct DisplayArgs {
     /// 8k, retinal.
     #[arg(long, conflicts_with = "res")]
     pub headset: Option<String>,
-    /// Custom per-eye resolution WxH (square pixels), e.g. 1920x1080.
+    /// Custom per-eye resolution WxH (square pixels), e.g. 1920x1080, or a preset name.
     #[arg(long)]
     pub res: Option<String>,
     /// Vertical field of view in degrees for --res.
@@ -25,18 +25,28 @@ impl DisplayArgs {
     /// The chosen display; `default` when neither --headset nor --res is given.
     pub fn display(&self, default: &str) -> Result<DisplayProfile> {
         if let Some(r) = &self.res {
-            let (w, h) = parse_resolution(r)?;
-            Ok(DisplayProfile::with_vertical_fov(
-                r.clone(),
-                w,
-                h,
-                Degrees(self.vfov),
-            )?)
+            display_of(r, self.vfov)
         } else {
             Ok(DisplayProfile::preset(
                 self.headset.as_deref().unwrap_or(default),
             )?)
         }
+    }
+}
+
+/// A display from `WxH` (square pixels, `vfov_deg` vertical field of view) or a preset name.
+pub fn display_of(text: &str, vfov_deg: f64) -> Result<DisplayProfile> {
+    let text = text.trim();
+    if text.starts_with(|c: char| c.is_ascii_digit()) && text.contains(['x', 'X']) {
+        let (w, h) = parse_resolution(text)?;
+        Ok(DisplayProfile::with_vertical_fov(
+            text,
+            w,
+            h,
+            Degrees(vfov_deg),
+        )?)
+    } else {
+        Ok(DisplayProfile::preset(text)?)
     }
 }
 

@@ -142,91 +142,198 @@ fn polar(
             }
         })
         .collect();
-    let color = &buffers.color[0];
-    let depth = &buffers.depth[0];
-    let period: Vec<f32> = layout.period.iter().map(|&p| p as f32).collect();
-    let rows = &layout.rows;
+    let columns = PolarColumns::new(&buffers.color[0], &buffers.depth[0], layout);
     let inv_step = (1.0 / LUT_STEP_PX) as f32;
     let (cx, cy) = (c.x_px as f32, c.y_px as f32);
-    let inv_2pi = 1.0 / std::f32::consts::TAU;
-
-    // Column k starts at `offset[k]` in the buffer's flat storage (row-major: pixel (k, j)
-    // at j·bw + k); rows wrap at `rows[k]`.
-    let bw = color.width() as usize;
-    // Colour and depth interleaved, so one 16-byte load fetches both.
-    let rgbd: Vec<[f32; 4]> = color
-        .data()
-        .par_iter()
-        .zip(depth.data().par_iter())
-        .map(|(c, &d)| [c[0], c[1], c[2], d])
-        .collect();
     let wu = w as usize;
-    let mut out_c = vec![[0.0f32; 3]; wu * h as usize];
-    let mut out_d = vec![0.0f32; wu * h as usize];
+    let mut out_c = crate::alloc::zeroed::<[f32; 3]>(wu * h as usize);
+    let mut out_d = crate::alloc::zeroed::<f32>(wu * h as usize);
     let lastf = last as f32;
+    let max_period = layout.period.iter().fold(1.0f64, |a, &b| a.max(b)) as f32;
+    let turn_tolerance = COORD_TOLERANCE_TEXELS / max_period;
     out_c
         .par_chunks_mut(wu)
         .zip(out_d.par_chunks_mut(wu))
         .enumerate()
-        .for_each(|(y, (row_c, row_d))| {
-            let dy = y as f32 + 0.5 - cy;
-            for x in 0..wu {
-                let dx = x as f32 + 0.5 - cx;
-                let r = (dx * dx + dy * dy).sqrt();
-                let t = r * inv_step;
-                let k = (t as usize).min(n - 2);
-                let f = (t - k as f32).min(1.0);
-                let u = lut[k] + (lut[k + 1] - lut[k]) * f;
-                let turn = fast_atan2(dy, dx) * inv_2pi;
-                let turn = if turn < 0.0 { turn + 1.0 } else { turn };
-                let uc = (u - 0.5).clamp(0.0, lastf);
-                let i0 = uc as usize;
-                let i1 = (i0 + 1).min(last);
-                let fu = uc - i0 as f32;
-                // Bilinear along the angle inside column i (v ≥ −½, so truncation after
-                // adding 1 is a floor); nearest depth.
-                let col = |i: usize| -> [f32; 4] {
-                    let rws = rows[i] as usize;
-                    if rws == 0 {
-                        return [0.0, 0.0, 0.0, f32::INFINITY];
-                    }
-                    let v = turn * period[i] + 0.5;
-                    let jf = v as usize;
-                    let fv = v - jf as f32;
-                    // Rows jf − 1 and jf, wrapped.
-                    let mut jb = jf;
-                    while jb >= rws {
-                        jb -= rws;
-                    }
-                    let ja = if jb == 0 { rws - 1 } else { jb - 1 };
-                    let a = rgbd[ja * bw + i];
-                    let b = rgbd[jb * bw + i];
-                    [
-                        a[0] + (b[0] - a[0]) * fv,
-                        a[1] + (b[1] - a[1]) * fv,
-                        a[2] + (b[2] - a[2]) * fv,
-                        if fv < 0.5 { a[3] } else { b[3] },
-                    ]
+        .for_each_init(
+            || (vec![0.0f32; wu], vec![0.0f32; wu]),
+            |(us, turns), (y, (row_c, row_d))| {
+                // Pass 1: buffer coordinates of the row's pixels (column u, angle in turns).
+                let dy = y as f32 + 0.5 - cy;
+                let exact = |x: usize| -> (f32, f32) {
+                    let dx = x as f32 + 0.5 - cx;
+                    let t = (dx * dx + dy * dy).sqrt() * inv_step;
+                    let k = (t as usize).min(n - 2);
+                    let f = (t - k as f32).min(1.0);
+                    let u = (lut[k] + (lut[k + 1] - lut[k]) * f - 0.5).clamp(0.0, lastf);
+                    (u, turn_of(dy, dx))
                 };
-                let a = col(i0);
-                if fu > 0.0 && i1 != i0 {
-                    let b = col(i1);
+                coordinates_of_row(us, turns, exact, turn_tolerance);
+                // Pass 2: bilinear across the two nearest columns, each read at its angle.
+                for x in 0..wu {
+                    let uc = us[x];
+                    let i0 = uc as usize;
+                    let i1 = (i0 + 1).min(last);
+                    let fu = uc - i0 as f32;
+                    let a = columns.read(i0, turns[x]);
+                    let b = columns.read(i1, turns[x]);
                     row_c[x] = [
                         a[0] + (b[0] - a[0]) * fu,
                         a[1] + (b[1] - a[1]) * fu,
                         a[2] + (b[2] - a[2]) * fu,
                     ];
                     row_d[x] = if fu < 0.5 { a[3] } else { b[3] };
-                } else {
-                    row_c[x] = [a[0], a[1], a[2]];
-                    row_d[x] = a[3];
                 }
-            }
-        });
+            },
+        );
     Ok(ScreenFrame {
         color: Image::from_vec(w, h, out_c)?,
         depth: Image::from_vec(w, h, out_d)?,
     })
+}
+
+/// Largest error, in texels, that pass 1 of the polar reconstruction may make in a pixel's
+/// buffer coordinates by interpolating them linearly between exactly computed pixels.
+pub const COORD_TOLERANCE_TEXELS: f32 = 1.0 / 64.0;
+
+/// Pixels between exactly computed coordinates in pass 1 (a power of two).
+const SPAN: usize = 8;
+
+/// Buffer coordinates `(u, turn)` of every pixel of a row, from `exact(x)`: exact at every
+/// [`SPAN`]-th pixel; in between, linear between the span's ends wherever the exact value at
+/// the span's middle lies within [`COORD_TOLERANCE_TEXELS`] of the line (in `u`, and in the
+/// angle at the largest period), exact otherwise — near the pole, where the coordinates
+/// curve fast, and across the angular wrap, where the angle jumps from 1 back to 0. The
+/// coordinates are smooth elsewhere, so the middle's deviation bounds the span's.
+fn coordinates_of_row(
+    us: &mut [f32],
+    turns: &mut [f32],
+    exact: impl Fn(usize) -> (f32, f32),
+    turn_tolerance: f32,
+) {
+    let w = us.len();
+    if w == 0 {
+        return;
+    }
+    (us[0], turns[0]) = exact(0);
+    let mut x0 = 0;
+    while x0 + 1 < w {
+        let x1 = (x0 + SPAN).min(w - 1);
+        let (u1, t1) = exact(x1);
+        (us[x1], turns[x1]) = (u1, t1);
+        if x1 - x0 >= 2 {
+            let (u0, t0) = (us[x0], turns[x0]);
+            let xm = (x0 + x1) / 2;
+            let (um, tm) = exact(xm);
+            let fm = (xm - x0) as f32 / (x1 - x0) as f32;
+            let linear = (u0 + (u1 - u0) * fm - um).abs() <= COORD_TOLERANCE_TEXELS
+                && (t0 + (t1 - t0) * fm - tm).abs() <= turn_tolerance;
+            let inv = 1.0 / (x1 - x0) as f32;
+            for x in x0 + 1..x1 {
+                (us[x], turns[x]) = if linear {
+                    let f = (x - x0) as f32 * inv;
+                    (u0 + (u1 - u0) * f, t0 + (t1 - t0) * f)
+                } else {
+                    exact(x)
+                };
+            }
+        }
+        x0 = x1;
+    }
+}
+
+/// One column of a polar buffer: where its texels start in [`PolarColumns::texels`], how many
+/// rows it has (they wrap) and its rows per full turn.
+#[derive(Clone, Copy)]
+struct Column {
+    base: u32,
+    rows: u32,
+    period: f32,
+}
+
+/// A polar buffer's colour and depth as `[r, g, b, depth]`, column by column (the rows of a
+/// column contiguous, so the two rows a lookup blends usually share a cache line). Each
+/// column is stored with its last row copied before its first and its first after its last,
+/// so a lookup never wraps. A column without shaded rows reads black at infinite depth.
+struct PolarColumns {
+    texels: Vec<[f32; 4]>,
+    columns: Vec<Column>,
+}
+
+impl PolarColumns {
+    fn new(
+        color: &Image<Rgb>,
+        depth: &Image<f32>,
+        layout: &fovea_core::mapping::PolarLayout,
+    ) -> Self {
+        let bh = color.height();
+        let mut columns = Vec::with_capacity(layout.rows.len());
+        let mut base = 0u32;
+        for (&rows, &period) in layout.rows.iter().zip(&layout.period) {
+            let rows = rows.min(bh);
+            columns.push(Column {
+                base,
+                rows: rows.max(1),
+                period: if rows == 0 { 0.0 } else { period as f32 },
+            });
+            base += rows.max(1) + 2;
+        }
+        let mut texels = vec![[0.0, 0.0, 0.0, f32::INFINITY]; base as usize];
+        let mut parts: Vec<(usize, &mut [[f32; 4]])> = Vec::with_capacity(columns.len());
+        let mut rest = texels.as_mut_slice();
+        for (i, (col, &rows)) in columns.iter().zip(&layout.rows).enumerate() {
+            let (head, tail) = rest.split_at_mut(col.rows as usize + 2);
+            rest = tail;
+            if rows > 0 {
+                parts.push((i, head));
+            }
+        }
+        parts.into_par_iter().for_each(|(i, dst)| {
+            let rows = dst.len() - 2;
+            let texel = |j: usize| {
+                let c = color.get(i as u32, j as u32);
+                [c[0], c[1], c[2], *depth.get(i as u32, j as u32)]
+            };
+            for (k, t) in dst.iter_mut().enumerate() {
+                *t = texel((k + rows - 1) % rows);
+            }
+        });
+        Self { texels, columns }
+    }
+
+    /// Column `i` at angle `turn` ∈ [0, 1): colour linear between the two rows around
+    /// `v = turn·period` (wrapping), depth of the nearer.
+    #[inline(always)]
+    fn read(&self, i: usize, turn: f32) -> [f32; 4] {
+        let col = self.columns[i];
+        // Rows jf − 1 and jf around v + ½ (v ≥ 0, so truncation is a floor), stored at
+        // jf and jf + 1; v < period ≤ rows + ½ keeps jf ≤ rows, and the clamp keeps any
+        // rounding inside the column.
+        let v = turn * col.period + 0.5;
+        let jf = (v as u32).min(col.rows);
+        let fv = v - jf as f32;
+        let k = (col.base + jf) as usize;
+        let [a, b] = self.texels[k..k + 2] else {
+            unreachable!("a slice of two")
+        };
+        [
+            a[0] + (b[0] - a[0]) * fv,
+            a[1] + (b[1] - a[1]) * fv,
+            a[2] + (b[2] - a[2]) * fv,
+            if fv < 0.5 { a[3] } else { b[3] },
+        ]
+    }
+}
+
+/// The angle of `(dx, dy)` in turns, in `[0, 1)`.
+#[inline(always)]
+fn turn_of(dy: f32, dx: f32) -> f32 {
+    let t = fast_atan2(dy, dx) * (1.0 / std::f32::consts::TAU);
+    if t < 0.0 {
+        t + 1.0
+    } else {
+        t
+    }
 }
 
 /// `atan2(y, x)` in radians with |error| < 1e-5 (octant reduction and a degree-11 odd
@@ -235,23 +342,21 @@ fn polar(
 #[inline]
 pub fn fast_atan2(y: f32, x: f32) -> f32 {
     let (ax, ay) = (x.abs(), y.abs());
-    let (mn, mx) = if ax < ay { (ax, ay) } else { (ay, ax) };
-    if mx == 0.0 {
-        return 0.0;
-    }
-    let a = mn / mx;
+    let (mn, mx) = (ax.min(ay), ax.max(ay));
+    // Written with selects rather than branches so that rows of pixels vectorise.
+    let a = if mx > 0.0 { mn / mx } else { 0.0 };
     let s = a * a;
-    let mut r = ((((-0.011_719_12 * s + 0.052_653_32) * s - 0.116_432_87) * s + 0.193_543_46) * s
+    let r = ((((-0.011_719_12 * s + 0.052_653_32) * s - 0.116_432_87) * s + 0.193_543_46) * s
         - 0.332_623_47)
         * s
         * a
         + 0.999_977_26 * a;
-    if ay > ax {
-        r = std::f32::consts::FRAC_PI_2 - r;
-    }
-    if x < 0.0 {
-        r = std::f32::consts::PI - r;
-    }
+    let r = if ay > ax {
+        std::f32::consts::FRAC_PI_2 - r
+    } else {
+        r
+    };
+    let r = if x < 0.0 { std::f32::consts::PI - r } else { r };
     if y < 0.0 {
         -r
     } else {
@@ -383,5 +488,109 @@ mod tests {
         }
         assert!(worst < 2e-5, "{worst}");
         assert_eq!(fast_atan2(0.0, 0.0), 0.0);
+    }
+
+    use fovea_core::mapping::{build, MappingConfig};
+
+    /// Random colour in every texel (worst case for interpolation errors), depth = texel index.
+    fn random_buffers(mapping: &dyn FoveationMapping) -> SampleBuffers {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut color = Vec::new();
+        let mut depth = Vec::new();
+        for b in mapping.buffers() {
+            let c: Vec<Rgb> = (0..b.pixels()).map(|_| [next(), next(), next()]).collect();
+            color.push(Image::from_vec(b.width, b.height, c).unwrap());
+            let d: Vec<f32> = (0..b.pixels()).map(|k| k as f32).collect();
+            depth.push(Image::from_vec(b.width, b.height, d).unwrap());
+        }
+        SampleBuffers { color, depth }
+    }
+
+    /// The polar reconstruction computed the slow way: every pixel's column through the
+    /// mapping's own forward map and its angle by `f64::atan2`, then the same filter.
+    fn reference_polar(
+        mapping: &dyn FoveationMapping,
+        buffers: &SampleBuffers,
+        x: u32,
+        y: u32,
+    ) -> (Rgb, f32) {
+        let layout = mapping.polar_layout().unwrap();
+        let last = layout.rows.iter().rposition(|&r| r > 0).unwrap();
+        let p = ScreenPoint::new(x as f64 + 0.5, y as f64 + 0.5);
+        let u = mapping.forward(p).map_or((last + 1) as f64, |s| s.u);
+        let (dx, dy) = (p.x_px - layout.centre.x_px, p.y_px - layout.centre.y_px);
+        let turn = dy.atan2(dx).rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU;
+        let uc = (u - 0.5).clamp(0.0, last as f64);
+        let i0 = uc as usize;
+        let i1 = (i0 + 1).min(last);
+        let fu = (uc - i0 as f64) as f32;
+        let read = |i: usize| -> (Rgb, f32) {
+            let rows = layout.rows[i] as i64;
+            let v = turn * layout.period[i] - 0.5;
+            let j = v.floor();
+            let fv = (v - j) as f32;
+            let ja = (j as i64).rem_euclid(rows) as u32;
+            let jb = (j as i64 + 1).rem_euclid(rows) as u32;
+            let (a, b) = (
+                buffers.color[0].get(i as u32, ja),
+                buffers.color[0].get(i as u32, jb),
+            );
+            let d = if fv < 0.5 { ja } else { jb };
+            (lerp3(*a, *b, fv), *buffers.depth[0].get(i as u32, d))
+        };
+        let (a, da) = read(i0);
+        let (b, db) = read(i1);
+        (lerp3(a, b, fu), if fu < 0.5 { da } else { db })
+    }
+
+    /// Pass 1's interpolated coordinates stay within their tolerance of the exact ones (the
+    /// seam, the pole and the outer edge included): on random texels, no pixel differs from
+    /// the slow reference by more than the tolerance's share of the texel range (plus float
+    /// rounding), and nearest-depth picks agree except where a pixel sits on a texel boundary.
+    #[test]
+    fn polar_reconstruction_matches_the_slow_reference() {
+        for (method, preset, gx, gy) in [
+            (Method::Vafr, "2k", 0.31, 0.62),
+            (Method::Vafr, "vive-pro-eye", 0.5, 0.5),
+            (Method::Kfr, "2k", 0.7, 0.4),
+            (Method::VisualPolar, "2k", 0.45, 0.55),
+        ] {
+            let d = DisplayProfile::preset(preset).unwrap();
+            let gaze = d
+                .gaze(gx * d.width_px as f64, gy * d.height_px as f64)
+                .unwrap();
+            let m = build(method, &d, gaze, &MappingConfig::default()).unwrap();
+            let bufs = random_buffers(m.as_ref());
+            let out = reconstruct(m.as_ref(), &d, bufs.clone()).unwrap();
+            let (mut worst, mut depth_diff, mut n) = (0.0f32, 0usize, 0usize);
+            // Every 7th row and column, plus the gaze row (the angular seam runs along it).
+            let gy_px = gaze.point.y_px as u32;
+            for y in (0..d.height_px).step_by(7).chain([gy_px, gy_px + 1]) {
+                for x in (0..d.width_px).step_by(if y == gy_px || y == gy_px + 1 { 1 } else { 7 }) {
+                    let (c, dep) = reference_polar(m.as_ref(), &bufs, x, y);
+                    let got = out.color.get(x, y);
+                    for k in 0..3 {
+                        worst = worst.max((got[k] - c[k]).abs());
+                    }
+                    depth_diff += (*out.depth.get(x, y) != dep) as usize;
+                    n += 1;
+                }
+            }
+            println!("{method} {preset}: worst colour difference {worst:.4}, depth picks differing {depth_diff}/{n}");
+            assert!(
+                worst < 2.0 * COORD_TOLERANCE_TEXELS + 2e-3,
+                "{method} {preset}: {worst}"
+            );
+            assert!(
+                (depth_diff as f64) < 0.005 * n as f64,
+                "{method} {preset}: {depth_diff}/{n}"
+            );
+        }
     }
 }

@@ -12,6 +12,7 @@
 
 #![allow(clippy::needless_range_loop)] // per-channel pixel loops read best indexed
 
+pub mod alloc;
 pub mod fxaa;
 pub mod gaussian_aa;
 pub mod grid;

@@ -156,6 +156,11 @@ pub struct FrameStats {
     pub stages_ms: BTreeMap<String, f64>,
     /// Total wall time, milliseconds.
     pub total_ms: f64,
+    /// Processor time per stage, milliseconds, summed over threads (`CLOCK_PROCESS_CPUTIME_ID`;
+    /// unlike wall time, it leaves out time the machine's hypervisor gave to other guests).
+    pub stages_cpu_ms: BTreeMap<String, f64>,
+    /// Total processor time, milliseconds, summed over threads.
+    pub total_cpu_ms: f64,
     /// Sample buffers (width × height per layer).
     pub buffers: Vec<[u32; 2]>,
     /// Anti-aliasing used.
@@ -196,8 +201,59 @@ pub fn memory_estimate(
     samples + if density { screen * 4 } else { 0 } + gbuf
 }
 
-fn ms(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
+/// Side of the square tiles in which samples are traced and shaded.
+const TRACE_TILE: usize = 16;
+
+/// Indices `j·width + i` of a `width × height` block, tile by tile
+/// ([`TRACE_TILE`]² pixels, row-major inside a tile and across tiles).
+fn tile_order(width: usize, height: usize) -> Vec<u32> {
+    let mut order = Vec::with_capacity(width * height);
+    for tj in (0..height).step_by(TRACE_TILE) {
+        for ti in (0..width).step_by(TRACE_TILE) {
+            for j in tj..(tj + TRACE_TILE).min(height) {
+                for i in ti..(ti + TRACE_TILE).min(width) {
+                    order.push((j * width + i) as u32);
+                }
+            }
+        }
+    }
+    order
+}
+
+/// Wall and process CPU time since a start.
+struct Stopwatch {
+    wall: Instant,
+    cpu: Option<cpu_time::ProcessTime>,
+}
+
+impl Stopwatch {
+    fn start() -> Self {
+        Self {
+            wall: Instant::now(),
+            cpu: cpu_time::ProcessTime::try_now().ok(),
+        }
+    }
+
+    /// (wall, CPU) milliseconds elapsed; CPU is NaN where the clock is unavailable.
+    fn elapsed_ms(&self) -> (f64, f64) {
+        let wall = self.wall.elapsed().as_secs_f64() * 1e3;
+        let cpu = self
+            .cpu
+            .and_then(|c| c.try_elapsed().ok())
+            .map_or(f64::NAN, |d| d.as_secs_f64() * 1e3);
+        (wall, cpu)
+    }
+
+    fn record(
+        &self,
+        stage: &str,
+        wall: &mut BTreeMap<String, f64>,
+        cpu: &mut BTreeMap<String, f64>,
+    ) {
+        let (w, c) = self.elapsed_ms();
+        wall.insert(stage.to_string(), w);
+        cpu.insert(stage.to_string(), c);
+    }
 }
 
 /// Renders one frame. `progress(done, total)` is called after each chunk of samples.
@@ -207,12 +263,13 @@ pub fn render_frame(
     settings: &FrameSettings,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<Frame> {
-    let t_total = Instant::now();
+    let t_total = Stopwatch::start();
+    let mut cpu_stages = BTreeMap::new();
     let display = &camera.display;
     let mut stages = BTreeMap::new();
 
     // 1. Plan.
-    let t = Instant::now();
+    let t = Stopwatch::start();
     let mapping = build(settings.method, display, settings.gaze, &settings.mapping)?;
     let memory = memory_estimate(mapping.as_ref(), display, settings.density_view);
     if memory > settings.memory_limit_bytes {
@@ -230,18 +287,38 @@ pub fn render_frame(
     }
     let sizes = mapping.buffers();
     let aa = settings.aa.resolve(settings.method);
-    stages.insert("plan".to_string(), ms(t));
+    t.record("plan", &mut stages, &mut cpu_stages);
 
     // 2–3. Trace and shade, layer by layer, chunk by chunk.
     let total_samples = mapping.sample_count();
-    let mut trace_ms = 0.0;
-    let mut shade_ms = 0.0;
+    let (mut trace_ms, mut trace_cpu) = (0.0, 0.0);
+    let (mut shade_ms, mut shade_cpu) = (0.0, 0.0);
     let mut primary = 0u64;
     let mut counts = RayCounts::default();
     let mut colors = Vec::with_capacity(sizes.len());
     let mut depths = Vec::with_capacity(sizes.len());
     let full = settings.method == Method::Full;
     let pixel_spread = (1.0 / display.focal_y_px()) as f32;
+    // A polar buffer's column lies at one distance from the gaze, so at one eccentricity
+    // (VaFR Eq. 3): its samples share one footprint, computed once per column.
+    let column_spread: Option<Vec<f32>> = match (full, mapping.polar_layout()) {
+        (false, Some(layout)) => Some(
+            (0..layout.rows.len())
+                .into_par_iter()
+                .map(|i| {
+                    let s = SamplePoint {
+                        layer: 0,
+                        u: i as f64 + 0.5,
+                        v: 0.5,
+                    };
+                    mapping.inverse(s).map_or(f32::NAN, |p| {
+                        sample_spread_rad(mapping.as_ref(), display, &settings.gaze, p)
+                    })
+                })
+                .collect(),
+        ),
+        _ => None,
+    };
     let mut done = 0u64;
     for (layer, size) in sizes.iter().enumerate() {
         let layer = layer as u32;
@@ -257,11 +334,15 @@ pub fn render_frame(
             .enumerate()
         {
             let j0 = (chunk_idx * rows_per_chunk) as u32;
+            // Samples in tiles of TRACE_TILE × TRACE_TILE buffer pixels, so that consecutive
+            // rays of a thread meet the same BVH nodes, triangles and texels.
+            let order = tile_order(row_len, c_chunk.len() / row_len);
             // Trace: one G-buffer record per shaded pixel of the chunk.
-            let t = Instant::now();
-            let gbuf: Vec<Option<GSample>> = (0..c_chunk.len())
-                .into_par_iter()
-                .map(|k| {
+            let t = Stopwatch::start();
+            let gbuf: Vec<Option<GSample>> = order
+                .par_iter()
+                .map(|&k| {
+                    let k = k as usize;
                     let (i, j) = ((k % row_len) as u32, j0 + (k / row_len) as u32);
                     if !mapping.is_shaded(layer, i, j) {
                         return None;
@@ -272,41 +353,46 @@ pub fn render_frame(
                         v: j as f64 + 0.5,
                     };
                     let p = mapping.inverse(s)?;
-                    let spread = if full {
-                        pixel_spread
-                    } else {
-                        sample_spread_rad(mapping.as_ref(), display, &settings.gaze, p)
+                    let spread = match &column_spread {
+                        _ if full => pixel_spread,
+                        Some(cs) if cs.get(i as usize).is_some_and(|v| v.is_finite()) => {
+                            cs[i as usize]
+                        }
+                        _ => sample_spread_rad(mapping.as_ref(), display, &settings.gaze, p),
                     };
                     Some(trace_sample(world, &camera.ray(p), spread))
                 })
                 .collect();
-            trace_ms += ms(t);
+            let (w, c) = t.elapsed_ms();
+            trace_ms += w;
+            trace_cpu += c;
             primary += gbuf.iter().filter(|g| g.is_some()).count() as u64;
 
-            // Shade.
-            let t = Instant::now();
-            let chunk_counts = c_chunk
-                .par_iter_mut()
-                .zip(d_chunk.par_iter_mut())
+            // Shade, in the same order, then scatter to the buffer.
+            let t = Stopwatch::start();
+            let shaded: Vec<Option<(Rgb, f32, RayCounts)>> = order
+                .par_iter()
                 .zip(gbuf.par_iter())
-                .enumerate()
-                .map(|(k, ((c, d), g))| {
+                .map(|(&k, g)| {
+                    let g = g.as_ref()?;
                     let mut rc = RayCounts::default();
-                    if let Some(g) = g {
-                        let key =
-                            ((layer as u64) << 48) ^ ((j0 as u64 * row_len as u64) + k as u64);
-                        let v = shade(world, g, settings.shading, key, &mut rc);
-                        *c = v.to_array();
-                        *d = camera.view_depth(-g.to_eye, g.t);
-                    }
-                    rc
+                    let key = ((layer as u64) << 48) ^ ((j0 as u64 * row_len as u64) + k as u64);
+                    let v = shade(world, g, settings.shading, key, &mut rc);
+                    Some((v.to_array(), camera.view_depth(-g.to_eye, g.t), rc))
                 })
-                .reduce(RayCounts::default, |mut a, b| {
-                    a += b;
-                    a
-                });
+                .collect();
+            let mut chunk_counts = RayCounts::default();
+            for (&k, s) in order.iter().zip(shaded) {
+                if let Some((c, d, rc)) = s {
+                    c_chunk[k as usize] = c;
+                    d_chunk[k as usize] = d;
+                    chunk_counts += rc;
+                }
+            }
             counts += chunk_counts;
-            shade_ms += ms(t);
+            let (w, c) = t.elapsed_ms();
+            shade_ms += w;
+            shade_cpu += c;
             done = (done + gbuf.len() as u64).min(total_samples.max(done));
             progress(primary.min(total_samples), total_samples);
         }
@@ -315,9 +401,11 @@ pub fn render_frame(
     }
     stages.insert("trace".to_string(), trace_ms);
     stages.insert("shade".to_string(), shade_ms);
+    cpu_stages.insert("trace".to_string(), trace_cpu);
+    cpu_stages.insert("shade".to_string(), shade_cpu);
 
     // 4. Sample-space anti-aliasing.
-    let t = Instant::now();
+    let t = Stopwatch::start();
     if aa != AaMode::None {
         let polar = mapping.polar_layout();
         for c in colors.iter_mut() {
@@ -335,10 +423,10 @@ pub fn render_frame(
             };
         }
     }
-    stages.insert("aa".to_string(), ms(t));
+    t.record("aa", &mut stages, &mut cpu_stages);
 
     // 5. Reconstruct.
-    let t = Instant::now();
+    let t = Stopwatch::start();
     let screen = reconstruct(
         mapping.as_ref(),
         display,
@@ -347,14 +435,14 @@ pub fn render_frame(
             depth: depths,
         },
     )?;
-    stages.insert("reconstruct".to_string(), ms(t));
+    t.record("reconstruct", &mut stages, &mut cpu_stages);
 
     let density = if settings.density_view {
         Some(density_view(mapping.as_ref(), display, &settings.gaze)?)
     } else {
         None
     };
-    let total_ms = ms(t_total);
+    let (total_ms, total_cpu_ms) = t_total.elapsed_ms();
     let stats = FrameStats {
         method: settings.method.name().to_string(),
         width: display.width_px,
@@ -366,6 +454,8 @@ pub fn render_frame(
         rays: primary + counts.shadow + counts.bounce,
         stages_ms: stages,
         total_ms,
+        stages_cpu_ms: cpu_stages,
+        total_cpu_ms,
         buffers: sizes.iter().map(|b| [b.width, b.height]).collect(),
         aa,
         memory_bytes: memory,

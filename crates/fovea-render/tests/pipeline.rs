@@ -160,3 +160,39 @@ fn every_method_casts_one_ray_per_sample_and_covers_the_gaze_point() {
         assert!(centre > 28.0, "{method}: gaze region {centre:.2} dB");
     }
 }
+
+#[test]
+fn retinal_frames_fit_the_machine_and_oversized_requests_are_refused_first() {
+    use fovea_render::pipeline::memory_estimate;
+    let d = DisplayProfile::preset("retinal").unwrap();
+    let cfg = fovea_core::mapping::MappingConfig::default();
+    let full = build(Method::Full, &d, d.centre_gaze(), &cfg).unwrap();
+    let vafr = build(Method::Vafr, &d, d.centre_gaze(), &cfg).unwrap();
+    let (mf, mv) = (
+        memory_estimate(full.as_ref(), &d, false),
+        memory_estimate(vafr.as_ref(), &d, false),
+    );
+    println!(
+        "retinal: full {:.2} GiB, vafr {:.2} GiB",
+        mf as f64 / (1u64 << 30) as f64,
+        mv as f64 / (1u64 << 30) as f64
+    );
+    // Screen colour + depth at 16 bytes per pixel is the floor for either.
+    assert!(mf >= d.pixel_count() * 16 && mv >= d.pixel_count() * 16);
+    assert!(
+        mf + mv < 24 << 30,
+        "both frames together need {} bytes",
+        mf + mv
+    );
+
+    // A budget below the estimate is refused before anything is traced.
+    let (world, cam) = setup(&d);
+    let mut s = FrameSettings::new(Method::Full, d.centre_gaze());
+    s.memory_limit_bytes = mf - 1;
+    let t = std::time::Instant::now();
+    let err = render_frame(&world, &cam, &s, &|_, _| panic!("no sample may be traced"))
+        .expect_err("refused");
+    assert!(t.elapsed().as_secs_f64() < 5.0);
+    let msg = err.to_string();
+    assert!(msg.contains("GiB") && msg.contains("--max-memory"), "{msg}");
+}

@@ -307,10 +307,21 @@ impl Scene {
         };
         scene.source = Some(path.to_path_buf());
         if scene.name.is_empty() {
-            scene.name = path
+            // The file's stem, or its folder's name for generic stems (`scene.xml` of
+            // Bitterli's archive: `japanese-classroom`).
+            let stem = path
                 .file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_default();
+            let folder = path.canonicalize().ok().and_then(|p| {
+                p.parent()?
+                    .file_name()
+                    .map(|f| f.to_string_lossy().into_owned())
+            });
+            scene.name = match folder {
+                Some(f) if matches!(stem.as_str(), "scene" | "model" | "main") => f,
+                _ => stem,
+            };
         }
         scene.validate()?;
         Ok(scene)

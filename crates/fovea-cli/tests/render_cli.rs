@@ -1,0 +1,218 @@
+//! `fovea render` and `fovea bench` end to end: outputs, JSON shapes, and bad input that must
+//! end in a one-line error (never a panic) before any large allocation.
+
+use std::path::{Path, PathBuf};
+
+use assert_cmd::Command;
+
+fn fovea() -> Command {
+    Command::cargo_bin("fovea").unwrap()
+}
+
+fn shared_scenes() -> Option<PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes");
+    if p.is_dir() {
+        Some(p)
+    } else {
+        println!("skipped: ../shared/scenes is absent (a fresh clone); CI has it");
+        None
+    }
+}
+
+/// Runs `fovea args…`, expects failure, and returns stderr after checking it is a clean error.
+fn fails(args: &[&str]) -> String {
+    let out = fovea().args(args).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!out.status.success(), "{args:?} succeeded:\n{err}");
+    assert!(!err.contains("panicked"), "{args:?} panicked:\n{err}");
+    assert!(err.contains("error"), "{args:?}: no error line:\n{err}");
+    err
+}
+
+#[test]
+fn render_writes_image_stats_depth_and_density() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("f.png");
+    let depth = dir.path().join("d.exr");
+    let density = dir.path().join("s.png");
+    let out = fovea()
+        .args([
+            "render", "--res", "480x270", "--method", "vafr", "--gaze", "200,100",
+        ])
+        .args(["--lights", "3", "-q", "--out"])
+        .arg(&png)
+        .arg("--depth-out")
+        .arg(&depth)
+        .arg("--density-out")
+        .arg(&density)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for p in [&png, &depth, &density] {
+        assert!(std::fs::metadata(p).unwrap().len() > 100, "{}", p.display());
+    }
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("f.json")).unwrap()).unwrap();
+    let f = &stats["frame"];
+    assert_eq!(f["method"], "vafr");
+    assert_eq!(f["width"], 480);
+    assert!(f["rays_primary"].as_u64().unwrap() > 0);
+    assert_eq!(
+        f["rays"].as_u64().unwrap(),
+        f["rays_primary"].as_u64().unwrap()
+            + f["rays_shadow"].as_u64().unwrap()
+            + f["rays_bounce"].as_u64().unwrap()
+    );
+    for stage in ["plan", "trace", "shade", "aa", "reconstruct"] {
+        assert!(f["stages_ms"][stage].as_f64().is_some(), "{stage}");
+    }
+}
+
+#[test]
+fn bench_json_has_the_documented_shape() {
+    let out = fovea()
+        .args(["bench", "--res", "320x180,400x300", "--methods", "vafr,kfr"])
+        .args(["--lights", "2", "--bvh-rays", "20000", "--json", "-q"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let runs = v["runs"].as_array().unwrap();
+    assert_eq!(runs.len(), 6, "full + 2 methods at 2 resolutions");
+    for r in runs {
+        for key in ["method", "width", "height", "rays", "total_ms", "stages_ms"] {
+            assert!(r.get(key).is_some(), "missing {key}: {r}");
+        }
+        let s = r["speedup_vs_full"].as_f64().unwrap();
+        assert!(s.is_finite() && s > 0.0);
+        if r["method"] == "full" {
+            assert_eq!(s, 1.0);
+        }
+    }
+    assert_eq!(runs[3]["width"], 400);
+    let bvh = v["bvh_throughput"].as_array().unwrap();
+    assert!(bvh
+        .iter()
+        .any(|b| b["backend"] == "obvhs" && b["primary_mrays_per_s"].as_f64().unwrap() > 0.0));
+}
+
+#[test]
+fn impossible_requests_are_refused_before_allocating() {
+    // 40000 pixels wide: beyond any display.
+    let e = fails(&["render", "--res", "40000x40000", "-q"]);
+    assert!(e.contains("res"), "{e}");
+    // A retinal full frame under a 64 MiB budget.
+    let e = fails(&[
+        "render",
+        "--headset",
+        "retinal",
+        "--method",
+        "full",
+        "--max-memory",
+        "64M",
+        "-q",
+    ]);
+    assert!(e.contains("GiB") && e.contains("--max-memory"), "{e}");
+    let e = fails(&["bench", "--res", "retinal", "--max-memory", "64M", "-q"]);
+    assert!(e.contains("--max-memory"), "{e}");
+}
+
+#[test]
+fn bad_parameters_give_one_clear_error() {
+    for (args, needle) in [
+        (&["render", "--gaze", "NaN,3", "-q"][..], "gaze"),
+        (
+            &["render", "--gaze", "5000,3", "--res", "640x360", "-q"][..],
+            "gaze",
+        ),
+        (&["render", "--lights", "0", "-q"][..], "lights"),
+        (&["render", "--method", "sparkle", "-q"][..], "method"),
+        (&["render", "--res", "0x10", "-q"][..], "res"),
+        (
+            &["render", "--scene", "no/such/file.glb", "-q"][..],
+            "no/such/file.glb",
+        ),
+        (&["render", "--scene", "x.fbx", "-q"][..], "fbx"),
+        (
+            &["render", "--out", "frame.tiff", "--res", "64x64", "-q"][..],
+            "tiff",
+        ),
+        (&["bench", "--res", "2k,banana", "-q"][..], "banana"),
+    ] {
+        let e = fails(args);
+        assert!(e.contains(needle), "{args:?}: {e}");
+        assert!(e.trim().lines().count() <= 3, "{args:?}: {e}");
+    }
+}
+
+#[test]
+fn camera_inside_a_closed_mesh_is_refused_unless_allowed() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("box.obj");
+    // A closed cube of side 2 around the origin.
+    let mut text = String::new();
+    for z in [-1, 1] {
+        for y in [-1, 1] {
+            for x in [-1, 1] {
+                text += &format!("v {x} {y} {z}\n");
+            }
+        }
+    }
+    for f in [
+        "1 3 4 2", "5 6 8 7", "1 2 6 5", "3 7 8 4", "1 5 7 3", "2 4 8 6",
+    ] {
+        text += &format!("f {f}\n");
+    }
+    std::fs::write(&obj, text).unwrap();
+    let scene = obj.to_str().unwrap();
+    let base = [
+        "render",
+        "--scene",
+        scene,
+        "--camera-pos",
+        "0,0,0",
+        "--res",
+        "64x64",
+    ];
+    let e = fails(&[&base[..], &["-q"]].concat());
+    assert!(e.contains("inside") && e.contains("--allow-inside"), "{e}");
+    let png = dir.path().join("in.png");
+    let out = fovea()
+        .args(base)
+        .args(["--allow-inside", "-q", "--out"])
+        .arg(&png)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // The mesh has no lights: a warning and generated lights, not an error.
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no lights"));
+}
+
+#[test]
+fn draco_compressed_chess_board_names_the_extension() {
+    let Some(scenes) = shared_scenes() else {
+        return;
+    };
+    let board = scenes.join("chess-board/chess-board.glb");
+    let e = fails(&[
+        "render",
+        "--scene",
+        board.to_str().unwrap(),
+        "--res",
+        "64x64",
+        "-q",
+    ]);
+    assert!(e.contains("KHR_draco_mesh_compression"), "{e}");
+}

@@ -1,0 +1,119 @@
+//! Every ray-casting backend against the brute-force linear scan: closest hits (distance and
+//! triangle) and shadow-ray occlusion on random triangle soups and random rays.
+
+use glam::Vec3;
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
+
+use fovea_render::bvh::{build, Backend, Ray, Triangles};
+
+/// `n` random triangles in the unit cube, sizes from slivers to a third of the cube.
+fn soup(n: usize, rng: &mut Pcg64) -> Triangles {
+    let mut tris = Triangles::default();
+    for k in 0..n {
+        let c = Vec3::new(rng.random(), rng.random(), rng.random());
+        let size = 0.01 + 0.3 * rng.random::<f32>().powi(2);
+        let mut v = || c + size * (Vec3::new(rng.random(), rng.random(), rng.random()) - 0.5);
+        tris.verts.push([v(), v(), v()]);
+        tris.source.push((0, k as u32));
+    }
+    tris
+}
+
+/// Rays from inside and outside the cube, in random directions, some with short `t_max`.
+fn rays(n: usize, rng: &mut Pcg64) -> Vec<Ray> {
+    (0..n)
+        .map(|_| {
+            let o = Vec3::new(rng.random(), rng.random(), rng.random()) * 1.6 - 0.3;
+            let d = loop {
+                let d = Vec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - 1.0;
+                if d.length_squared() > 1e-4 {
+                    break d;
+                }
+            };
+            let t_max = if rng.random::<f32>() < 0.3 {
+                rng.random::<f32>() * 0.5
+            } else {
+                f32::INFINITY
+            };
+            Ray::new(o, d, 1e-4, t_max)
+        })
+        .collect()
+}
+
+fn check_against_brute_force(backend: Backend) {
+    let mut rng = Pcg64::seed_from_u64(7);
+    for n in [1usize, 50, 3000] {
+        let tris = soup(n, &mut rng);
+        let reference = build(Backend::BruteForce, &tris).unwrap();
+        let caster = build(backend, &tris).unwrap();
+        let (mut hits, mut tri_mismatch) = (0, 0);
+        let rays = rays(4000, &mut rng);
+        for r in &rays {
+            let a = reference.intersect(r);
+            let b = caster.intersect(r);
+            match (a, b) {
+                (None, None) => {}
+                (Some(a), Some(b)) => {
+                    hits += 1;
+                    assert!(
+                        (a.t - b.t).abs() <= 1e-4 * a.t.max(1.0),
+                        "{} triangles: t {} vs brute force {}",
+                        n,
+                        b.t,
+                        a.t
+                    );
+                    // Two triangles may lie at the same distance (coplanar overlaps).
+                    tri_mismatch += (a.tri != b.tri) as usize;
+                    if a.tri == b.tri {
+                        assert!((a.bary - b.bary).abs().max_element() < 1e-3);
+                    }
+                }
+                (a, b) => {
+                    // A ray grazing a triangle's edge may go either way in float arithmetic;
+                    // such a hit lies on the triangle's boundary.
+                    let h = a.or(b).unwrap();
+                    let (u, v) = (h.bary.x, h.bary.y);
+                    let edge = u.min(v).min(1.0 - u - v);
+                    assert!(
+                        edge < 1e-4,
+                        "{n} triangles: {backend:?} {b:?}, brute force {a:?}"
+                    );
+                }
+            }
+            let occluded = reference.occluded(r);
+            if occluded != caster.occluded(r) {
+                // Only a boundary graze may disagree.
+                let h = reference.intersect(r).or(caster.intersect(r)).unwrap();
+                let (u, v) = (h.bary.x, h.bary.y);
+                assert!(u.min(v).min(1.0 - u - v) < 1e-4, "{n}: occlusion differs");
+            }
+        }
+        println!("{backend:?}, {n} triangles: {hits} hits of 4000 rays, {tri_mismatch} ties");
+        assert!(
+            n < 1000 || hits > 1000,
+            "too few hits to mean anything: {hits}"
+        );
+        assert!(tri_mismatch <= hits / 100);
+    }
+}
+
+#[test]
+fn obvhs_matches_brute_force() {
+    check_against_brute_force(Backend::Obvhs);
+}
+
+#[cfg(feature = "embree")]
+#[test]
+fn embree_matches_brute_force() {
+    check_against_brute_force(Backend::Embree);
+}
+
+#[test]
+fn embree_is_refused_clearly_when_not_built_in() {
+    if Backend::Embree.available() {
+        return;
+    }
+    let err = build(Backend::Embree, &Triangles::default()).err().unwrap();
+    assert!(err.to_string().contains("--features embree"), "{err}");
+}
