@@ -39,7 +39,19 @@ enum Command {
     Bench(Box<bench::BenchArgs>),
 }
 
+/// Ends quietly, as other command-line tools do, when stdout is a pipe whose reader has gone
+/// (`fovea bench --json | head`), instead of panicking in `println!`.
+fn restore_default_sigpipe() {
+    #[cfg(unix)]
+    // SAFETY: called first thing in `main`, before any thread starts; setting SIGPIPE back
+    // to its default disposition installs no handler code.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
 fn main() -> ExitCode {
+    restore_default_sigpipe();
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {

@@ -2,6 +2,7 @@
 //! Reinhard curve `x/(1+x)` per channel, then the sRGB transfer function (IEC 61966-2-1).
 
 use fovea_core::Image;
+use rayon::prelude::*;
 
 use crate::Rgb;
 
@@ -26,27 +27,81 @@ pub fn linear_to_srgb(c: f32) -> f32 {
     }
 }
 
-/// Encodes a linear image to 8-bit sRGB RGB bytes.
+/// Encodes a linear image to 8-bit sRGB RGB bytes, rows in parallel.
 pub fn to_srgb8(img: &Image<Rgb>, exposure_stops: f32, curve: ToneCurve) -> Vec<u8> {
     let k = 2f32.powf(exposure_stops);
-    let mut out = Vec::with_capacity(img.data().len() * 3);
-    for c in img.data() {
-        for &v in c {
-            let x = (v * k).max(0.0);
-            let x = match curve {
-                ToneCurve::Clamp => x,
-                ToneCurve::Reinhard => x / (1.0 + x),
-            };
-            let x = if x.is_finite() { x } else { 0.0 };
-            out.push((linear_to_srgb(x) * 255.0 + 0.5) as u8);
-        }
-    }
+    let table = Srgb8Table::new();
+    let width = img.width() as usize;
+    let mut out = vec![0u8; img.data().len() * 3];
+    out.par_chunks_mut(width * 3)
+        .zip(img.data().par_chunks(width))
+        .for_each(|(dst, row)| {
+            for (d, &v) in dst.iter_mut().zip(row.iter().flatten()) {
+                let x = (v * k).max(0.0);
+                let x = match curve {
+                    ToneCurve::Clamp => x,
+                    ToneCurve::Reinhard => x / (1.0 + x),
+                };
+                *d = table.encode(if x.is_finite() { x } else { 0.0 });
+            }
+        });
     out
+}
+
+/// 8-bit sRGB encoding without `powf` per value: `thresholds[c]` is the linear value where
+/// the rounded code steps from `c` to `c + 1`, so a code is the number of thresholds at or
+/// below the value (a binary search over 255 entries). It gives the same bytes as
+/// `(linear_to_srgb(x)·255 + ½) as u8` (tested over the whole range).
+struct Srgb8Table {
+    thresholds: [f32; 255],
+}
+
+impl Srgb8Table {
+    fn new() -> Self {
+        let mut thresholds = [0.0f32; 255];
+        for (c, t) in thresholds.iter_mut().enumerate() {
+            // The smallest x with linear_to_srgb(x)·255 + ½ ≥ c + 1, by bisection on the
+            // monotone encoder itself (so the table agrees with it bit for bit).
+            let (mut lo, mut hi) = (0.0f32, 1.0f32);
+            for _ in 0..40 {
+                let mid = 0.5 * (lo + hi);
+                if (linear_to_srgb(mid) * 255.0 + 0.5) as u32 > c as u32 {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            *t = hi;
+        }
+        Self { thresholds }
+    }
+
+    #[inline]
+    fn encode(&self, x: f32) -> u8 {
+        self.thresholds.partition_point(|&t| t <= x) as u8
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn table_encoding_equals_the_transfer_function() {
+        let table = Srgb8Table::new();
+        let direct = |x: f32| (linear_to_srgb(x) * 255.0 + 0.5) as u8;
+        // Every float bit pattern from 0 up to 1.5 in steps of 16 ulps, and a fine linear scan.
+        let mut bits = 0u32;
+        while f32::from_bits(bits) < 1.5 {
+            let x = f32::from_bits(bits);
+            assert_eq!(table.encode(x), direct(x), "{x}");
+            bits += 16;
+        }
+        for k in 0..=200_000 {
+            let x = k as f32 / 100_000.0;
+            assert_eq!(table.encode(x), direct(x), "{x}");
+        }
+    }
 
     #[test]
     fn srgb_encoding_matches_the_standard() {
