@@ -4,20 +4,19 @@
 
 use std::time::Instant;
 
-use anyhow::{bail, Result};
+use anyhow::Result;
 use clap::Args;
 use rayon::prelude::*;
 
 use fovea_core::display::DisplayProfile;
-use fovea_core::mapping::{MappingConfig, Method};
+use fovea_core::mapping::Method;
 use fovea_render::bvh::{self, Backend, Ray};
 use fovea_render::camera::EyeCamera;
-use fovea_render::pipeline::{default_memory_limit, render_frame, FrameSettings, FrameStats};
-use fovea_render::world::World;
+use fovea_render::pipeline::{render_frame, FrameSettings, FrameStats};
 
 use crate::common::{display_of, thousands, MethodOptions};
-use crate::render::{parse_bytes, progress_bar, shading};
-use crate::scene_args::{prepare, SceneArgs};
+use crate::render::{memory_limit, progress_bar, shading};
+use crate::scene_args::{load, SceneArgs};
 
 /// Options of `fovea bench`.
 #[derive(Args, Debug)]
@@ -59,14 +58,9 @@ pub struct BenchArgs {
     pub quiet: bool,
 }
 
-/// Primary-ray throughput of `world`'s BVH through `camera`: `n` rays on a jittered grid over
+/// Primary-ray throughput of `caster` through `camera`: about `n` rays on a regular grid over
 /// the screen, Mrays/s (wall time, all threads).
-fn primary_throughput(
-    world: &World,
-    caster: &dyn bvh::RayCaster,
-    camera: &EyeCamera,
-    n: u64,
-) -> f64 {
+fn primary_throughput(caster: &dyn bvh::RayCaster, camera: &EyeCamera, n: u64) -> f64 {
     let d = &camera.display;
     let (w, h) = (d.width_px as u64, d.height_px as u64);
     let side = ((n as f64) * (w as f64 / h as f64)).sqrt().max(1.0) as u64;
@@ -91,7 +85,6 @@ fn primary_throughput(
         })
         .sum();
     std::hint::black_box(hits);
-    let _ = world;
     (side * rows) as f64 / t.elapsed().as_secs_f64() / 1e6
 }
 
@@ -127,34 +120,18 @@ pub fn run(args: BenchArgs) -> Result<()> {
             methods.push(m);
         }
     }
-    let mut config = MappingConfig::default();
-    args.options.apply(&mut config)?;
-    if let Some(d) = args.options.delta {
-        config.kfr.delta = d;
-        config.lafr.delta = d;
-    }
+    let config = args.options.frame_config()?;
     let shading_mode = shading(&args.shading, args.bounces, args.spp, 1)?;
-    let memory_limit = match &args.max_memory {
-        Some(m) => parse_bytes(m)?,
-        None => default_memory_limit(),
-    };
-    if displays.is_empty() {
-        bail!("invalid parameter `res`: give at least one resolution");
-    }
+    let memory_limit = memory_limit(args.max_memory.as_deref())?;
 
+    // Loaded and built once; the camera and generated lights follow each display.
+    let mut loaded = load(&args.scene)?;
+    let backend_name = loaded.world.caster.backend().name();
     let mut runs: Vec<Run> = Vec::new();
-    let mut scene_name = String::new();
-    let mut triangles = 0;
-    let mut n_lights = 0;
     let mut bvh_report = Vec::new();
-    let mut backend_name = "";
     for (k, display) in displays.iter().enumerate() {
-        // The scene and lights are rebuilt per display (lights are placed from the camera).
-        let prepared = prepare(&args.scene, display)?;
-        scene_name = prepared.world.scene.name.clone();
-        triangles = prepared.world.tris.len();
-        n_lights = prepared.world.lights.len();
-        backend_name = prepared.world.caster.backend().name();
+        let camera = loaded.view(&args.scene, display)?;
+        let world = &loaded.world;
         if k == 0 && args.bvh_rays > 0 {
             for b in [Backend::Obvhs, Backend::Embree] {
                 if !b.available() {
@@ -165,14 +142,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
                     continue;
                 }
                 let t = Instant::now();
-                let caster = bvh::build(b, &prepared.world.tris)?;
+                let caster = bvh::build(b, &world.tris)?;
                 let build_ms = t.elapsed().as_secs_f64() * 1e3;
-                let mrays = primary_throughput(
-                    &prepared.world,
-                    caster.as_ref(),
-                    &prepared.camera,
-                    args.bvh_rays,
-                );
+                let mrays = primary_throughput(caster.as_ref(), &camera, args.bvh_rays);
                 bvh_report.push(serde_json::json!({
                     "backend": b.name(), "available": true,
                     "build_ms": build_ms, "primary_mrays_per_s": mrays,
@@ -189,15 +161,14 @@ pub fn run(args: BenchArgs) -> Result<()> {
             s.memory_limit_bytes = memory_limit;
             let pb = progress_bar(args.quiet || args.json, &format!("{} {}", display.name, m));
             let jiffies = machine_jiffies();
-            let frame = render_frame(&prepared.world, &prepared.camera, &s, &|d, t| {
+            // Only the statistics are kept; the images are freed at once.
+            let stats = render_frame(world, &camera, &s, &|d, t| {
                 pb.set_length(t);
                 pb.set_position(d);
-            })?;
+            })?
+            .stats;
             let steal = steal_fraction(jiffies, machine_jiffies());
             pb.finish_and_clear();
-            let stats = frame.stats;
-            drop(frame.color);
-            drop(frame.depth);
             if m == Method::Full {
                 full = Some((stats.total_ms, stats.total_cpu_ms));
             }
@@ -213,6 +184,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
             runs.push(run);
         }
     }
+    let world = &loaded.world;
+    let (scene_name, triangles, n_lights) =
+        (&world.scene.name, world.tris.len(), world.lights.len());
     let json = serde_json::json!({
         "scene": scene_name,
         "triangles": triangles,

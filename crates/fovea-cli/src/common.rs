@@ -130,6 +130,18 @@ pub struct MethodOptions {
 }
 
 impl MethodOptions {
+    /// The mapping configuration of one frame: the defaults with these options, `--delta`
+    /// setting both KFR's and LaFR's ratio (`table` and `curves` instead add rows per δ).
+    pub fn frame_config(&self) -> Result<fovea_core::mapping::MappingConfig> {
+        let mut config = fovea_core::mapping::MappingConfig::default();
+        self.apply(&mut config)?;
+        if let Some(d) = self.delta {
+            config.kfr.delta = d;
+            config.lafr.delta = d;
+        }
+        Ok(config)
+    }
+
     /// Applies every option but `delta` to `config` (δ also names the KFR/LaFR entries, so
     /// callers build those with [`fovea_core::analysis::MethodEntry::kfr`] / `lafr`).
     pub fn apply(&self, config: &mut fovea_core::mapping::MappingConfig) -> Result<()> {

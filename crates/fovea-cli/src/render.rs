@@ -6,7 +6,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use fovea_core::mapping::{MappingConfig, Method};
+use fovea_core::mapping::Method;
 use fovea_post::tonemap::ToneCurve;
 use fovea_render::pipeline::{default_memory_limit, render_frame, AaMode, FrameSettings};
 use fovea_render::shade::ShadingMode;
@@ -75,8 +75,14 @@ pub struct RenderArgs {
     pub quiet: bool,
 }
 
+/// The frame memory budget: `--max-memory` parsed, or the pipeline's default (80 % of the
+/// memory available).
+pub fn memory_limit(max_memory: Option<&str>) -> Result<u64> {
+    max_memory.map_or_else(|| Ok(default_memory_limit()), parse_bytes)
+}
+
 /// Parses sizes like `8G`, `512M`, `1.5GiB`, `1000000` (bytes).
-pub fn parse_bytes(text: &str) -> Result<u64> {
+fn parse_bytes(text: &str) -> Result<u64> {
     let t = text.trim().to_ascii_uppercase();
     let t = t.trim_end_matches("IB").trim_end_matches('B');
     let (num, mult) = match t.chars().last() {
@@ -136,12 +142,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     let display = args.display.display("vive-pro-eye")?;
     let method = Method::parse(&args.method)?;
-    let mut config = MappingConfig::default();
-    args.options.apply(&mut config)?;
-    if let Some(d) = args.options.delta {
-        config.kfr.delta = d;
-        config.lafr.delta = d;
-    }
+    let config = args.options.frame_config()?;
     let tone = match args.tonemap.as_str() {
         "clamp" => ToneCurve::Clamp,
         "reinhard" => ToneCurve::Reinhard,
@@ -149,10 +150,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     };
     let shading_mode = shading(&args.shading, args.bounces, args.spp, args.seed)?;
     let aa = AaMode::parse(&args.aa)?;
-    let memory_limit = match &args.max_memory {
-        Some(m) => parse_bytes(m)?,
-        None => default_memory_limit(),
-    };
+    let memory_limit = memory_limit(args.max_memory.as_deref())?;
     let prepared = prepare(&args.scene, &display)?;
     let gaze = gaze(
         &display,

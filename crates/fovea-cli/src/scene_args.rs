@@ -10,7 +10,7 @@ use fovea_core::display::{DisplayProfile, Gaze};
 use fovea_render::bvh::Backend;
 use fovea_render::camera::{Eye, EyeCamera, HmdRig};
 use fovea_render::lights::view_lights;
-use fovea_render::scene::{builtin, CameraDesc, Scene};
+use fovea_render::scene::{builtin, CameraDesc, Light, Scene};
 use fovea_render::world::World;
 
 /// Where the scene and the viewer come from.
@@ -125,15 +125,26 @@ pub struct Prepared {
     pub camera: EyeCamera,
 }
 
-/// Builds the world and camera for `display`.
-pub fn prepare(args: &SceneArgs, display: &DisplayProfile) -> Result<Prepared> {
+/// A loaded scene with its BVH and head rig: viewable on any display through
+/// [`Loaded::view`], so `bench` loads and builds once for all its resolutions.
+pub struct Loaded {
+    /// The BVH and lights (the lights of the last [`Loaded::view`]).
+    pub world: World,
+    rig: HmdRig,
+    eye: Eye,
+    /// The scene's own lights.
+    scene_lights: Vec<Light>,
+}
+
+/// Loads the scene, builds its BVH and places the head.
+pub fn load(args: &SceneArgs) -> Result<Loaded> {
     let scene = load_scene(args)?;
     let backend = match &args.bvh {
         Some(b) => Backend::parse(b)?,
         None => Backend::best_available(),
     };
     let desc = camera_desc(args, &scene)?;
-    let mut world = World::new(scene, backend)?;
+    let world = World::new(scene, backend)?;
     let eye = match args.eye.to_ascii_lowercase().as_str() {
         "left" => Eye::Left,
         "right" => Eye::Right,
@@ -141,26 +152,49 @@ pub fn prepare(args: &SceneArgs, display: &DisplayProfile) -> Result<Prepared> {
         other => bail!("invalid parameter `eye` = {other}: expected left, right or centre"),
     };
     let rig = HmdRig::new(desc.position, desc.forward, desc.up, args.ipd)?;
-    let camera = rig.eye(eye, display)?;
-    if !args.allow_inside {
-        if let Some(mesh) = world.enclosing_mesh(camera.position) {
-            bail!(
-                "the camera at {} is inside mesh `{mesh}` (almost every ray from it hits a back face); move it with --camera-pos, or pass --allow-inside",
-                camera.position
-            );
-        }
+    if args.lights.is_none() && world.lights.is_empty() {
+        eprintln!(
+            "warning: the scene has no lights; using 4 generated point lights (set the number with --lights N)"
+        );
     }
-    match args.lights {
-        Some(n) => world.lights = view_lights(&world, &camera, n)?,
-        None if world.lights.is_empty() => {
-            eprintln!(
-                "warning: the scene has no lights; using 4 generated point lights (set the number with --lights N)"
-            );
-            world.lights = view_lights(&world, &camera, 4)?;
+    Ok(Loaded {
+        scene_lights: world.lights.clone(),
+        world,
+        rig,
+        eye,
+    })
+}
+
+impl Loaded {
+    /// The eye's camera for `display`, with the world's lights set for it: the scene's own,
+    /// or generated around the view (`--lights N`, or 4 when the scene has none).
+    pub fn view(&mut self, args: &SceneArgs, display: &DisplayProfile) -> Result<EyeCamera> {
+        let camera = self.rig.eye(self.eye, display)?;
+        if !args.allow_inside {
+            if let Some(mesh) = self.world.enclosing_mesh(camera.position) {
+                bail!(
+                    "the camera at {} is inside mesh `{mesh}` (almost every ray from it hits a back face); move it with --camera-pos, or pass --allow-inside",
+                    camera.position
+                );
+            }
         }
-        None => {}
+        self.world.lights = match args.lights {
+            Some(n) => view_lights(&self.world, &camera, n)?,
+            None if self.scene_lights.is_empty() => view_lights(&self.world, &camera, 4)?,
+            None => self.scene_lights.clone(),
+        };
+        Ok(camera)
     }
-    Ok(Prepared { world, camera })
+}
+
+/// Builds the world and camera for `display`.
+pub fn prepare(args: &SceneArgs, display: &DisplayProfile) -> Result<Prepared> {
+    let mut loaded = load(args)?;
+    let camera = loaded.view(args, display)?;
+    Ok(Prepared {
+        world: loaded.world,
+        camera,
+    })
 }
 
 /// Gaze from `--gaze X,Y` (pixels) or `--gaze-at X,Y,Z` (a world point), default the centre.

@@ -175,14 +175,9 @@ fn polar(
                     let i0 = uc as usize;
                     let i1 = (i0 + 1).min(last);
                     let fu = uc - i0 as f32;
-                    let a = columns.read(i0, turns[x]);
-                    let b = columns.read(i1, turns[x]);
-                    row_c[x] = [
-                        a[0] + (b[0] - a[0]) * fu,
-                        a[1] + (b[1] - a[1]) * fu,
-                        a[2] + (b[2] - a[2]) * fu,
-                    ];
-                    row_d[x] = if fu < 0.5 { a[3] } else { b[3] };
+                    let [r, g, b, d] =
+                        blend(columns.read(i0, turns[x]), columns.read(i1, turns[x]), fu);
+                    (row_c[x], row_d[x]) = ([r, g, b], d);
                 }
             },
         );
@@ -311,18 +306,20 @@ impl PolarColumns {
         // rounding inside the column.
         let v = turn * col.period + 0.5;
         let jf = (v as u32).min(col.rows);
-        let fv = v - jf as f32;
         let k = (col.base + jf) as usize;
-        let [a, b] = self.texels[k..k + 2] else {
-            unreachable!("a slice of two")
-        };
-        [
-            a[0] + (b[0] - a[0]) * fv,
-            a[1] + (b[1] - a[1]) * fv,
-            a[2] + (b[2] - a[2]) * fv,
-            if fv < 0.5 { a[3] } else { b[3] },
-        ]
+        blend(self.texels[k], self.texels[k + 1], v - jf as f32)
     }
+}
+
+/// `[r, g, b, depth]` texels `a` and `b` at `f` ∈ [0, 1]: colour linear, depth of the nearer.
+#[inline(always)]
+fn blend(a: [f32; 4], b: [f32; 4], f: f32) -> [f32; 4] {
+    [
+        a[0] + (b[0] - a[0]) * f,
+        a[1] + (b[1] - a[1]) * f,
+        a[2] + (b[2] - a[2]) * f,
+        if f < 0.5 { a[3] } else { b[3] },
+    ]
 }
 
 /// The angle of `(dx, dy)` in turns, in `[0, 1)`.

@@ -243,16 +243,22 @@ impl Stopwatch {
             .map_or(f64::NAN, |d| d.as_secs_f64() * 1e3);
         (wall, cpu)
     }
+}
 
-    fn record(
-        &self,
-        stage: &str,
-        wall: &mut BTreeMap<String, f64>,
-        cpu: &mut BTreeMap<String, f64>,
-    ) {
-        let (w, c) = self.elapsed_ms();
-        wall.insert(stage.to_string(), w);
-        cpu.insert(stage.to_string(), c);
+/// Wall and CPU milliseconds per stage, summed over the times a stage runs (trace and shade
+/// run once per chunk).
+#[derive(Default)]
+struct StageTimes {
+    wall: BTreeMap<String, f64>,
+    cpu: BTreeMap<String, f64>,
+}
+
+impl StageTimes {
+    /// Adds the time since `since` to `stage`.
+    fn add(&mut self, stage: &str, since: &Stopwatch) {
+        let (w, c) = since.elapsed_ms();
+        *self.wall.entry(stage.to_string()).or_default() += w;
+        *self.cpu.entry(stage.to_string()).or_default() += c;
     }
 }
 
@@ -264,9 +270,8 @@ pub fn render_frame(
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<Frame> {
     let t_total = Stopwatch::start();
-    let mut cpu_stages = BTreeMap::new();
     let display = &camera.display;
-    let mut stages = BTreeMap::new();
+    let mut times = StageTimes::default();
 
     // 1. Plan.
     let t = Stopwatch::start();
@@ -287,12 +292,10 @@ pub fn render_frame(
     }
     let sizes = mapping.buffers();
     let aa = settings.aa.resolve(settings.method);
-    t.record("plan", &mut stages, &mut cpu_stages);
+    times.add("plan", &t);
 
     // 2–3. Trace and shade, layer by layer, chunk by chunk.
     let total_samples = mapping.sample_count();
-    let (mut trace_ms, mut trace_cpu) = (0.0, 0.0);
-    let (mut shade_ms, mut shade_cpu) = (0.0, 0.0);
     let mut primary = 0u64;
     let mut counts = RayCounts::default();
     let mut colors = Vec::with_capacity(sizes.len());
@@ -319,7 +322,6 @@ pub fn render_frame(
         ),
         _ => None,
     };
-    let mut done = 0u64;
     for (layer, size) in sizes.iter().enumerate() {
         let layer = layer as u32;
         let (bw, bh) = (size.width, size.height);
@@ -327,6 +329,9 @@ pub fn render_frame(
         let mut depth = Image::new(bw, bh, f32::INFINITY)?;
         let rows_per_chunk = (CHUNK_SAMPLES / bw as usize).max(1);
         let row_len = bw as usize;
+        // Samples in tiles of TRACE_TILE × TRACE_TILE buffer pixels, so that consecutive
+        // rays of a thread meet the same BVH nodes, triangles and texels.
+        let chunk_order = tile_order(row_len, rows_per_chunk);
         for (chunk_idx, (c_chunk, d_chunk)) in color
             .data_mut()
             .chunks_mut(rows_per_chunk * row_len)
@@ -334,9 +339,14 @@ pub fn render_frame(
             .enumerate()
         {
             let j0 = (chunk_idx * rows_per_chunk) as u32;
-            // Samples in tiles of TRACE_TILE × TRACE_TILE buffer pixels, so that consecutive
-            // rays of a thread meet the same BVH nodes, triangles and texels.
-            let order = tile_order(row_len, c_chunk.len() / row_len);
+            let rows = c_chunk.len() / row_len;
+            let last_order;
+            let order = if rows == rows_per_chunk {
+                &chunk_order
+            } else {
+                last_order = tile_order(row_len, rows);
+                &last_order
+            };
             // Trace: one G-buffer record per shaded pixel of the chunk.
             let t = Stopwatch::start();
             let gbuf: Vec<Option<GSample>> = order
@@ -353,19 +363,16 @@ pub fn render_frame(
                         v: j as f64 + 0.5,
                     };
                     let p = mapping.inverse(s)?;
-                    let spread = match &column_spread {
+                    let column = column_spread.as_ref().and_then(|cs| cs.get(i as usize));
+                    let spread = match column {
                         _ if full => pixel_spread,
-                        Some(cs) if cs.get(i as usize).is_some_and(|v| v.is_finite()) => {
-                            cs[i as usize]
-                        }
+                        Some(&s) if s.is_finite() => s,
                         _ => sample_spread_rad(mapping.as_ref(), display, &settings.gaze, p),
                     };
                     Some(trace_sample(world, &camera.ray(p), spread))
                 })
                 .collect();
-            let (w, c) = t.elapsed_ms();
-            trace_ms += w;
-            trace_cpu += c;
+            times.add("trace", &t);
             primary += gbuf.iter().filter(|g| g.is_some()).count() as u64;
 
             // Shade, in the same order, then scatter to the buffer.
@@ -390,19 +397,12 @@ pub fn render_frame(
                 }
             }
             counts += chunk_counts;
-            let (w, c) = t.elapsed_ms();
-            shade_ms += w;
-            shade_cpu += c;
-            done = (done + gbuf.len() as u64).min(total_samples.max(done));
+            times.add("shade", &t);
             progress(primary.min(total_samples), total_samples);
         }
         colors.push(color);
         depths.push(depth);
     }
-    stages.insert("trace".to_string(), trace_ms);
-    stages.insert("shade".to_string(), shade_ms);
-    cpu_stages.insert("trace".to_string(), trace_cpu);
-    cpu_stages.insert("shade".to_string(), shade_cpu);
 
     // 4. Sample-space anti-aliasing.
     let t = Stopwatch::start();
@@ -423,7 +423,7 @@ pub fn render_frame(
             };
         }
     }
-    t.record("aa", &mut stages, &mut cpu_stages);
+    times.add("aa", &t);
 
     // 5. Reconstruct.
     let t = Stopwatch::start();
@@ -435,7 +435,7 @@ pub fn render_frame(
             depth: depths,
         },
     )?;
-    t.record("reconstruct", &mut stages, &mut cpu_stages);
+    times.add("reconstruct", &t);
 
     let density = if settings.density_view {
         Some(density_view(mapping.as_ref(), display, &settings.gaze)?)
@@ -452,9 +452,9 @@ pub fn render_frame(
         rays_shadow: counts.shadow,
         rays_bounce: counts.bounce,
         rays: primary + counts.shadow + counts.bounce,
-        stages_ms: stages,
+        stages_ms: times.wall,
         total_ms,
-        stages_cpu_ms: cpu_stages,
+        stages_cpu_ms: times.cpu,
         total_cpu_ms,
         buffers: sizes.iter().map(|b| [b.width, b.height]).collect(),
         aa,

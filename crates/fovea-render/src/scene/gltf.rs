@@ -168,11 +168,8 @@ pub fn load_from_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
         base,
         doc: &doc,
         buffers: &buffers,
+        // The name comes from `Scene::load`, as for every format.
         scene: Scene {
-            name: path
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_default(),
             source: Some(path.to_path_buf()),
             environment: Vec3::splat(0.05),
             metres_per_unit: 1.0,
