@@ -6,12 +6,19 @@
 //! circles of confusion are negative in the near field (in front of the focus) and positive in
 //! the far field.
 
+pub mod accommodation;
 pub mod dof_weight;
+pub mod gaze_depth;
 pub mod pupil;
 pub mod thin_lens;
 pub mod tracking_coc;
 
+pub use accommodation::{AccommodationFilter, AccommodationParams};
 pub use dof_weight::{dof_weight, russian_roulette, DEFAULT_MAX_DEPTH_M};
+pub use gaze_depth::{
+    estimate_gaze_depth, estimate_gaze_depth_with_prior, vergence_distance, GazeDepth,
+    GazeDepthParams, Vergence,
+};
 pub use pupil::{pupil_de_groot_gebhard, pupil_liu_linear};
 pub use thin_lens::{DofLimits, EyeModel, LiuDofCoefficients};
 pub use tracking_coc::TrackingAwareCoc;
