@@ -13,6 +13,7 @@
 #![allow(clippy::needless_range_loop)] // per-channel pixel loops read best indexed
 
 pub mod alloc;
+pub mod dof;
 pub mod fxaa;
 pub mod gaussian_aa;
 pub mod grid;
