@@ -15,8 +15,13 @@ use fovea_render::camera::EyeCamera;
 use fovea_render::pipeline::{render_frame, FrameSettings, FrameStats};
 
 use crate::common::{display_of, thousands, MethodOptions};
+use crate::dof_args::EyeArgs;
 use crate::render::{memory_limit, progress_bar, shading};
 use crate::scene_args::{load, SceneArgs};
+use fovea_core::units::Metres;
+use fovea_post::dof::coc::coc_map;
+use fovea_post::dof::{DofInput, FilterKind};
+use fovea_render::dof::{auto_focus_m, coc_params, px_per_degree, FocusMode};
 
 /// Options of `fovea bench`.
 #[derive(Args, Debug)]
@@ -50,6 +55,15 @@ pub struct BenchArgs {
     /// Refuse frames needing more memory than this (e.g. 8G).
     #[arg(long)]
     pub max_memory: Option<String>,
+    /// Also time depth-of-field filters side by side on each display's full-resolution frame:
+    /// comma-separated names or `all`.
+    #[arg(long)]
+    pub dof: Option<String>,
+    #[command(flatten)]
+    pub eye: EyeArgs,
+    /// Timed repetitions of each DOF filter (the median is reported).
+    #[arg(long, default_value_t = 3)]
+    pub dof_reps: u32,
     /// Print JSON only.
     #[arg(long)]
     pub json: bool,
@@ -123,6 +137,22 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let config = args.options.frame_config()?;
     let shading_mode = shading(&args.shading, args.bounces, args.spp, 1)?;
     let memory_limit = memory_limit(args.max_memory.as_deref())?;
+    let dof_filters: Vec<FilterKind> = match args.dof.as_deref().map(str::trim) {
+        None => Vec::new(),
+        Some("all") => FilterKind::ALL.to_vec(),
+        Some(list) => list
+            .split(',')
+            .map(FilterKind::parse)
+            .collect::<Result<_, _>>()?,
+    };
+    if !(1..=100).contains(&args.dof_reps) {
+        anyhow::bail!(
+            "invalid parameter `dof-reps` = {}: expected 1 to 100",
+            args.dof_reps
+        );
+    }
+    let dof_settings = args.eye.settings(None)?;
+    let mut dof_report = Vec::new();
 
     // Loaded and built once; the camera and generated lights follow each display.
     let mut loaded = load(&args.scene)?;
@@ -161,12 +191,36 @@ pub fn run(args: BenchArgs) -> Result<()> {
             s.memory_limit_bytes = memory_limit;
             let pb = progress_bar(args.quiet || args.json, &format!("{} {}", display.name, m));
             let jiffies = machine_jiffies();
-            // Only the statistics are kept; the images are freed at once.
-            let stats = render_frame(world, &camera, &s, &|d, t| {
+            let frame = render_frame(world, &camera, &s, &|d, t| {
                 pb.set_length(t);
                 pb.set_position(d);
-            })?
-            .stats;
+            })?;
+            // Only the statistics are kept; the images are freed at once, except the full
+            // frame's when DOF filters are timed on it.
+            let stats = frame.stats.clone();
+            if m == Method::Full && !dof_filters.is_empty() {
+                pb.finish_and_clear();
+                let rows = time_dof_filters(
+                    world,
+                    &camera,
+                    &gaze,
+                    &dof_settings,
+                    &frame.color,
+                    &frame.depth,
+                    &dof_filters,
+                    args.dof_reps,
+                )?;
+                if !args.json {
+                    print_dof(&display.name, &rows);
+                }
+                dof_report.push(serde_json::json!({
+                    "display": display.name,
+                    "width": display.width_px,
+                    "height": display.height_px,
+                    "filters": rows,
+                }));
+            }
+            drop(frame);
             let steal = steal_fraction(jiffies, machine_jiffies());
             pb.finish_and_clear();
             if m == Method::Full {
@@ -194,6 +248,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         "bvh": backend_name,
         "threads": rayon::current_num_threads(),
         "bvh_throughput": bvh_report,
+        "dof": dof_report,
         "runs": runs.iter().map(|r| {
             let s = &r.stats;
             let post = |st: &std::collections::BTreeMap<String, f64>| {
@@ -250,6 +305,83 @@ pub fn run(args: BenchArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// One DOF filter's time on one frame.
+#[derive(serde::Serialize)]
+struct DofTiming {
+    name: &'static str,
+    /// Median wall time, milliseconds.
+    ms: f64,
+    /// Median wall time per megapixel, milliseconds.
+    ms_per_megapixel: f64,
+    /// This filter's time over the fastest filter's, measured in the same run.
+    relative_to_fastest: f64,
+}
+
+/// Times each filter `reps` times on one frame (auto or fixed focus of `settings`).
+#[allow(clippy::too_many_arguments)]
+fn time_dof_filters(
+    world: &fovea_render::world::World,
+    camera: &EyeCamera,
+    gaze: &fovea_core::display::Gaze,
+    settings: &fovea_render::dof::DofSettings,
+    color: &fovea_core::Image<fovea_post::Rgb>,
+    depth: &fovea_core::Image<f32>,
+    filters: &[FilterKind],
+    reps: u32,
+) -> Result<Vec<DofTiming>> {
+    let focus_m = match settings.focus {
+        FocusMode::Fixed(f) => f,
+        FocusMode::Auto => auto_focus_m(world, camera, gaze)?,
+    };
+    let params = coc_params(settings, camera);
+    let coc = coc_map(&params, Metres(focus_m), depth)?;
+    let input = DofInput {
+        color,
+        depth_m: depth,
+        coc_px: &coc,
+        focus_m: focus_m as f32,
+        px_per_dioptre: params.px_per_dioptre() as f32,
+        gaze_px: [gaze.point.x_px as f32, gaze.point.y_px as f32],
+        px_per_degree: px_per_degree(camera) as f32,
+    };
+    let mp = color.width() as f64 * color.height() as f64 / 1e6;
+    let mut rows = Vec::new();
+    for &k in filters {
+        let f = k.build();
+        let mut times: Vec<f64> = (0..reps)
+            .map(|_| {
+                let t = Instant::now();
+                let out = f.apply(&input);
+                let ms = t.elapsed().as_secs_f64() * 1e3;
+                out.map(|_| ms)
+            })
+            .collect::<Result<_, _>>()?;
+        times.sort_by(|a, b| a.total_cmp(b));
+        let ms = times[times.len() / 2];
+        rows.push(DofTiming {
+            name: k.name(),
+            ms,
+            ms_per_megapixel: ms / mp,
+            relative_to_fastest: 0.0,
+        });
+    }
+    let fastest = rows.iter().map(|r| r.ms).fold(f64::INFINITY, f64::min);
+    for r in &mut rows {
+        r.relative_to_fastest = r.ms / fastest;
+    }
+    Ok(rows)
+}
+
+fn print_dof(display: &str, rows: &[DofTiming]) {
+    println!("DOF filters on the {display} full-resolution frame (median of the runs):");
+    for r in rows {
+        println!(
+            "  {:>13} {:>9.1} ms {:>9.1} ms/MP {:>6.2}x the fastest",
+            r.name, r.ms, r.ms_per_megapixel, r.relative_to_fastest
+        );
+    }
 }
 
 /// One timed frame and its comparison with the full-resolution frame of the same display.

@@ -7,6 +7,8 @@ use clap::{Parser, Subcommand};
 mod bench;
 mod common;
 mod curves;
+mod dof_args;
+mod dof_compare;
 mod optics;
 mod output;
 mod plot;
@@ -37,6 +39,9 @@ enum Command {
     /// Time full resolution against foveated methods at several resolutions (rays, per-stage
     /// milliseconds, speedup) and the BVH backends' primary-ray throughput.
     Bench(Box<bench::BenchArgs>),
+    /// Render a thin-lens depth-of-field reference and score every DOF filter against it,
+    /// focused near and far (luma PSNR, SSIM, ꟻLIP, ms per megapixel; contact sheet, JSON).
+    DofCompare(Box<dof_compare::DofCompareArgs>),
 }
 
 /// Ends quietly, as other command-line tools do, when stdout is a pipe whose reader has gone
@@ -77,6 +82,7 @@ fn main() -> ExitCode {
         Command::Optics(a) => optics::run(a),
         Command::Render(a) => render::run(*a),
         Command::Bench(a) => bench::run(*a),
+        Command::DofCompare(a) => dof_compare::run(*a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

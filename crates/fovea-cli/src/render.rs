@@ -12,6 +12,7 @@ use fovea_render::pipeline::{default_memory_limit, render_frame, AaMode, FrameSe
 use fovea_render::shade::ShadingMode;
 
 use crate::common::{thousands, DisplayArgs, MethodOptions};
+use crate::dof_args::DofArgs;
 use crate::output::{check_image_path, write_rgb, write_scalar};
 use crate::scene_args::{gaze, prepare, SceneArgs};
 
@@ -23,9 +24,17 @@ pub struct RenderArgs {
     pub scene: SceneArgs,
     #[command(flatten)]
     pub display: DisplayArgs,
-    /// Foveation method: full, vafr, kfr, lafr, visual-polar, guenter, inset, weier.
+    /// Foveation method: full, vafr, kfr, lafr, visual-polar, guenter, inset, weier, or
+    /// liu-hybrid (Liu et al.'s whole method: visual-polar sampling, DOF-aware culling and
+    /// bokeh with LCA; auto focus unless --focus is given).
     #[arg(long, default_value = "vafr")]
     pub method: String,
+    #[command(flatten)]
+    pub dof: DofArgs,
+    /// Also write the signed circle-of-confusion view (with --dof; .png false colour of |CoC|
+    /// in pixels, or .exr signed).
+    #[arg(long)]
+    pub coc_out: Option<PathBuf>,
     #[command(flatten)]
     pub options: MethodOptions,
     /// Gaze point X,Y in screen pixels (default: the screen centre).
@@ -137,11 +146,23 @@ pub fn progress_bar(quiet: bool, label: &str) -> ProgressBar {
 
 pub fn run(args: RenderArgs) -> Result<()> {
     check_image_path(&args.out)?;
-    for p in [&args.depth_out, &args.density_out].into_iter().flatten() {
+    for p in [&args.depth_out, &args.density_out, &args.coc_out]
+        .into_iter()
+        .flatten()
+    {
         check_image_path(p)?;
     }
     let display = args.display.display("vive-pro-eye")?;
-    let method = Method::parse(&args.method)?;
+    let liu_hybrid = args.method.trim().eq_ignore_ascii_case("liu-hybrid");
+    let method = if liu_hybrid {
+        Method::VisualPolar
+    } else {
+        Method::parse(&args.method)?
+    };
+    let dof = args.dof.settings(liu_hybrid)?;
+    if args.coc_out.is_some() && dof.is_none() {
+        bail!("--coc-out needs --dof <filter>");
+    }
     let config = args.options.frame_config()?;
     let tone = match args.tonemap.as_str() {
         "clamp" => ToneCurve::Clamp,
@@ -164,6 +185,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     settings.aa = aa;
     settings.density_view = args.density_out.is_some();
     settings.memory_limit_bytes = memory_limit;
+    settings.dof = dof;
 
     let pb = progress_bar(args.quiet, method.name());
     let frame = render_frame(
@@ -183,6 +205,13 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     if let (Some(p), Some(d)) = (&args.density_out, &frame.density) {
         write_scalar(p, d, 1e-3, 10.0)?;
+    }
+    if let (Some(p), Some(c)) = (&args.coc_out, &frame.coc) {
+        if p.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
+            write_scalar(p, c, 0.0, 0.0)?;
+        } else {
+            write_scalar(p, &c.map(|v| v.abs().max(0.01)), 0.01, 64.0)?;
+        }
     }
     let s = &frame.stats;
     let stats_path = args
@@ -220,6 +249,24 @@ pub fn run(args: RenderArgs) -> Result<()> {
         .map(|k| format!("{k} {:.1}", s.stages_ms.get(*k).copied().unwrap_or(0.0)))
         .collect();
     println!("stages (ms): {}", stages.join(", "));
+    if let Some(d) = &settings.dof {
+        let focus = s.focus_m.unwrap_or(f64::NAN);
+        let saved = if s.samples_shaded + s.samples_culled > 0 {
+            100.0 * s.samples_culled as f64 / (s.samples_shaded + s.samples_culled) as f64
+        } else {
+            0.0
+        };
+        println!(
+            "dof: {} | focus {} | pupil {:.2} mm | {} | culled {} of {} surface samples ({saved:.1} %) | dof {:.1} ms",
+            d.filter.map_or("none", |k| k.name()),
+            if focus >= 1e308 { "inf".to_string() } else { format!("{focus:.3} m") },
+            d.eye.pupil.0,
+            d.coc_model.name(),
+            thousands(s.samples_culled),
+            thousands(s.samples_shaded + s.samples_culled),
+            s.stages_ms.get("dof").copied().unwrap_or(0.0),
+        );
+    }
     println!("wrote {} and {}", args.out.display(), stats_path.display());
     Ok(())
 }

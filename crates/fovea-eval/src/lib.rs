@@ -6,4 +6,6 @@
 //! * [`metrics::flip_mean`]: mean ꟻLIP error (Andersson et al. 2020, NVIDIA's reference
 //!   implementation through the `nv-flip` crate) at the display's pixels per degree.
 
+pub mod dof_compare;
 pub mod metrics;
+pub mod ssim;

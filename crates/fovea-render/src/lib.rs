@@ -16,11 +16,13 @@
 
 pub mod bvh;
 pub mod camera;
+pub mod dof;
 pub mod error;
 pub mod lights;
 pub mod pipeline;
 pub mod scene;
 pub mod shade;
+pub mod thin_lens;
 pub mod trace;
 pub mod world;
 

@@ -22,6 +22,7 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
+use glam::Vec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -32,11 +33,16 @@ use fovea_post::fxaa::{fxaa, FxaaParams};
 use fovea_post::gaussian_aa::gaussian_3x3;
 use fovea_post::grid::Grid;
 use fovea_post::inverse_map::{reconstruct, SampleBuffers};
+use fovea_post::pull_push::pull_push;
 use fovea_post::Rgb;
 
 use crate::camera::EyeCamera;
+use crate::dof::{
+    apply_dof, auto_focus_m, culling_limits, keep_sample, roulette_epsilon, scene_max_depth_m,
+    DofSettings, FocusMode,
+};
 use crate::error::{RenderError, Result};
-use crate::shade::{shade, RayCounts, ShadingMode};
+use crate::shade::{culled_basis, shade, RayCounts, ShadingMode};
 use crate::trace::{trace_sample, GSample};
 use crate::world::World;
 
@@ -102,6 +108,8 @@ pub struct FrameSettings {
     pub density_view: bool,
     /// Refuse frames whose buffers would need more than this many bytes.
     pub memory_limit_bytes: u64,
+    /// Depth of field: focus, DOF-aware culling and the screen-space filter (`None`: sharp).
+    pub dof: Option<DofSettings>,
 }
 
 impl FrameSettings {
@@ -116,6 +124,7 @@ impl FrameSettings {
             aa: AaMode::Auto,
             density_view: false,
             memory_limit_bytes: default_memory_limit(),
+            dof: None,
         }
     }
 }
@@ -167,6 +176,15 @@ pub struct FrameStats {
     pub aa: AaMode,
     /// Estimated peak memory of the frame's buffers, bytes.
     pub memory_bytes: u64,
+    /// Focus distance used for depth of field, metres (`null` without DOF; JSON has no ∞, so
+    /// focus at infinity is written as 1e308).
+    pub focus_m: Option<f64>,
+    /// Samples that hit a surface and were shaded.
+    pub samples_shaded: u64,
+    /// Samples that hit a surface and were culled by the DOF roulette (Liu Eq. 11).
+    pub samples_culled: u64,
+    /// The DOF filter applied, if any.
+    pub dof_filter: Option<String>,
 }
 
 /// A rendered frame.
@@ -178,6 +196,8 @@ pub struct Frame {
     pub depth: Image<f32>,
     /// Samples per screen pixel predicted by the mapping's shading rates (when asked).
     pub density: Option<Image<f32>>,
+    /// Signed circle of confusion per pixel (with depth of field), pixels.
+    pub coc: Option<Image<f32>>,
     /// Counts and timings.
     pub stats: FrameStats,
 }
@@ -276,7 +296,11 @@ pub fn render_frame(
     // 1. Plan.
     let t = Stopwatch::start();
     let mapping = build(settings.method, display, settings.gaze, &settings.mapping)?;
-    let memory = memory_estimate(mapping.as_ref(), display, settings.density_view);
+    let mut memory = memory_estimate(mapping.as_ref(), display, settings.density_view);
+    if settings.dof.is_some() {
+        // CoC map and the filtered image.
+        memory += display.pixel_count() * (4 + std::mem::size_of::<Rgb>() as u64);
+    }
     if memory > settings.memory_limit_bytes {
         return Err(RenderError::ResourceLimit {
             what: format!(
@@ -292,12 +316,32 @@ pub fn render_frame(
     }
     let sizes = mapping.buffers();
     let aa = settings.aa.resolve(settings.method);
+    // Eye state: the focus (auto focus casts a small depth patch around the gaze) and, for
+    // DOF-aware culling, the DOF limits and the scene's depth range.
+    let focus_m = match &settings.dof {
+        Some(d) => Some(match d.focus {
+            FocusMode::Fixed(f) => f,
+            FocusMode::Auto => auto_focus_m(world, camera, &settings.gaze)?,
+        }),
+        None => None,
+    };
+    let cull = match (&settings.dof, focus_m) {
+        (Some(d), Some(f)) if d.cull => Some((
+            culling_limits(&d.eye, f)?,
+            scene_max_depth_m(world, camera),
+            d.min_keep.clamp(0.0, 1.0),
+            d.seed,
+            d.noise,
+        )),
+        _ => None,
+    };
     times.add("plan", &t);
 
     // 2–3. Trace and shade, layer by layer, chunk by chunk.
     let total_samples = mapping.sample_count();
     let mut primary = 0u64;
     let mut counts = RayCounts::default();
+    let (mut n_shaded, mut n_culled) = (0u64, 0u64);
     let mut colors = Vec::with_capacity(sizes.len());
     let mut depths = Vec::with_capacity(sizes.len());
     let full = settings.method == Method::Full;
@@ -327,6 +371,16 @@ pub fn render_frame(
         let (bw, bh) = (size.width, size.height);
         let mut color = Image::new(bw, bh, [0.0f32; 3])?;
         let mut depth = Image::new(bw, bh, f32::INFINITY)?;
+        // When culling: per buffer pixel, whether it is a shaded surface (1), a culled one
+        // (2) or neither (0), and its reconstruction basis (`shade::culled_basis`).
+        let mut cull_state = match cull {
+            Some(_) => Some(CullBuffers {
+                state: Image::new(bw, bh, 0u8)?,
+                offset: Image::new(bw, bh, [0.0f32; 3])?,
+                basis: Image::new(bw, bh, [0.0f32; 3])?,
+            }),
+            None => None,
+        };
         let rows_per_chunk = (CHUNK_SAMPLES / bw as usize).max(1);
         let row_len = bw as usize;
         // Samples in tiles of TRACE_TILE × TRACE_TILE buffer pixels, so that consecutive
@@ -375,30 +429,70 @@ pub fn render_frame(
             times.add("trace", &t);
             primary += gbuf.iter().filter(|g| g.is_some()).count() as u64;
 
-            // Shade, in the same order, then scatter to the buffer.
+            // Shade (unless the DOF roulette culls the sample), in the same order, then
+            // scatter to the buffer.
             let t = Stopwatch::start();
-            let shaded: Vec<Option<(Rgb, f32, RayCounts)>> = order
+            type Shaded = (Option<Rgb>, f32, (Vec3, Vec3), RayCounts);
+            let shaded: Vec<Option<Shaded>> = order
                 .par_iter()
                 .zip(gbuf.par_iter())
                 .map(|(&k, g)| {
                     let g = g.as_ref()?;
                     let mut rc = RayCounts::default();
                     let key = ((layer as u64) << 48) ^ ((j0 as u64 * row_len as u64) + k as u64);
+                    let depth = camera.view_depth(-g.to_eye, g.t);
+                    if let Some((limits, max_depth, min_keep, seed, noise)) = &cull {
+                        let (i, j) = (k % row_len as u32, j0 + k / row_len as u32);
+                        let eps = roulette_epsilon(*noise, *seed, i, j, key);
+                        let basis = culled_basis(world, g, settings.shading);
+                        if !keep_sample(depth, limits, *max_depth, *min_keep, eps) {
+                            return Some((None, depth, basis, rc));
+                        }
+                        let v = shade(world, g, settings.shading, key, &mut rc);
+                        return Some((Some(v.to_array()), depth, basis, rc));
+                    }
                     let v = shade(world, g, settings.shading, key, &mut rc);
-                    Some((v.to_array(), camera.view_depth(-g.to_eye, g.t), rc))
+                    Some((Some(v.to_array()), depth, (Vec3::ZERO, Vec3::ZERO), rc))
                 })
                 .collect();
             let mut chunk_counts = RayCounts::default();
+            let chunk_start = j0 as usize * row_len;
             for (&k, s) in order.iter().zip(shaded) {
-                if let Some((c, d, rc)) = s {
-                    c_chunk[k as usize] = c;
+                if let Some((c, d, (offset, basis), rc)) = s {
                     d_chunk[k as usize] = d;
                     chunk_counts += rc;
+                    let at = chunk_start + k as usize;
+                    let state = match c {
+                        Some(c) => {
+                            c_chunk[k as usize] = c;
+                            if d.is_finite() {
+                                n_shaded += 1;
+                                1
+                            } else {
+                                0
+                            }
+                        }
+                        None => {
+                            n_culled += 1;
+                            2
+                        }
+                    };
+                    if let Some(cb) = cull_state.as_mut() {
+                        cb.state.data_mut()[at] = state;
+                        cb.offset.data_mut()[at] = offset.to_array();
+                        cb.basis.data_mut()[at] = basis.to_array();
+                    }
                 }
             }
             counts += chunk_counts;
             times.add("shade", &t);
             progress(primary.min(total_samples), total_samples);
+        }
+        // Culled samples get their colour from the shaded ones before any filtering.
+        if let Some(cb) = cull_state.filter(|cb| cb.state.data().contains(&2)) {
+            let t = Stopwatch::start();
+            color = fill_culled(&color, &cb)?;
+            times.add("cull-fill", &t);
         }
         colors.push(color);
         depths.push(depth);
@@ -437,6 +531,21 @@ pub fn render_frame(
     )?;
     times.add("reconstruct", &t);
 
+    // 6. Depth of field in screen space.
+    let (color, coc) = match (&settings.dof, focus_m) {
+        (Some(d), Some(f)) => {
+            let t = Stopwatch::start();
+            let gaze = [
+                settings.gaze.point.x_px as f32,
+                settings.gaze.point.y_px as f32,
+            ];
+            let r = apply_dof(d, camera, &screen.color, &screen.depth, f, gaze)?;
+            times.add("dof", &t);
+            (r.color, Some(r.coc_px))
+        }
+        _ => (screen.color, None),
+    };
+
     let density = if settings.density_view {
         Some(density_view(mapping.as_ref(), display, &settings.gaze)?)
     } else {
@@ -459,13 +568,78 @@ pub fn render_frame(
         buffers: sizes.iter().map(|b| [b.width, b.height]).collect(),
         aa,
         memory_bytes: memory,
+        focus_m: focus_m.map(|f| f.min(1e308)),
+        samples_shaded: n_shaded,
+        samples_culled: n_culled,
+        dof_filter: settings
+            .dof
+            .as_ref()
+            .and_then(|d| d.filter.map(|k| k.name().to_string())),
     };
     Ok(Frame {
-        color: screen.color,
+        color,
         depth: screen.depth,
         density,
+        coc,
         stats,
     })
+}
+
+/// Smallest basis value (per channel) a shaded sample's radiance is divided by.
+const MIN_BASIS: f32 = 0.02;
+
+/// The buffers of one layer that reconstruct culled samples.
+pub struct CullBuffers {
+    /// 1: shaded surface sample; 2: culled surface sample; 0: neither (a miss, or no sample).
+    pub state: Image<u8>,
+    /// The radiance every surface sample gets without shading (`shade::culled_basis`).
+    pub offset: Image<Rgb>,
+    /// What the smooth ratio multiplies (`shade::culled_basis`).
+    pub basis: Image<Rgb>,
+}
+
+/// Fills culled samples from the shaded surface samples of a sample buffer. Culled samples
+/// were traced, so what does not need rays is known for them: `offset` and `basis`
+/// ([`crate::shade::culled_basis`]). A shaded sample's ratio `(L − offset)/basis` — the
+/// lights' visibility in direct shading, everything but the albedo in path tracing — varies
+/// slowly over a surface; it is spread into the holes by pull-push (only from samples whose
+/// basis is above [`MIN_BASIS`]), and each culled sample gets `offset + basis · ratio`, so
+/// texture and shading detail survive culling.
+pub fn fill_culled(color: &Image<Rgb>, cb: &CullBuffers) -> Result<Image<Rgb>> {
+    let ratio: Vec<Rgb> = color
+        .data()
+        .par_iter()
+        .zip(cb.offset.data().par_iter().zip(cb.basis.data().par_iter()))
+        .map(|(&c, (&o, &b))| [0, 1, 2].map(|ch| (c[ch] - o[ch]) / b[ch].max(MIN_BASIS)))
+        .collect();
+    let ratio = Image::from_vec(color.width(), color.height(), ratio)?;
+    let mask = Image::from_vec(
+        color.width(),
+        color.height(),
+        cb.state
+            .data()
+            .iter()
+            .zip(cb.basis.data())
+            .map(|(&s, b)| s == 1 && b.iter().any(|&v| v >= MIN_BASIS))
+            .collect(),
+    )?;
+    let filled = pull_push(&ratio, &mask)?;
+    let mut out = color.clone();
+    out.data_mut()
+        .par_iter_mut()
+        .zip(cb.state.data().par_iter())
+        .zip(
+            filled
+                .data()
+                .par_iter()
+                .zip(cb.offset.data().par_iter().zip(cb.basis.data().par_iter())),
+        )
+        .for_each(|((o, &s), (&r, (&off, &b)))| {
+            if s == 2 {
+                *o = [0, 1, 2].map(|ch| off[ch] + r[ch].max(0.0) * b[ch]);
+            }
+        });
+    Ok(out)
 }
 
 /// Angle a sample of `mapping` spans at screen point `p`: its spacing `1/(2√(ρ_r ρ_t))`

@@ -86,6 +86,33 @@ pub fn brdf_cos(g: &GSample, l: Vec3) -> Vec3 {
 
 /// Direct light at `g` from every light, with one shadow ray per light facing the surface.
 pub fn direct(world: &World, g: &GSample, counts: &mut RayCounts) -> Vec3 {
+    direct_lights(world, g, counts, true)
+}
+
+/// Direct light at `g` as if nothing cast a shadow: no rays, only the BRDF and the lights.
+pub fn direct_unshadowed(world: &World, g: &GSample) -> Vec3 {
+    direct_lights(world, g, &mut RayCounts::default(), false)
+}
+
+/// What a sample skipped by DOF-aware culling can still afford, as `(offset, basis)`: its
+/// radiance is reconstructed as `offset + basis · r`, with `r` interpolated from shaded
+/// neighbours' `(L − offset)/basis`. Direct shading: `offset` = emission + ambient, `basis` =
+/// the unshadowed direct light (`r` is then the lights' visibility, Heitz et al. 2018's ratio
+/// estimator). Path tracing: `offset` = emission, `basis` = the albedo (demodulation).
+pub fn culled_basis(world: &World, g: &GSample, mode: ShadingMode) -> (Vec3, Vec3) {
+    if !g.is_hit() {
+        return (world.scene.environment, Vec3::ZERO);
+    }
+    match mode {
+        ShadingMode::Direct => (
+            g.emissive + world.scene.environment * g.albedo * (1.0 - g.metallic),
+            direct_unshadowed(world, g),
+        ),
+        ShadingMode::Path { .. } => (g.emissive, g.albedo),
+    }
+}
+
+fn direct_lights(world: &World, g: &GSample, counts: &mut RayCounts, shadows: bool) -> Vec3 {
     let origin = offset_origin(g);
     let mut sum = Vec3::ZERO;
     for light in &world.lights {
@@ -133,6 +160,10 @@ pub fn direct(world: &World, g: &GSample, counts: &mut RayCounts) -> Vec3 {
         }
         let f = brdf_cos(g, l);
         if f == Vec3::ZERO {
+            continue;
+        }
+        if !shadows {
+            sum += f * radiance;
             continue;
         }
         counts.shadow += 1;

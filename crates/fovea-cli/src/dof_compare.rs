@@ -1,0 +1,285 @@
+//! `fovea dof-compare`: every DOF filter against the thin-lens reference, focused near and
+//! far — a table (luma PSNR, SSIM, ꟻLIP, ms per megapixel), a contact sheet of crops, JSON.
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+
+use fovea_eval::dof_compare::{run_dof_compare, DofCompareParams, DofComparison, FocusSpec};
+use fovea_post::dof::FilterKind;
+use fovea_post::tonemap::{to_srgb8, ToneCurve};
+use fovea_render::thin_lens::MAX_LENS_SAMPLES;
+
+use crate::common::DisplayArgs;
+use crate::dof_args::EyeArgs;
+use crate::render::shading;
+use crate::scene_args::{gaze, prepare, SceneArgs};
+
+/// Options of `fovea dof-compare`.
+#[derive(Args, Debug)]
+#[command(allow_negative_numbers = true)]
+pub struct DofCompareArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    #[command(flatten)]
+    pub display: DisplayArgs,
+    /// Gaze point X,Y in screen pixels (default: the screen centre); the window is centred on
+    /// it.
+    #[arg(long, conflicts_with = "gaze_at")]
+    pub gaze: Option<String>,
+    /// Gaze at a world point X,Y,Z (metres).
+    #[arg(long)]
+    pub gaze_at: Option<String>,
+    /// Focus cases, comma-separated: near and far (10th / 90th percentile of the window's
+    /// depths, Konrad's protocol), auto, or metres.
+    #[arg(long, default_value = "near,far")]
+    pub cases: String,
+    #[command(flatten)]
+    pub eye: EyeArgs,
+    /// Filters to compare, comma-separated, or `all`.
+    #[arg(long, default_value = "all")]
+    pub filters: String,
+    /// Scored window WxH around the gaze, at the display's resolution, or `full`.
+    #[arg(long, default_value = "384x384")]
+    pub window: String,
+    /// Extra pinhole pixels on each side of the window for the filters' context.
+    #[arg(long, default_value_t = 32)]
+    pub margin: u32,
+    /// Lens samples per pixel of the thin-lens reference (Konrad used 55).
+    #[arg(long, default_value_t = 128)]
+    pub lens_samples: u32,
+    /// Shading: direct or path.
+    #[arg(long, default_value = "direct")]
+    pub shading: String,
+    /// Output folder: contact-sheet.png, dof-compare.md, dof-compare.json.
+    #[arg(long, default_value = "fovea-out/dof-compare")]
+    pub out: PathBuf,
+    /// Print the JSON (`{"filters": [...], "cases": [...]}`) instead of the table.
+    #[arg(long)]
+    pub json: bool,
+    /// No progress messages.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+fn parse_window(text: &str, w: u32, h: u32) -> Result<[u32; 2]> {
+    if text.trim().eq_ignore_ascii_case("full") {
+        return Ok([w, h]);
+    }
+    let parts: Vec<&str> = text.split(['x', 'X']).collect();
+    let v: Option<Vec<u32>> = parts.iter().map(|p| p.trim().parse().ok()).collect();
+    match v.as_deref() {
+        Some([a, b]) if (8..=16384).contains(a) && (8..=16384).contains(b) => Ok([*a, *b]),
+        _ => bail!(
+            "invalid parameter `window` = {text}: expected WxH with sides 8 to 16384, or full"
+        ),
+    }
+}
+
+pub fn run(args: DofCompareArgs) -> Result<()> {
+    let display = args.display.display("vive-pro-eye")?;
+    let window = parse_window(&args.window, display.width_px, display.height_px)?;
+    if !(1..=MAX_LENS_SAMPLES).contains(&args.lens_samples) {
+        bail!(
+            "invalid parameter `lens-samples` = {}: expected 1 to {MAX_LENS_SAMPLES}",
+            args.lens_samples
+        );
+    }
+    if args.margin > 256 {
+        bail!(
+            "invalid parameter `margin` = {}: expected 0 to 256",
+            args.margin
+        );
+    }
+    let filters: Vec<FilterKind> = if args.filters.trim() == "all" {
+        FilterKind::ALL.to_vec()
+    } else {
+        args.filters
+            .split(',')
+            .map(FilterKind::parse)
+            .collect::<Result<_, _>>()?
+    };
+    let focus: Vec<FocusSpec> = args
+        .cases
+        .split(',')
+        .map(FocusSpec::parse)
+        .collect::<Result<_, _>>()?;
+    let params = DofCompareParams {
+        window,
+        margin_px: args.margin,
+        lens_samples: args.lens_samples,
+        shading: shading(&args.shading, 2, 4, 1)?,
+        eye: args.eye.eye()?,
+        coc_model: args.eye.coc_model()?,
+        max_coc_px: args.eye.settings(None)?.max_coc_px,
+        filters,
+        focus,
+    };
+    let prepared = prepare(&args.scene, &display)?;
+    let g = gaze(
+        &display,
+        &prepared.camera,
+        args.gaze.as_deref(),
+        args.gaze_at.as_deref(),
+    )?;
+    let quiet = args.quiet || args.json;
+    let t0 = std::time::Instant::now();
+    let result = run_dof_compare(&prepared.world, &prepared.camera, &g, &params, &|stage| {
+        if !quiet {
+            eprintln!("[{:>6.1} s] {stage}", t0.elapsed().as_secs_f64());
+        }
+    })?;
+
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create directory {}", args.out.display()))?;
+    let json = to_json(&result, &prepared.world.scene.name, &display.name);
+    let json_text = serde_json::to_string_pretty(&json)? + "\n";
+    let json_path = args.out.join("dof-compare.json");
+    std::fs::write(&json_path, &json_text)
+        .with_context(|| format!("cannot write {}", json_path.display()))?;
+    let md = markdown(&result, &prepared.world.scene.name, &display.name);
+    let md_path = args.out.join("dof-compare.md");
+    std::fs::write(&md_path, &md).with_context(|| format!("cannot write {}", md_path.display()))?;
+    let sheet_path = args.out.join("contact-sheet.png");
+    contact_sheet(&result, &sheet_path)?;
+    if args.json {
+        print!("{json_text}");
+    } else {
+        print!("{md}");
+        println!(
+            "wrote {}, {} and {}",
+            md_path.display(),
+            json_path.display(),
+            sheet_path.display()
+        );
+    }
+    Ok(())
+}
+
+/// `{"filters": [mean over cases], "cases": [...], ...}`.
+pub fn to_json(r: &DofComparison, scene: &str, display: &str) -> serde_json::Value {
+    serde_json::json!({
+        "scene": scene,
+        "display": display,
+        "window": r.window,
+        "pixels_per_degree": r.pixels_per_degree,
+        "lens_samples": r.params.lens_samples,
+        "pupil_mm": r.params.eye.pupil.0,
+        "coc_model": r.params.coc_model.name(),
+        "filters": r.mean_scores(),
+        "cases": r.cases,
+    })
+}
+
+fn fmt_db(v: f64) -> String {
+    if v.is_infinite() {
+        "∞".into()
+    } else {
+        format!("{v:.2}")
+    }
+}
+
+/// The comparison as Markdown: one table per focus case and the means.
+pub fn markdown(r: &DofComparison, scene: &str, display: &str) -> String {
+    let mut s = format!(
+        "# Depth-of-field filters against the thin-lens reference\n\n{scene}, {display}, window {}x{} at ({}, {}), {:.1} px/deg, pupil {:.2} mm, {} lens samples, CoC {}.\n",
+        r.window.width,
+        r.window.height,
+        r.window.x0,
+        r.window.y0,
+        r.pixels_per_degree,
+        r.params.eye.pupil.0,
+        r.params.lens_samples,
+        r.params.coc_model.name()
+    );
+    let table = |rows: &[fovea_eval::dof_compare::FilterScore]| {
+        let mut t = String::from(
+            "\n| filter | luma PSNR (dB) | SSIM | ꟻLIP | ms / megapixel |\n|---|---:|---:|---:|---:|\n",
+        );
+        for f in rows {
+            t += &format!(
+                "| {} | {} | {:.4} | {:.4} | {:.1} |\n",
+                f.name,
+                fmt_db(f.psnr_y_db),
+                f.ssim,
+                f.flip,
+                f.ms_per_megapixel
+            );
+        }
+        t
+    };
+    for c in &r.cases {
+        let focus = if c.focus_m >= 1e308 {
+            "∞".to_string()
+        } else {
+            format!("{:.3} m", c.focus_m)
+        };
+        s += &format!(
+            "\n## Focus {} ({focus}), largest CoC {:.1} px, reference noise floor {} dB\n",
+            c.focus,
+            c.max_coc_px,
+            fmt_db(c.reference_noise_floor_db)
+        );
+        s += &table(&c.filters);
+    }
+    if r.cases.len() > 1 {
+        s += "\n## Mean over the focus cases\n";
+        s += &table(&r.mean_scores());
+    }
+    s
+}
+
+/// A grid of crops: one row per focus case; the reference, the pinhole frame and each filter,
+/// with their names and PSNR drawn above each tile.
+fn contact_sheet(r: &DofComparison, path: &std::path::Path) -> Result<()> {
+    use plotters::prelude::*;
+    let (tw, th) = (r.window.width, r.window.height);
+    let label_h = 22u32;
+    let cols = 1 + r.cases.first().map_or(0, |c| c.images.len()) as u32;
+    let rows = r.cases.len() as u32;
+    let (w, h) = (cols * tw, rows * (th + label_h));
+    if w as u64 * h as u64 > 1 << 28 {
+        bail!("contact sheet of {w}x{h} pixels is too large; use a smaller --window");
+    }
+    let mut buf = vec![255u8; (w * h * 3) as usize];
+    let blit = |buf: &mut [u8], img: &fovea_core::Image<fovea_post::Rgb>, cx: u32, cy: u32| {
+        let rgb = to_srgb8(img, 0.0, ToneCurve::Clamp);
+        for y in 0..th {
+            let src = &rgb[(y * tw * 3) as usize..((y + 1) * tw * 3) as usize];
+            let o = (((cy + label_h + y) * w + cx) * 3) as usize;
+            buf[o..o + src.len()].copy_from_slice(src);
+        }
+    };
+    for (ri, c) in r.cases.iter().enumerate() {
+        let y = ri as u32 * (th + label_h);
+        blit(&mut buf, &c.reference, 0, y);
+        for (k, img) in c.images.iter().enumerate() {
+            blit(&mut buf, img, (k as u32 + 1) * tw, y);
+        }
+    }
+    {
+        crate::plot::register_font();
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        let style = ("sans-serif", 15).into_font().color(&BLACK);
+        for (ri, c) in r.cases.iter().enumerate() {
+            let y = (ri as u32 * (th + label_h)) as i32 + 3;
+            root.draw_text(&format!("reference ({})", c.focus), &style, (4, y))
+                .map_err(|e| anyhow::anyhow!("contact sheet: {e}"))?;
+            for (k, f) in c.filters.iter().enumerate() {
+                root.draw_text(
+                    &format!("{} {} dB", f.name, fmt_db(f.psnr_y_db)),
+                    &style,
+                    (((k as u32 + 1) * tw) as i32 + 4, y),
+                )
+                .map_err(|e| anyhow::anyhow!("contact sheet: {e}"))?;
+            }
+        }
+        root.present()
+            .map_err(|e| anyhow::anyhow!("contact sheet: {e}"))?;
+    }
+    let img = image::RgbImage::from_raw(w, h, buf)
+        .ok_or_else(|| anyhow::anyhow!("contact sheet buffer size"))?;
+    img.save(path)
+        .with_context(|| format!("cannot write {}", path.display()))
+}

@@ -1,0 +1,358 @@
+//! Depth-of-field filters against the thin-lens reference (Konrad's protocol, Sec. IV): render
+//! a scene's pinhole frame and its distributed-ray-traced thin-lens reference, focused on a
+//! near and on a far object, run every filter on the pinhole frame with the thin-lens CoC, and
+//! score each against the reference — luma PSNR (Konrad's metric), SSIM, ꟻLIP at the display's
+//! pixels per degree — and time it per megapixel.
+//!
+//! **Window.** The reference costs `lens_samples` frames, so the comparison renders a window of
+//! the display around the gaze, at the display's own resolution (so CoCs in pixels are those
+//! of the headset). The pinhole frame is rendered `margin_px` larger on every side so filters
+//! see what lies just outside; scores and crops cover the inner window.
+//!
+//! **Focus.** `near` and `far` are the 10th and 90th percentiles of the finite pinhole depths in
+//! the window (Konrad focused once on the foreground object and once on the background);
+//! `auto` is the gaze-depth estimate at the gaze; a number is metres.
+
+use std::time::Instant;
+
+use serde::Serialize;
+
+use fovea_core::display::Gaze;
+use fovea_core::optics::EyeModel;
+use fovea_core::units::Metres;
+use fovea_core::{FoveaError, Image};
+use fovea_post::dof::coc::{coc_map, CocModel, CocParams};
+use fovea_post::dof::{DofInput, FilterKind};
+use fovea_post::Rgb;
+use fovea_render::camera::EyeCamera;
+use fovea_render::dof::{auto_focus_m, px_per_degree};
+use fovea_render::shade::ShadingMode;
+use fovea_render::thin_lens::{render_window, ThinLens, Window};
+use fovea_render::world::World;
+use fovea_render::{RenderError, Result};
+
+use crate::metrics::{crop, flip_mean, luma_psnr, Region};
+
+/// Which focus distance a case uses.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FocusSpec {
+    /// The 10th percentile of the window's depths.
+    Near,
+    /// The 90th percentile of the window's depths.
+    Far,
+    /// The gaze-depth estimate at the gaze.
+    Auto,
+    /// Metres.
+    Metres(f64),
+}
+
+impl FocusSpec {
+    /// Parses `near`, `far`, `auto` or metres.
+    pub fn parse(text: &str) -> Result<Self> {
+        let t = text.trim().to_ascii_lowercase();
+        match t.as_str() {
+            "near" => Ok(FocusSpec::Near),
+            "far" => Ok(FocusSpec::Far),
+            "auto" => Ok(FocusSpec::Auto),
+            _ => match t.parse::<f64>() {
+                Ok(v) if v.is_finite() && v > 0.0 => Ok(FocusSpec::Metres(v)),
+                _ => Err(RenderError::invalid(
+                    "focus",
+                    text,
+                    "near, far, auto or a distance in metres > 0",
+                )),
+            },
+        }
+    }
+
+    /// A label for tables.
+    pub fn label(&self) -> String {
+        match self {
+            FocusSpec::Near => "near".into(),
+            FocusSpec::Far => "far".into(),
+            FocusSpec::Auto => "auto".into(),
+            FocusSpec::Metres(m) => format!("{m} m"),
+        }
+    }
+}
+
+/// Settings of a comparison.
+#[derive(Clone, Debug, Serialize)]
+pub struct DofCompareParams {
+    /// Inner window size (scored), pixels.
+    pub window: [u32; 2],
+    /// Extra pinhole pixels on each side for the filters' context.
+    pub margin_px: u32,
+    /// Lens samples of the reference (Konrad: 55).
+    pub lens_samples: u32,
+    /// Shading of both renders.
+    #[serde(skip)]
+    pub shading: ShadingMode,
+    /// The eye.
+    pub eye: EyeModel,
+    /// CoC model given to the filters (the reference is a thin lens).
+    pub coc_model: CocModel,
+    /// Largest CoC diameter, pixels.
+    pub max_coc_px: f64,
+    /// Filters to score.
+    pub filters: Vec<FilterKind>,
+    /// Focus cases.
+    pub focus: Vec<FocusSpec>,
+}
+
+impl Default for DofCompareParams {
+    fn default() -> Self {
+        Self {
+            window: [384, 384],
+            margin_px: 32,
+            lens_samples: 128,
+            shading: ShadingMode::Direct,
+            eye: EyeModel::default(),
+            coc_model: CocModel::ThinLens,
+            max_coc_px: 64.0,
+            filters: FilterKind::ALL.to_vec(),
+            focus: vec![FocusSpec::Near, FocusSpec::Far],
+        }
+    }
+}
+
+/// One filter's scores in one case.
+#[derive(Clone, Debug, Serialize)]
+pub struct FilterScore {
+    /// Filter name (`pinhole` for the unfiltered frame).
+    pub name: String,
+    /// Luma PSNR against the reference, dB.
+    pub psnr_y_db: f64,
+    /// Mean SSIM of luma against the reference.
+    pub ssim: f64,
+    /// Mean ꟻLIP error at the display's pixels per degree.
+    pub flip: f64,
+    /// Filter wall time per megapixel of filtered image, milliseconds (0 for `pinhole`).
+    pub ms_per_megapixel: f64,
+}
+
+/// One focus case.
+#[derive(Clone, Debug, Serialize)]
+pub struct CaseResult {
+    /// `near`, `far`, …
+    pub focus: String,
+    /// Focus distance, metres (1e308 for infinity).
+    pub focus_m: f64,
+    /// Largest |CoC| in the scored window, pixels.
+    pub max_coc_px: f64,
+    /// Estimated luma PSNR of the reference against its converged value (from its two
+    /// half-estimates), dB: scores far below it are the filters', not the reference's noise.
+    pub reference_noise_floor_db: f64,
+    /// Reference render time, milliseconds.
+    pub reference_ms: f64,
+    /// Scores: the unfiltered pinhole frame first, then each filter.
+    pub filters: Vec<FilterScore>,
+    /// The reference over the inner window.
+    #[serde(skip)]
+    pub reference: Image<Rgb>,
+    /// Inner-window crops, in the order of `filters`.
+    #[serde(skip)]
+    pub images: Vec<Image<Rgb>>,
+}
+
+/// Everything a comparison produced.
+#[derive(Clone, Debug, Serialize)]
+pub struct DofComparison {
+    /// The scored window on the display.
+    pub window: Window,
+    /// Display pixels per degree used for ꟻLIP.
+    pub pixels_per_degree: f64,
+    /// Settings.
+    pub params: DofCompareParams,
+    /// Per focus case.
+    pub cases: Vec<CaseResult>,
+}
+
+impl DofComparison {
+    /// Each filter's scores averaged over the cases (PSNR averaged in dB, as Konrad's table).
+    pub fn mean_scores(&self) -> Vec<FilterScore> {
+        let Some(first) = self.cases.first() else {
+            return Vec::new();
+        };
+        let n = self.cases.len() as f64;
+        first
+            .filters
+            .iter()
+            .enumerate()
+            .map(|(i, f)| {
+                let mean = |g: &dyn Fn(&FilterScore) -> f64| {
+                    self.cases.iter().map(|c| g(&c.filters[i])).sum::<f64>() / n
+                };
+                FilterScore {
+                    name: f.name.clone(),
+                    psnr_y_db: mean(&|s| s.psnr_y_db),
+                    ssim: mean(&|s| s.ssim),
+                    flip: mean(&|s| s.flip),
+                    ms_per_megapixel: mean(&|s| s.ms_per_megapixel),
+                }
+            })
+            .collect()
+    }
+}
+
+/// Percentile `q` in [0, 1] of the finite values.
+fn percentile(values: &[f32], q: f64) -> Option<f64> {
+    let mut v: Vec<f32> = values.iter().copied().filter(|d| d.is_finite()).collect();
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(|a, b| a.total_cmp(b));
+    Some(v[((v.len() - 1) as f64 * q).round() as usize] as f64)
+}
+
+/// Runs the comparison. `progress(stage)` names each step as it starts.
+pub fn run_dof_compare(
+    world: &World,
+    camera: &EyeCamera,
+    gaze: &Gaze,
+    params: &DofCompareParams,
+    progress: &(dyn Fn(&str) + Sync),
+) -> Result<DofComparison> {
+    if params.filters.is_empty() || params.focus.is_empty() {
+        return Err(RenderError::invalid(
+            "dof-compare",
+            "no filters or no focus cases",
+            "at least one filter and one focus",
+        ));
+    }
+    let d = &camera.display;
+    let (gx, gy) = (gaze.point.x_px, gaze.point.y_px);
+    let inner = Window::centred(
+        gx,
+        gy,
+        params.window[0],
+        params.window[1],
+        d.width_px,
+        d.height_px,
+    );
+    // The outer window: the inner one grown by the margin, clipped to the screen.
+    let x0 = inner.x0.saturating_sub(params.margin_px);
+    let y0 = inner.y0.saturating_sub(params.margin_px);
+    let x1 = (inner.x0 + inner.width + params.margin_px).min(d.width_px);
+    let y1 = (inner.y0 + inner.height + params.margin_px).min(d.height_px);
+    let outer = Window {
+        x0,
+        y0,
+        width: x1 - x0,
+        height: y1 - y0,
+    };
+    let inner_region = Region {
+        x0: inner.x0 - x0,
+        y0: inner.y0 - y0,
+        x1: inner.x0 - x0 + inner.width,
+        y1: inner.y0 - y0 + inner.height,
+    };
+    let ppd = px_per_degree(camera);
+
+    progress("pinhole frame");
+    let pin = render_window(world, camera, outer, None, params.shading, &|_, _| {})?;
+    let pin_inner = crop(&pin.color, inner_region).ok_or_else(|| crop_error(inner_region))?;
+    let depth_inner = crop(&pin.depth, inner_region).ok_or_else(|| crop_error(inner_region))?;
+    let focal_px = d.focal_y_px();
+    let coc_params = CocParams {
+        eye: params.eye,
+        focal_px,
+        max_coc_px: params.max_coc_px,
+        model: params.coc_model,
+    };
+    let mut cases = Vec::new();
+    for spec in &params.focus {
+        let focus_m = match spec {
+            FocusSpec::Near => percentile(depth_inner.data(), 0.1),
+            FocusSpec::Far => percentile(depth_inner.data(), 0.9),
+            FocusSpec::Auto => Some(auto_focus_m(world, camera, gaze)?),
+            FocusSpec::Metres(m) => Some(*m),
+        }
+        .unwrap_or(f64::INFINITY);
+        progress(&format!(
+            "{} focus ({focus_m:.2} m): thin-lens reference, {} lens samples",
+            spec.label(),
+            params.lens_samples
+        ));
+        let lens = ThinLens {
+            pupil_m: params.eye.pupil.to_metres().0,
+            focus_m,
+            lens_samples: params.lens_samples,
+        };
+        let reference = render_window(
+            world,
+            camera,
+            inner,
+            Some(&lens),
+            params.shading,
+            &|_, _| {},
+        )?;
+        let coc = coc_map(&coc_params, Metres(focus_m), &pin.depth)?;
+        let max_coc = crop(&coc, inner_region)
+            .map(|c| c.data().iter().fold(0.0f32, |m, v| m.max(v.abs())) as f64)
+            .unwrap_or(0.0);
+        let input = DofInput {
+            color: &pin.color,
+            depth_m: &pin.depth,
+            coc_px: &coc,
+            focus_m: focus_m as f32,
+            px_per_dioptre: coc_params.px_per_dioptre() as f32,
+            gaze_px: [(gx - x0 as f64) as f32, (gy - y0 as f64) as f32],
+            px_per_degree: ppd as f32,
+        };
+        let full = Region::full(inner.width, inner.height);
+        let score = |name: &str, img: &Image<Rgb>, ms_per_mp: f64| -> FilterScore {
+            FilterScore {
+                name: name.to_string(),
+                psnr_y_db: luma_psnr(&reference.color, img, full).unwrap_or(f64::NAN),
+                ssim: crate::ssim::ssim(&reference.color, img, full).unwrap_or(f64::NAN),
+                flip: flip_mean(&reference.color, img, full, ppd as f32).unwrap_or(f64::NAN),
+                ms_per_megapixel: ms_per_mp,
+            }
+        };
+        let mut scores = vec![score("pinhole", &pin_inner, 0.0)];
+        let mut images = vec![pin_inner.clone()];
+        for kind in &params.filters {
+            progress(&format!("{} focus: {}", spec.label(), kind.name()));
+            let filter = kind.build();
+            let t = Instant::now();
+            let out = filter.apply(&input)?;
+            let ms = t.elapsed().as_secs_f64() * 1e3;
+            let out_inner = crop(&out, inner_region).ok_or_else(|| crop_error(inner_region))?;
+            scores.push(score(
+                kind.name(),
+                &out_inner,
+                ms / (outer.pixels() as f64 / 1e6),
+            ));
+            images.push(out_inner);
+        }
+        cases.push(CaseResult {
+            focus: spec.label(),
+            focus_m: focus_m.min(1e308),
+            max_coc_px: max_coc,
+            reference_noise_floor_db: reference
+                .noise_floor_psnr_db()
+                .unwrap_or(f64::INFINITY)
+                .min(1e308),
+            reference_ms: reference.ms,
+            filters: scores,
+            reference: reference.color,
+            images,
+        });
+    }
+    Ok(DofComparison {
+        window: inner,
+        pixels_per_degree: ppd,
+        params: params.clone(),
+        cases,
+    })
+}
+
+fn crop_error(r: Region) -> RenderError {
+    RenderError::Core(FoveaError::invalid(
+        "window",
+        format!("{:?}", r),
+        "a region inside the rendered window",
+    ))
+}

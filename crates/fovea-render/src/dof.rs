@@ -1,0 +1,300 @@
+//! Depth of field in the frame pipeline: the eye state it needs (focus, pupil), Liu et al.'s
+//! DOF-aware culling of shading (Eq. 10–11) and the screen-space DOF filter stage.
+//!
+//! * **Focus**: fixed (metres, or infinity) or automatic — a depth patch around the gaze is
+//!   ray cast at screen resolution and handed to the gaze-depth estimator
+//!   ([`fovea_core::optics::gaze_depth`]), which looks at a Weier-Fig.-4-like pattern with a
+//!   robust statistic rather than the single pixel under the gaze.
+//! * **Culling** (Liu Sec. 3.3, Algorithm 1): after primary visibility, each sample's DOF
+//!   weight `w_d` (Eq. 10; `D_M` = the farthest scene point from the eye) decides through a
+//!   Russian roulette (Eq. 11: shade when `ε ≤ w_d`) whether it is shaded. Liu draws `ε` as
+//!   white noise; by default we take it from an 8×8 ordered-dither (Bayer) matrix over the
+//!   sample buffer, shifted by the seed: still uniform on [0, 1] for each sample, but the kept
+//!   samples of a surface are spread evenly, so the fill between them is an interpolation
+//!   rather than a guess across random clumps ([`CullNoise`]; `white` restores Liu's i.i.d.
+//!   `ε`, hashed from the sample's index and the seed). Frames are reproducible either way. Eq. 10 falls to 0 at `D_M`, which would leave the
+//!   farthest surface with no shaded sample at all (the pull-push fill then smears colour
+//!   from far away across it); the weight is therefore floored at `min_keep` (default 0.25),
+//!   a choice of ours, not Liu's. Culled samples keep their depth and get their colour
+//!   by pull-push from the shaded ones in the sample buffer, before anti-aliasing,
+//!   reconstruction and blur. Rays that hit nothing cost no shading and are never culled.
+//! * **Blur**: the signed thin-lens (or Eq. 13 / Weier Eq. 3) CoC map of the screen depth,
+//!   then one filter of [`fovea_post::dof`].
+
+use serde::Serialize;
+
+use fovea_core::optics::{dof_weight, russian_roulette, DofLimits, EyeModel};
+use fovea_core::units::Metres;
+use fovea_post::dof::coc::{coc_map, CocModel, CocParams};
+use fovea_post::dof::{DofInput, FilterKind};
+use fovea_post::Rgb;
+
+use fovea_core::Image;
+
+use crate::camera::EyeCamera;
+use crate::error::Result;
+use crate::world::World;
+
+/// How the focus distance is chosen.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FocusMode {
+    /// A fixed distance along the view axis, metres (`+∞` allowed).
+    Fixed(f64),
+    /// Estimated from the depth around the gaze point.
+    Auto,
+}
+
+/// Where the roulette's `ε` comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CullNoise {
+    /// An 8×8 Bayer matrix over the buffer: kept samples evenly spread (default).
+    Ordered,
+    /// I.i.d. uniform `ε` per sample (Liu's Eq. 11 as written).
+    White,
+}
+
+/// Depth-of-field settings of a frame.
+#[derive(Clone, Debug, Serialize)]
+pub struct DofSettings {
+    /// The screen-space filter; `None` renders sharp (culling alone).
+    pub filter: Option<FilterKind>,
+    /// Focus.
+    pub focus: FocusMode,
+    /// The eye (pupil, focal length, criterion).
+    pub eye: EyeModel,
+    /// CoC model of the blur.
+    pub coc_model: CocModel,
+    /// Largest CoC diameter, pixels.
+    pub max_coc_px: f64,
+    /// Liu's DOF-aware culling of shading (Eq. 10–11).
+    pub cull: bool,
+    /// Seed of the roulette.
+    pub seed: u64,
+    /// Floor of the culling weight: every surface keeps at least this share of its samples.
+    pub min_keep: f64,
+    /// The roulette's `ε`.
+    pub noise: CullNoise,
+}
+
+impl DofSettings {
+    /// Thin-lens CoC, the standard eye, no culling, `filter` at `focus`.
+    pub fn new(filter: Option<FilterKind>, focus: FocusMode) -> Self {
+        Self {
+            filter,
+            focus,
+            eye: EyeModel::default(),
+            coc_model: CocModel::ThinLens,
+            max_coc_px: 64.0,
+            cull: false,
+            seed: 1,
+            min_keep: 0.25,
+            noise: CullNoise::Ordered,
+        }
+    }
+}
+
+/// `D_M` of Liu's Eq. 10: the distance from the eye to the farthest triangle vertex (at least
+/// 1 m beyond the focus), metres.
+pub fn scene_max_depth_m(world: &World, camera: &EyeCamera) -> f64 {
+    let far = world
+        .tris
+        .verts
+        .iter()
+        .flat_map(|v| v.iter())
+        .map(|p| (*p - camera.position).length())
+        .fold(0.0f32, f32::max) as f64;
+    if far.is_finite() && far > 0.0 {
+        far
+    } else {
+        fovea_core::optics::DEFAULT_MAX_DEPTH_M
+    }
+}
+
+/// DOF limits for culling (all depths for a zero pupil). Focus nearer than 5 cm or beyond 1000 km is clamped into that range
+/// so that Eq. 4–5 are defined (infinity focus gives the hyperfocal near limit).
+pub fn culling_limits(eye: &EyeModel, focus_m: f64) -> Result<DofLimits> {
+    if eye.pupil.0 <= 0.0 {
+        // A pinhole eye: everything is in focus.
+        return Ok(DofLimits {
+            near: Metres(0.0),
+            far: Metres(f64::INFINITY),
+        });
+    }
+    let f = if focus_m.is_finite() {
+        focus_m.clamp(0.05, 1e6)
+    } else {
+        1e6
+    };
+    Ok(eye.dof_limits(Metres(f))?)
+}
+
+/// The 8×8 Bayer (ordered-dither) matrix: each of 0…63 once, neighbours far apart in value.
+const BAYER8: [[u8; 8]; 8] = [
+    [0, 32, 8, 40, 2, 34, 10, 42],
+    [48, 16, 56, 24, 50, 18, 58, 26],
+    [12, 44, 4, 36, 14, 46, 6, 38],
+    [60, 28, 52, 20, 62, 30, 54, 22],
+    [3, 35, 11, 43, 1, 33, 9, 41],
+    [51, 19, 59, 27, 49, 17, 57, 25],
+    [15, 47, 7, 39, 13, 45, 5, 37],
+    [63, 31, 55, 23, 61, 29, 53, 21],
+];
+
+/// The roulette's `ε` ∈ (0, 1) for buffer pixel `(i, j)` with unique sample `index`.
+#[inline]
+pub fn roulette_epsilon(noise: CullNoise, seed: u64, i: u32, j: u32, index: u64) -> f64 {
+    match noise {
+        CullNoise::Ordered => {
+            let (si, sj) = ((seed % 8) as u32, ((seed / 8) % 8) as u32);
+            (BAYER8[((j + sj) % 8) as usize][((i + si) % 8) as usize] as f64 + 0.5) / 64.0
+        }
+        CullNoise::White => fovea_core::math::unit_from_seed(fovea_core::math::mix64(
+            seed ^ index.wrapping_mul(0xD1B5_4A32_D192_ED03),
+        )),
+    }
+}
+
+/// The roulette of one sample (Eq. 11): `true` to shade it. `depth_m` is its view depth (`∞`
+/// misses are always shaded: they cost nothing), `eps` its [`roulette_epsilon`]; the weight
+/// of Eq. 10 is floored at `min_keep`.
+#[inline]
+pub fn keep_sample(
+    depth_m: f32,
+    limits: &DofLimits,
+    max_depth_m: f64,
+    min_keep: f64,
+    eps: f64,
+) -> bool {
+    if !depth_m.is_finite() {
+        return true;
+    }
+    let w = dof_weight(Metres(depth_m as f64), limits, Metres(max_depth_m)).max(min_keep);
+    russian_roulette(w, eps)
+}
+
+/// Pixels per degree at the screen centre (`f_y · π/180`), the scale FLIP and foveal regions
+/// use.
+pub fn px_per_degree(camera: &EyeCamera) -> f64 {
+    camera.display.focal_y_px() * std::f64::consts::PI / 180.0
+}
+
+/// The CoC parameters of `settings` for `camera`'s display.
+pub fn coc_params(settings: &DofSettings, camera: &EyeCamera) -> CocParams {
+    CocParams {
+        eye: settings.eye,
+        focal_px: camera.display.focal_y_px(),
+        max_coc_px: settings.max_coc_px,
+        model: settings.coc_model,
+    }
+}
+
+/// Output of the DOF stage.
+pub struct DofResult {
+    /// The blurred image.
+    pub color: Image<Rgb>,
+    /// The signed CoC map, pixels.
+    pub coc_px: Image<f32>,
+}
+
+/// Applies the blur of `settings` to a screen image with its depth, focused at `focus_m`.
+/// `gaze_px` is the gaze point (the layered filter's fovea).
+pub fn apply_dof(
+    settings: &DofSettings,
+    camera: &EyeCamera,
+    color: &Image<Rgb>,
+    depth_m: &Image<f32>,
+    focus_m: f64,
+    gaze_px: [f32; 2],
+) -> Result<DofResult> {
+    let params = coc_params(settings, camera);
+    let coc = coc_map(&params, Metres(focus_m), depth_m)?;
+    let out = match settings.filter {
+        Some(kind) => {
+            let input = DofInput {
+                color,
+                depth_m,
+                coc_px: &coc,
+                focus_m: focus_m as f32,
+                px_per_dioptre: params.px_per_dioptre() as f32,
+                gaze_px,
+                px_per_degree: px_per_degree(camera) as f32,
+            };
+            kind.build().apply(&input)?
+        }
+        None => color.clone(),
+    };
+    Ok(DofResult {
+        color: out,
+        coc_px: coc,
+    })
+}
+
+/// Half-size of the auto-focus depth patch, degrees of visual angle (the estimator's pattern
+/// must fit inside).
+pub const AUTO_FOCUS_PATCH_DEG: f64 = 2.0;
+
+/// Casts the pinhole depth of a square patch of screen pixels around the gaze
+/// ([`AUTO_FOCUS_PATCH_DEG`] each way, at most 161 × 161 rays) and returns it with the gaze's
+/// position inside the patch.
+pub fn depth_patch(
+    world: &World,
+    camera: &EyeCamera,
+    gaze: &fovea_core::display::Gaze,
+) -> Result<(Image<f32>, [f64; 2])> {
+    let d = &camera.display;
+    let half = (AUTO_FOCUS_PATCH_DEG * px_per_degree(camera)).clamp(2.0, 80.0);
+    let (gx, gy) = (gaze.point.x_px, gaze.point.y_px);
+    let x0 = (gx - half).floor().clamp(0.0, d.width_px as f64 - 1.0) as u32;
+    let y0 = (gy - half).floor().clamp(0.0, d.height_px as f64 - 1.0) as u32;
+    let x1 = (gx + half).ceil().clamp(x0 as f64 + 1.0, d.width_px as f64) as u32;
+    let y1 = (gy + half)
+        .ceil()
+        .clamp(y0 as f64 + 1.0, d.height_px as f64) as u32;
+    let (w, h) = (x1 - x0, y1 - y0);
+    let spread = (1.0 / d.focal_y_px()) as f32;
+    let data: Vec<f32> = {
+        use rayon::prelude::*;
+        (0..(w * h) as usize)
+            .into_par_iter()
+            .map(|k| {
+                let x = (x0 + k as u32 % w) as f32 + 0.5;
+                let y = (y0 + k as u32 / w) as f32 + 0.5;
+                let dir = camera.direction(x, y);
+                let g = crate::trace::trace_sample(
+                    world,
+                    &crate::bvh::Ray {
+                        origin: camera.position,
+                        dir,
+                        t_min: 0.0,
+                        t_max: f32::INFINITY,
+                    },
+                    spread,
+                );
+                camera.view_depth(dir, g.t)
+            })
+            .collect()
+    };
+    Ok((
+        Image::from_vec(w, h, data)?,
+        [gx - x0 as f64, gy - y0 as f64],
+    ))
+}
+
+/// The automatic focus distance at `gaze`, metres: the gaze-depth estimator on
+/// [`depth_patch`].
+pub fn auto_focus_m(
+    world: &World,
+    camera: &EyeCamera,
+    gaze: &fovea_core::display::Gaze,
+) -> Result<f64> {
+    let (patch, por) = depth_patch(world, camera, gaze)?;
+    let est = fovea_core::optics::gaze_depth::estimate_gaze_depth(
+        &patch,
+        fovea_core::units::ScreenPoint::new(por[0], por[1]),
+        px_per_degree(camera),
+        &fovea_core::optics::gaze_depth::GazeDepthParams::default(),
+    )?;
+    Ok(est.focus_m)
+}
