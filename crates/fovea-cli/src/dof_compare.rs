@@ -43,12 +43,20 @@ pub struct DofCompareArgs {
     /// Scored window WxH around the gaze, at the display's resolution, or `full`.
     #[arg(long, default_value = "384x384")]
     pub window: String,
+    /// Rays per pixel of the pinhole frame (pixel-area sampling of both renders when above
+    /// 1, so that scores measure the blur and not aliasing; 1 = pixel centres, as Konrad).
+    #[arg(long, default_value_t = 16)]
+    pub pixel_samples: u32,
     /// Extra pinhole pixels on each side of the window for the filters' context.
     #[arg(long, default_value_t = 32)]
     pub margin: u32,
     /// Lens samples per pixel of the thin-lens reference (Konrad used 55).
     #[arg(long, default_value_t = 128)]
     pub lens_samples: u32,
+    /// Also measure DOF-aware culling: METHOD[+FILTER] (default filter gather) renders whole
+    /// frames with and without culling and scores both in the window, e.g. `vafr+gather`.
+    #[arg(long)]
+    pub cull: Option<String>,
     /// Shading: direct or path.
     #[arg(long, default_value = "direct")]
     pub shading: String,
@@ -86,6 +94,20 @@ pub fn run(args: DofCompareArgs) -> Result<()> {
             args.lens_samples
         );
     }
+    if !(1..=fovea_render::thin_lens::MAX_PIXEL_SAMPLES).contains(&args.pixel_samples) {
+        bail!(
+            "invalid parameter `pixel-samples` = {}: expected 1 to {}",
+            args.pixel_samples,
+            fovea_render::thin_lens::MAX_PIXEL_SAMPLES
+        );
+    }
+    if args.pixel_samples > args.lens_samples {
+        bail!(
+            "invalid parameter `pixel-samples` = {}: expected at most --lens-samples ({}), since each lens sample takes one pixel offset",
+            args.pixel_samples,
+            args.lens_samples
+        );
+    }
     if args.margin > 256 {
         bail!(
             "invalid parameter `margin` = {}: expected 0 to 256",
@@ -105,10 +127,22 @@ pub fn run(args: DofCompareArgs) -> Result<()> {
         .split(',')
         .map(FocusSpec::parse)
         .collect::<Result<_, _>>()?;
+    let culling = match args.cull.as_deref() {
+        None => None,
+        Some(text) => {
+            let (m, f) = text.split_once('+').unwrap_or((text, "gather"));
+            Some((
+                fovea_core::mapping::Method::parse(m)?,
+                FilterKind::parse(f)?,
+            ))
+        }
+    };
     let params = DofCompareParams {
+        culling,
         window,
         margin_px: args.margin,
         lens_samples: args.lens_samples,
+        pixel_samples: args.pixel_samples,
         shading: shading(&args.shading, 2, 4, 1)?,
         eye: args.eye.eye()?,
         coc_model: args.eye.coc_model()?,
@@ -165,6 +199,7 @@ pub fn to_json(r: &DofComparison, scene: &str, display: &str) -> serde_json::Val
         "window": r.window,
         "pixels_per_degree": r.pixels_per_degree,
         "lens_samples": r.params.lens_samples,
+        "pixel_samples": r.params.pixel_samples,
         "pupil_mm": r.params.eye.pupil.0,
         "coc_model": r.params.coc_model.name(),
         "filters": r.mean_scores(),
@@ -183,7 +218,7 @@ fn fmt_db(v: f64) -> String {
 /// The comparison as Markdown: one table per focus case and the means.
 pub fn markdown(r: &DofComparison, scene: &str, display: &str) -> String {
     let mut s = format!(
-        "# Depth-of-field filters against the thin-lens reference\n\n{scene}, {display}, window {}x{} at ({}, {}), {:.1} px/deg, pupil {:.2} mm, {} lens samples, CoC {}.\n",
+        "# Depth-of-field filters against the thin-lens reference\n\n{scene}, {display}, window {}x{} at ({}, {}), {:.1} px/deg, pupil {:.2} mm, {} lens samples, {} pixel samples, CoC {}.\n",
         r.window.width,
         r.window.height,
         r.window.x0,
@@ -191,6 +226,7 @@ pub fn markdown(r: &DofComparison, scene: &str, display: &str) -> String {
         r.pixels_per_degree,
         r.params.eye.pupil.0,
         r.params.lens_samples,
+        r.params.pixel_samples,
         r.params.coc_model.name()
     );
     let table = |rows: &[fovea_eval::dof_compare::FilterScore]| {
@@ -222,6 +258,21 @@ pub fn markdown(r: &DofComparison, scene: &str, display: &str) -> String {
             fmt_db(c.reference_noise_floor_db)
         );
         s += &table(&c.filters);
+        if let Some(k) = &c.culling {
+            s += &format!(
+                "\nDOF-aware culling, {} + {} (whole frames): {} of {} surface samples culled ({:.1} %), shadow rays {} → {}; window PSNR {} dB without, {} dB with culling (cost {:.2} dB).\n",
+                k.method,
+                k.filter,
+                k.samples_culled,
+                k.samples_shaded + k.samples_culled,
+                k.saved_fraction * 100.0,
+                k.shadow_rays[0],
+                k.shadow_rays[1],
+                fmt_db(k.psnr_without_db),
+                fmt_db(k.psnr_with_db),
+                k.cost_db
+            );
+        }
     }
     if r.cases.len() > 1 {
         s += "\n## Mean over the focus cases\n";

@@ -12,12 +12,18 @@
 //! **Focus.** `near` and `far` are the 10th and 90th percentiles of the finite pinhole depths in
 //! the window (Konrad focused once on the foreground object and once on the background);
 //! `auto` is the gaze-depth estimate at the gaze; a number is metres.
+//!
+//! **Culling.** With [`DofCompareParams::culling`], each case also renders whole frames of a
+//! foveation method through the pipeline with one filter, once with and once without Liu's
+//! DOF-aware culling (Eq. 10–11), and scores both in the window against the same reference:
+//! the shading saved and what it costs in luma PSNR.
 
 use std::time::Instant;
 
 use serde::Serialize;
 
 use fovea_core::display::Gaze;
+use fovea_core::mapping::Method;
 use fovea_core::optics::EyeModel;
 use fovea_core::units::Metres;
 use fovea_core::{FoveaError, Image};
@@ -25,7 +31,8 @@ use fovea_post::dof::coc::{coc_map, CocModel, CocParams};
 use fovea_post::dof::{DofInput, FilterKind};
 use fovea_post::Rgb;
 use fovea_render::camera::EyeCamera;
-use fovea_render::dof::{auto_focus_m, px_per_degree};
+use fovea_render::dof::{auto_focus_m, px_per_degree, DofSettings, FocusMode};
+use fovea_render::pipeline::{render_frame, FrameSettings};
 use fovea_render::shade::ShadingMode;
 use fovea_render::thin_lens::{render_window, ThinLens, Window};
 use fovea_render::world::World;
@@ -86,6 +93,9 @@ pub struct DofCompareParams {
     pub margin_px: u32,
     /// Lens samples of the reference (Konrad: 55).
     pub lens_samples: u32,
+    /// Rays per pixel of the pinhole frame; above 1 both renders integrate over the pixel
+    /// area (see [`fovea_render::thin_lens`]) so the scores isolate the blur from aliasing.
+    pub pixel_samples: u32,
     /// Shading of both renders.
     #[serde(skip)]
     pub shading: ShadingMode,
@@ -99,6 +109,9 @@ pub struct DofCompareParams {
     pub filters: Vec<FilterKind>,
     /// Focus cases.
     pub focus: Vec<FocusSpec>,
+    /// Also measure DOF-aware culling: this foveation method with this filter, whole frames
+    /// with and without culling.
+    pub culling: Option<(Method, FilterKind)>,
 }
 
 impl Default for DofCompareParams {
@@ -107,12 +120,14 @@ impl Default for DofCompareParams {
             window: [384, 384],
             margin_px: 32,
             lens_samples: 128,
+            pixel_samples: 16,
             shading: ShadingMode::Direct,
             eye: EyeModel::default(),
             coc_model: CocModel::ThinLens,
             max_coc_px: 64.0,
             filters: FilterKind::ALL.to_vec(),
             focus: vec![FocusSpec::Near, FocusSpec::Far],
+            culling: None,
         }
     }
 }
@@ -132,6 +147,29 @@ pub struct FilterScore {
     pub ms_per_megapixel: f64,
 }
 
+/// DOF-aware culling measured in one case.
+#[derive(Clone, Debug, Serialize)]
+pub struct CullingScore {
+    /// Foveation method.
+    pub method: String,
+    /// DOF filter.
+    pub filter: String,
+    /// Surface samples shaded with culling.
+    pub samples_shaded: u64,
+    /// Surface samples culled.
+    pub samples_culled: u64,
+    /// `culled / (shaded + culled)`.
+    pub saved_fraction: f64,
+    /// Shadow rays without and with culling.
+    pub shadow_rays: [u64; 2],
+    /// Luma PSNR in the window against the reference, without culling, dB.
+    pub psnr_without_db: f64,
+    /// The same with culling, dB.
+    pub psnr_with_db: f64,
+    /// `psnr_without_db − psnr_with_db`: what culling costs.
+    pub cost_db: f64,
+}
+
 /// One focus case.
 #[derive(Clone, Debug, Serialize)]
 pub struct CaseResult {
@@ -148,6 +186,8 @@ pub struct CaseResult {
     pub reference_ms: f64,
     /// Scores: the unfiltered pinhole frame first, then each filter.
     pub filters: Vec<FilterScore>,
+    /// DOF-aware culling, when asked for.
+    pub culling: Option<CullingScore>,
     /// The reference over the inner window.
     #[serde(skip)]
     pub reference: Image<Rgb>,
@@ -251,7 +291,15 @@ pub fn run_dof_compare(
     let ppd = px_per_degree(camera);
 
     progress("pinhole frame");
-    let pin = render_window(world, camera, outer, None, params.shading, &|_, _| {})?;
+    let pin = render_window(
+        world,
+        camera,
+        outer,
+        None,
+        params.pixel_samples,
+        params.shading,
+        &|_, _| {},
+    )?;
     let pin_inner = crop(&pin.color, inner_region).ok_or_else(|| crop_error(inner_region))?;
     let depth_inner = crop(&pin.depth, inner_region).ok_or_else(|| crop_error(inner_region))?;
     let focal_px = d.focal_y_px();
@@ -285,6 +333,7 @@ pub fn run_dof_compare(
             camera,
             inner,
             Some(&lens),
+            params.pixel_samples,
             params.shading,
             &|_, _| {},
         )?;
@@ -327,7 +376,56 @@ pub fn run_dof_compare(
             ));
             images.push(out_inner);
         }
+        let culling = match params.culling {
+            Some((method, filter)) => {
+                progress(&format!(
+                    "{} focus: {} + {} with and without culling",
+                    spec.label(),
+                    method,
+                    filter.name()
+                ));
+                let frame = |cull: bool| {
+                    let mut s = FrameSettings::new(method, *gaze);
+                    s.shading = params.shading;
+                    let mut dof = DofSettings::new(Some(filter), FocusMode::Fixed(focus_m));
+                    dof.eye = params.eye;
+                    dof.coc_model = params.coc_model;
+                    dof.max_coc_px = params.max_coc_px;
+                    dof.cull = cull;
+                    s.dof = Some(dof);
+                    render_frame(world, camera, &s, &|_, _| {})
+                };
+                let (plain, culled) = (frame(false)?, frame(true)?);
+                let window_region = Region {
+                    x0: inner.x0,
+                    y0: inner.y0,
+                    x1: inner.x0 + inner.width,
+                    y1: inner.y0 + inner.height,
+                };
+                let score = |img: &Image<Rgb>| {
+                    crop(img, window_region)
+                        .and_then(|c| luma_psnr(&reference.color, &c, full))
+                        .unwrap_or(f64::NAN)
+                };
+                let (a, b) = (score(&plain.color), score(&culled.color));
+                let st = &culled.stats;
+                let total = (st.samples_shaded + st.samples_culled).max(1);
+                Some(CullingScore {
+                    method: method.name().to_string(),
+                    filter: filter.name().to_string(),
+                    samples_shaded: st.samples_shaded,
+                    samples_culled: st.samples_culled,
+                    saved_fraction: st.samples_culled as f64 / total as f64,
+                    shadow_rays: [plain.stats.rays_shadow, st.rays_shadow],
+                    psnr_without_db: a,
+                    psnr_with_db: b,
+                    cost_db: a - b,
+                })
+            }
+            None => None,
+        };
         cases.push(CaseResult {
+            culling,
             focus: spec.label(),
             focus_m: focus_m.min(1e308),
             max_coc_px: max_coc,

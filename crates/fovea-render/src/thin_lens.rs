@@ -10,9 +10,16 @@
 //! [`fovea_post::dof::coc`]'s thin-lens model, so filters and reference agree on the blur.
 //! Focus at infinity aims every lens sample along the pinhole direction.
 //!
-//! Every lens sample goes through the pixel centre (as Konrad's 55 re-projected renders do),
-//! so in-focus surfaces match the pinhole image exactly and the only difference is the
-//! blur. Lens samples are stratified over the disc (concentric map,
+//! **Pixel sampling.** With one pixel sample, every lens sample goes through the pixel centre
+//! (as Konrad's 55 re-projected renders do), so in-focus surfaces match the pinhole image
+//! exactly. That also makes the pinhole image aliased where the reference is not: defocus
+//! averages each out-of-focus edge over the aperture, so a 1-pixel CoC already looks
+//! anti-aliased, and no filter can recover that from an aliased input. With more than one
+//! pixel sample both renders integrate over the pixel's area instead: the pinhole frame traces that many
+//! rays at R2 low-discrepancy offsets in the pixel (Roberts 2018), and the `s`-th lens sample
+//! of the reference goes through the `s`-th offset of the same sequence (which is
+//! decorrelated from the stratified lens grid), so in focus both converge to the same
+//! box-filtered pixel and the comparison isolates the blur. Lens samples are stratified over the disc (concentric map,
 //! [`fovea_post::dof::planes::disc_samples`]); Konrad used 55, we default to 128 and accept
 //! up to 4096. The even and odd samples are also accumulated apart: the luma PSNR between the
 //! two half-estimates, plus 6.02 dB, estimates the reference's own noise floor
@@ -161,13 +168,29 @@ impl WindowRender {
     }
 }
 
+/// Most pixel samples of a pinhole window.
+pub const MAX_PIXEL_SAMPLES: u32 = 1024;
+
+/// The `s`-th point of the R2 sequence in the unit square (Roberts 2018), starting at the
+/// centre.
+#[inline]
+fn r2(s: usize) -> [f32; 2] {
+    const A1: f64 = 0.754_877_666_246_692_8;
+    const A2: f64 = 0.569_840_290_998_053_3;
+    let s = s as f64;
+    [(0.5 + A1 * s).fract() as f32, (0.5 + A2 * s).fract() as f32]
+}
+
 /// Renders `window` of `camera`'s display: the pinhole image (`lens = None`) or the thin-lens
-/// reference. `progress(done_rows, total_rows)` is called as rows finish.
+/// reference, with `pixel_samples` (1 to [`MAX_PIXEL_SAMPLES`]) rays per pixel for the pinhole
+/// image and pixel-area sampling of the lens samples when it is above 1 (see the module
+/// header). `progress(done_rows, total_rows)` is called as rows finish.
 pub fn render_window(
     world: &World,
     camera: &EyeCamera,
     window: Window,
     lens: Option<&ThinLens>,
+    pixel_samples: u32,
     shading: ShadingMode,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<WindowRender> {
@@ -193,10 +216,20 @@ pub fn render_window(
     if let Some(l) = lens {
         l.validate()?;
     }
+    if !(1..=MAX_PIXEL_SAMPLES).contains(&pixel_samples) {
+        return Err(RenderError::invalid(
+            "pixel-samples",
+            pixel_samples,
+            format!("1 to {MAX_PIXEL_SAMPLES}"),
+        ));
+    }
+    let aa = pixel_samples > 1;
     // Footprint of one screen pixel, as at full resolution.
     let spread = (1.0 / d.focal_y_px()) as f32;
     let lens_pts: Vec<[f32; 2]> = match lens {
         Some(l) if l.pupil_m > 0.0 => disc_samples(l.lens_samples),
+        Some(l) if aa => vec![[0.0, 0.0]; l.lens_samples as usize],
+        None if aa => vec![[0.0, 0.0]; pixel_samples as usize],
         _ => vec![[0.0, 0.0]],
     };
     let radius_m = lens.map_or(0.0, |l| l.pupil_m as f32 / 2.0);
@@ -258,9 +291,16 @@ pub fn render_window(
                 let key = ((window.y0 as u64 + j as u64) << 32) | (window.x0 as u64 + i as u64);
                 let mut acc = [[0.0f32; 3]; 2];
                 for (s, u) in lens_pts.iter().enumerate() {
-                    let c = if u[0] == 0.0 && u[1] == 0.0 {
+                    let c = if u[0] == 0.0 && u[1] == 0.0 && !aa {
                         shade(world, &g0, shading, key, &mut counts)
                     } else {
+                        // The pinhole direction through this sample's point of the pixel.
+                        let dir = if aa {
+                            let o = r2(s);
+                            camera.direction(x - 0.5 + o[0], y - 0.5 + o[1])
+                        } else {
+                            dir
+                        };
                         let origin =
                             camera.position + radius_m * (u[0] * camera.right + u[1] * camera.up);
                         let target = if focus_m.is_finite() {

@@ -33,7 +33,7 @@ fn zero_pupil_is_the_pinhole_frame() {
     let d = small_display();
     let (world, cam) = setup(&d);
     let win = Window::centred(160.0, 120.0, 64, 48, 320, 240);
-    let pin = render_window(&world, &cam, win, None, ShadingMode::Direct, &|_, _| {}).unwrap();
+    let pin = render_window(&world, &cam, win, None, 1, ShadingMode::Direct, &|_, _| {}).unwrap();
     let lens = ThinLens {
         pupil_m: 0.0,
         focus_m: 1.0,
@@ -44,6 +44,7 @@ fn zero_pupil_is_the_pinhole_frame() {
         &cam,
         win,
         Some(&lens),
+        1,
         ShadingMode::Direct,
         &|_, _| {},
     )
@@ -53,11 +54,54 @@ fn zero_pupil_is_the_pinhole_frame() {
 }
 
 #[test]
+fn pixel_area_sampling_is_shared_by_pinhole_and_reference() {
+    // A zero pupil with 16 lens samples through the R2 pixel offsets is the pinhole frame
+    // with 16 pixel samples.
+    let d = small_display();
+    let (world, cam) = setup(&d);
+    let win = Window::centred(160.0, 120.0, 64, 48, 320, 240);
+    let pin = render_window(&world, &cam, win, None, 16, ShadingMode::Direct, &|_, _| {}).unwrap();
+    let lens = ThinLens {
+        pupil_m: 0.0,
+        focus_m: 1.0,
+        lens_samples: 16,
+    };
+    let zero = render_window(
+        &world,
+        &cam,
+        win,
+        Some(&lens),
+        16,
+        ShadingMode::Direct,
+        &|_, _| {},
+    )
+    .unwrap();
+    // The same rays up to rounding in their directions, which can flip one of the 16 samples
+    // of a pixel on a silhouette.
+    let diffs: Vec<f32> = pin
+        .color
+        .data()
+        .iter()
+        .zip(zero.color.data())
+        .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs()))
+        .collect();
+    let mean = diffs.iter().sum::<f32>() / diffs.len() as f32;
+    let worst = diffs.iter().fold(0.0f32, |m, &v| m.max(v));
+    assert!(mean < 1e-4 && worst < 0.1, "{mean} {worst}");
+    // Anti-aliased: differs from the centre-sampled frame at edges, same depth.
+    let centre =
+        render_window(&world, &cam, win, None, 1, ShadingMode::Direct, &|_, _| {}).unwrap();
+    assert_ne!(centre.color, pin.color);
+    assert_eq!(centre.depth, pin.depth);
+    assert!(render_window(&world, &cam, win, None, 0, ShadingMode::Direct, &|_, _| {}).is_err());
+}
+
+#[test]
 fn focus_plane_stays_sharp_and_reference_converges() {
     let d = small_display();
     let (world, cam) = setup(&d);
     let win = Window::full(320, 240);
-    let pin = render_window(&world, &cam, win, None, ShadingMode::Direct, &|_, _| {}).unwrap();
+    let pin = render_window(&world, &cam, win, None, 1, ShadingMode::Direct, &|_, _| {}).unwrap();
     // Focus on the surface at the screen centre.
     let focus = *pin.depth.get(160, 120) as f64;
     assert!(focus.is_finite());
@@ -73,6 +117,7 @@ fn focus_plane_stays_sharp_and_reference_converges() {
             &cam,
             win,
             Some(&lens),
+            1,
             ShadingMode::Direct,
             &|_, _| {},
         )
@@ -169,6 +214,7 @@ fn invalid_lens_and_window_are_errors() {
             &cam,
             win,
             Some(&lens),
+            1,
             ShadingMode::Direct,
             &|_, _| {}
         )
@@ -180,7 +226,16 @@ fn invalid_lens_and_window_are_errors() {
         width: 64,
         height: 8,
     };
-    assert!(render_window(&world, &cam, outside, None, ShadingMode::Direct, &|_, _| {}).is_err());
+    assert!(render_window(
+        &world,
+        &cam,
+        outside,
+        None,
+        1,
+        ShadingMode::Direct,
+        &|_, _| {}
+    )
+    .is_err());
     // Focus at infinity is valid.
     let inf = ThinLens {
         pupil_m: 0.004,
@@ -193,6 +248,7 @@ fn invalid_lens_and_window_are_errors() {
         &cam,
         small,
         Some(&inf),
+        1,
         ShadingMode::Direct,
         &|_, _| {},
     )
@@ -242,6 +298,7 @@ fn culling_on_vafr_saves_shading_at_half_a_db_at_most() {
         &cam,
         win,
         Some(&lens),
+        1,
         ShadingMode::Direct,
         &|_, _| {},
     )

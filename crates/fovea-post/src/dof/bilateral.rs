@@ -27,11 +27,11 @@
 //! Zero CoC everywhere returns the input unchanged; the support is bounded by
 //! `max_radius_px`; rows run in parallel with one `exp` per tap.
 
-use rayon::prelude::*;
-
 use fovea_core::{FoveaError, Image, Result};
 
-use super::gather::{check_max_radius, normalise, Disc, Prepared};
+use super::disc::{
+    accumulate, check_max_radius, for_each_tap, map_pixels, normalise, Disc, Prepared,
+};
 use super::{DofFilter, DofInput};
 use crate::Rgb;
 
@@ -71,7 +71,7 @@ impl Default for DepthBilateral {
 
 impl DepthBilateral {
     fn check(&self) -> Result<()> {
-        check_max_radius(self.max_radius_px)?;
+        check_max_radius(self.max_radius_px, 0.5)?;
         if !(self.sigma_per_radius > 0.0 && self.sigma_per_radius <= 2.0) {
             return Err(FoveaError::invalid(
                 "sigma_per_radius",
@@ -100,73 +100,48 @@ impl DofFilter for DepthBilateral {
         input.validate()?;
         self.check()?;
         let prep = Prepared::new(input, self.max_radius_px);
+        let (w, h) = (prep.w, prep.h);
         // Support is 3σ_s ≤ 3 · sigma_per_radius · max_radius_px.
         let disc = Disc::new(3.0 * self.sigma_per_radius * self.max_radius_px);
         let inv_dioptre: Vec<f32> = prep.depth_m.iter().map(|&z| 1.0 / z).collect();
         let k_rgb = 0.5 / (self.sigma_rgb * self.sigma_rgb);
         let k_d = 0.5 / (self.sigma_dioptre * self.sigma_dioptre);
-        let (w, h) = (prep.w, prep.h);
-        let mut out = vec![[0.0f32; 3]; w * h];
-        out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-            for (x, o) in row.iter_mut().enumerate() {
-                let i = y * w + x;
-                let sigma = self.sigma_per_radius * prep.radius_px[i];
-                let support = 3.0 * sigma;
-                if support < 1.0 {
-                    *o = prep.color[i];
-                    continue;
-                }
-                let k_s = 0.5 / (sigma * sigma);
-                let cc = prep.color[i];
-                let near = self.depth_kernel_everywhere || prep.coc_px[i] < 0.0;
-                let dc = inv_dioptre[i];
-                let mut acc = [0.0f32; 4];
-                // `within(r)` yields |o| < r + ½; the Gaussian is cut at `support`.
-                for &(dx, dy, d) in disc.within(support - 0.5) {
-                    let (px, py) = (x as i32 + dx, y as i32 + dy);
-                    if px < 0 || py < 0 || px >= w as i32 || py >= h as i32 {
-                        continue;
-                    }
-                    let j = py as usize * w + px as usize;
-                    let c = prep.color[j];
-                    let range = if near {
-                        let dd = inv_dioptre[j] - dc;
-                        k_d * dd * dd
-                    } else {
-                        let (a, b, e) = (c[0] - cc[0], c[1] - cc[1], c[2] - cc[2]);
-                        k_rgb * (a * a + b * b + e * e)
-                    };
-                    let wt = (-(k_s * d * d) - range).exp();
-                    acc[0] += wt * c[0];
-                    acc[1] += wt * c[1];
-                    acc[2] += wt * c[2];
-                    acc[3] += wt;
-                }
-                *o = normalise(acc, cc);
+        map_pixels(w, h, |x, y| {
+            let i = y * w + x;
+            let sigma = self.sigma_per_radius * prep.radius_px[i];
+            let support = 3.0 * sigma;
+            let cc = prep.color[i];
+            if support < 1.0 {
+                return cc;
             }
-        });
-        Image::from_vec(w as u32, h as u32, out)
+            let k_s = 0.5 / (sigma * sigma);
+            let near = self.depth_kernel_everywhere || prep.coc_px[i] < 0.0;
+            let dc = inv_dioptre[i];
+            let mut acc = [0.0f32; 4];
+            // `within(r)` yields |o| < r + ½; the Gaussian is cut at `support`.
+            for_each_tap(disc.within(support - 0.5), x, y, w, h, |j, _, d| {
+                let c = prep.color[j];
+                let range = if near {
+                    let dd = inv_dioptre[j] - dc;
+                    k_d * dd * dd
+                } else {
+                    let (a, b, e) = (c[0] - cc[0], c[1] - cc[1], c[2] - cc[2]);
+                    k_rgb * (a * a + b * b + e * e)
+                };
+                accumulate(&mut acc, (-(k_s * d * d) - range).exp(), c);
+            });
+            normalise(acc, cc)
+        })
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use super::super::gather::testkit::*;
+    use super::super::testkit::*;
     use super::*;
 
     fn f() -> DepthBilateral {
         DepthBilateral::default()
-    }
-
-    #[test]
-    fn zero_coc_is_identity() {
-        let case = Case::new(
-            &occluder_scene(48, 32, Edge::Straight(20.0), true),
-            0.0,
-            1.0,
-            1,
-        );
-        assert_eq!(f().apply(&case.input()).unwrap(), case.color);
     }
 
     #[test]
@@ -260,33 +235,19 @@ mod tests {
     }
 
     #[test]
-    fn nan_inputs_give_finite_output() {
-        let case = Case::new(
-            &occluder_scene(40, 30, Edge::Straight(20.0), true),
-            8.0,
-            0.5,
-            1,
-        );
-        let mut depth = case.depth.clone();
-        let mut coc = case.coc.clone();
-        for k in (0..depth.data().len()).step_by(7) {
-            depth.data_mut()[k] = f32::NAN;
+    fn bad_parameters_are_errors() {
+        let frame = nan_frame();
+        for bad in [
+            DepthBilateral {
+                sigma_rgb: 0.0,
+                ..f()
+            },
+            DepthBilateral {
+                sigma_per_radius: 3.0,
+                ..f()
+            },
+        ] {
+            assert!(bad.apply(&frame.input()).is_err());
         }
-        for k in (0..coc.data().len()).step_by(5) {
-            coc.data_mut()[k] = f32::NAN;
-        }
-        let input = DofInput {
-            depth_m: &depth,
-            coc_px: &coc,
-            ..case.input()
-        };
-        let out = f().apply(&input).unwrap();
-        assert!(out.data().iter().all(|c| c.iter().all(|v| v.is_finite())));
-        assert!(DepthBilateral {
-            sigma_rgb: 0.0,
-            ..f()
-        }
-        .apply(&input)
-        .is_err());
     }
 }

@@ -28,10 +28,13 @@ pub mod bilateral;
 pub mod bokeh_lca;
 pub mod chromatic;
 pub mod coc;
+mod disc;
 pub mod gather;
 pub mod layered;
 pub mod planes;
 pub mod recursive;
+#[cfg(test)]
+pub(crate) mod testkit;
 
 /// What every DOF filter reads.
 #[derive(Clone, Copy, Debug)]
@@ -225,6 +228,73 @@ impl FilterKind {
             FilterKind::Bilateral => Box::new(bilateral::DepthBilateral::default()),
             FilterKind::Recursive => Box::new(recursive::AdaptiveRecursive::default()),
             FilterKind::Gather => Box::new(gather::ScatterAsGather::default()),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::testkit::*;
+    use super::*;
+
+    #[test]
+    fn names_round_trip() {
+        for kind in FilterKind::ALL {
+            assert_eq!(kind.build().name(), kind.name());
+            assert_eq!(FilterKind::parse(kind.name()).unwrap(), kind);
+        }
+        assert!(FilterKind::parse("blur").is_err());
+    }
+
+    #[test]
+    fn every_filter_is_the_identity_without_blur() {
+        // A pinhole (no aperture): every CoC is 0.
+        let frame = Frame::from_scene(
+            &occluder_scene(48, 32, Edge::Straight(20.0), true),
+            0.0,
+            1.0,
+        );
+        for kind in FilterKind::ALL {
+            assert_eq!(frame.filtered(&*kind.build()), frame.color, "{kind:?}");
+        }
+    }
+
+    #[test]
+    fn every_filter_gives_finite_output_on_nan_depth_and_coc() {
+        let frame = nan_frame();
+        for kind in FilterKind::ALL {
+            assert!(all_finite(&frame.filtered(&*kind.build())), "{kind:?}");
+        }
+    }
+
+    #[test]
+    fn tiny_and_odd_frames_work_for_every_filter() {
+        for (w, h) in [(1u32, 1u32), (1, 7), (9, 1), (5, 3)] {
+            let color = Image::new(w, h, [0.2f32, 0.4, 0.6]).unwrap();
+            let depth =
+                Image::from_vec(w, h, (0..w * h).map(|i| 0.3 + i as f32).collect()).unwrap();
+            let coc = depth.map(|&d| thin_lens_coc(30.0, 1.0, d));
+            for (ppd, gaze) in [(1000.0f32, [0.0f32, 0.0f32]), (0.05, [2.0, 1.0])] {
+                let frame = Frame {
+                    color: color.clone(),
+                    depth: depth.clone(),
+                    coc: coc.clone(),
+                    focus_m: 1.0,
+                    k: 30.0,
+                    gaze,
+                    ppd,
+                };
+                for kind in FilterKind::ALL {
+                    let out = frame.filtered(&*kind.build());
+                    assert_eq!((out.width(), out.height()), (w, h));
+                    // A uniform colour stays uniform under every filter.
+                    for p in out.data() {
+                        for c in 0..3 {
+                            assert!((p[c] - [0.2, 0.4, 0.6][c]).abs() < 1e-5, "{kind:?} {p:?}");
+                        }
+                    }
+                }
+            }
         }
     }
 }
