@@ -122,6 +122,10 @@ pub struct DofArgs {
     /// Seed of the culling roulette.
     #[arg(long, default_value_t = 1)]
     pub cull_seed: u64,
+    /// CoC diameter in pixels under which the blur cannot hide a culled sample: each surface
+    /// keeps at least (this / |CoC|)² of its samples. 0 leaves Liu's weight alone.
+    #[arg(long, default_value_t = 0.0)]
+    pub cull_hidden_coc: f64,
 }
 
 impl DofArgs {
@@ -159,6 +163,13 @@ impl DofArgs {
         let mut s = self.eye.settings(filter)?;
         s.cull = self.cull || liu_hybrid;
         s.seed = self.cull_seed;
+        if !(self.cull_hidden_coc.is_finite() && (0.0..=256.0).contains(&self.cull_hidden_coc)) {
+            bail!(
+                "invalid parameter `cull-hidden-coc` = {}: expected 0 to 256 pixels",
+                self.cull_hidden_coc
+            );
+        }
+        s.cull_hidden_coc_px = self.cull_hidden_coc;
         Ok(Some(s))
     }
 }

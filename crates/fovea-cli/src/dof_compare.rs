@@ -57,6 +57,10 @@ pub struct DofCompareArgs {
     /// frames with and without culling and scores both in the window, e.g. `vafr+gather`.
     #[arg(long)]
     pub cull: Option<String>,
+    /// With --cull: CoC diameter in pixels under which the blur cannot hide a culled sample
+    /// (see `fovea render --help`).
+    #[arg(long, default_value_t = 0.0)]
+    pub cull_hidden_coc: f64,
     /// Shading: direct or path.
     #[arg(long, default_value = "direct")]
     pub shading: String,
@@ -137,8 +141,15 @@ pub fn run(args: DofCompareArgs) -> Result<()> {
             ))
         }
     };
+    if !(args.cull_hidden_coc.is_finite() && (0.0..=256.0).contains(&args.cull_hidden_coc)) {
+        bail!(
+            "invalid parameter `cull-hidden-coc` = {}: expected 0 to 256 pixels",
+            args.cull_hidden_coc
+        );
+    }
     let params = DofCompareParams {
         culling,
+        cull_hidden_coc_px: args.cull_hidden_coc,
         window,
         margin_px: args.margin,
         lens_samples: args.lens_samples,

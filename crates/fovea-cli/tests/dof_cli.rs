@@ -280,9 +280,10 @@ fn best_filter_reaches_33_db_on_real_scenes() {
             for f in filters {
                 println!("    {:>13} {:.2} dB", f["name"].as_str().unwrap(), score(f));
             }
-            // The view really is out of focus somewhere: the sharp frame is far off.
+            // The view really is out of focus somewhere, and blurring it matters: the best
+            // filter beats the sharp frame by a clear margin.
             assert!(case["max_coc_px"].as_f64().unwrap() > 3.0, "{case}");
-            assert!(score(pinhole) < 33.0, "{case}");
+            assert!(score(best) >= score(pinhole) + 3.0, "{case}");
             assert!(score(best) >= 33.0, "{case}");
         }
     }

@@ -112,6 +112,8 @@ pub struct DofCompareParams {
     /// Also measure DOF-aware culling: this foveation method with this filter, whole frames
     /// with and without culling.
     pub culling: Option<(Method, FilterKind)>,
+    /// The culling's `cull_hidden_coc_px` ([`DofSettings`]).
+    pub cull_hidden_coc_px: f64,
 }
 
 impl Default for DofCompareParams {
@@ -128,6 +130,7 @@ impl Default for DofCompareParams {
             filters: FilterKind::ALL.to_vec(),
             focus: vec![FocusSpec::Near, FocusSpec::Far],
             culling: None,
+            cull_hidden_coc_px: DofSettings::new(None, FocusMode::Auto).cull_hidden_coc_px,
         }
     }
 }
@@ -392,6 +395,7 @@ pub fn run_dof_compare(
                     dof.coc_model = params.coc_model;
                     dof.max_coc_px = params.max_coc_px;
                     dof.cull = cull;
+                    dof.cull_hidden_coc_px = params.cull_hidden_coc_px;
                     s.dof = Some(dof);
                     render_frame(world, camera, &s, &|_, _| {})
                 };

@@ -76,6 +76,10 @@ pub struct DofSettings {
     pub min_keep: f64,
     /// The roulette's `ε`.
     pub noise: CullNoise,
+    /// CoC diameter in pixels below which culling is never complete: the keep probability is
+    /// at least `(cull_hidden_coc_px / |CoC|)²`, so a surface keeps about one shaded sample per
+    /// disc of this diameter of its blur. 0 gives Liu's weight alone.
+    pub cull_hidden_coc_px: f64,
 }
 
 impl DofSettings {
@@ -91,6 +95,7 @@ impl DofSettings {
             seed: 1,
             min_keep: 0.25,
             noise: CullNoise::Ordered,
+            cull_hidden_coc_px: 0.0,
         }
     }
 }
@@ -156,22 +161,73 @@ pub fn roulette_epsilon(noise: CullNoise, seed: u64, i: u32, j: u32, index: u64)
     }
 }
 
-/// The roulette of one sample (Eq. 11): `true` to shade it. `depth_m` is its view depth (`∞`
-/// misses are always shaded: they cost nothing), `eps` its [`roulette_epsilon`]; the weight
-/// of Eq. 10 is floored at `min_keep`.
-#[inline]
-pub fn keep_sample(
-    depth_m: f32,
-    limits: &DofLimits,
-    max_depth_m: f64,
-    min_keep: f64,
-    eps: f64,
-) -> bool {
-    if !depth_m.is_finite() {
-        return true;
+/// DOF-aware culling for one frame: Eq. 10's weight with our two floors, and the roulette.
+#[derive(Clone, Debug)]
+pub struct Culling {
+    /// DOF limits at the frame's focus.
+    pub limits: DofLimits,
+    /// `D_M`, metres.
+    pub max_depth_m: f64,
+    /// Floor of the weight.
+    pub min_keep: f64,
+    /// CoC diameter (pixels) below which the blur cannot hide a missing sample; the weight is
+    /// at least `(hidden_coc_px / |CoC|)²`. 0 disables this floor.
+    pub hidden_coc_px: f64,
+    /// Thin-lens CoC in pixels per dioptre (`τ·f_px`) and `1/F`.
+    coc_per_dioptre_px: f64,
+    inv_focus: f64,
+    seed: u64,
+    noise: CullNoise,
+}
+
+impl Culling {
+    /// The culling of `settings` for a frame focused at `focus_m` on `camera`.
+    pub fn new(
+        settings: &DofSettings,
+        camera: &EyeCamera,
+        world: &World,
+        focus_m: f64,
+    ) -> Result<Self> {
+        Ok(Self {
+            limits: culling_limits(&settings.eye, focus_m)?,
+            max_depth_m: scene_max_depth_m(world, camera),
+            min_keep: settings.min_keep.clamp(0.0, 1.0),
+            hidden_coc_px: settings.cull_hidden_coc_px.max(0.0),
+            coc_per_dioptre_px: settings.eye.pupil.to_metres().0 * camera.display.focal_y_px(),
+            inv_focus: if focus_m.is_finite() {
+                1.0 / focus_m
+            } else {
+                0.0
+            },
+            seed: settings.seed,
+            noise: settings.noise,
+        })
     }
-    let w = dof_weight(Metres(depth_m as f64), limits, Metres(max_depth_m)).max(min_keep);
-    russian_roulette(w, eps)
+
+    /// The probability of shading a sample at view depth `depth_m`: Eq. 10's `w_d`, at least
+    /// `min_keep` and at least `(hidden_coc_px / |CoC|)²`.
+    pub fn weight(&self, depth_m: f32) -> f64 {
+        let d = depth_m as f64;
+        let w = dof_weight(Metres(d), &self.limits, Metres(self.max_depth_m));
+        let coc = (self.coc_per_dioptre_px * (self.inv_focus - 1.0 / d)).abs();
+        let hidden = if self.hidden_coc_px > 0.0 {
+            (self.hidden_coc_px / coc.max(1e-9)).powi(2).min(1.0)
+        } else {
+            0.0
+        };
+        w.max(self.min_keep).max(hidden)
+    }
+
+    /// The roulette (Eq. 11) of buffer pixel `(i, j)`, unique sample `index`: `true` to shade
+    /// it. Misses (`depth_m` = ∞) are always shaded: they cost nothing.
+    #[inline]
+    pub fn keep(&self, depth_m: f32, i: u32, j: u32, index: u64) -> bool {
+        if !(depth_m.is_finite() && depth_m > 0.0) {
+            return true;
+        }
+        let eps = roulette_epsilon(self.noise, self.seed, i, j, index);
+        russian_roulette(self.weight(depth_m), eps)
+    }
 }
 
 /// Pixels per degree at the screen centre (`f_y · π/180`), the scale FLIP and foveal regions

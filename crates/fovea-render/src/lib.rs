@@ -16,6 +16,7 @@
 
 pub mod bvh;
 pub mod camera;
+pub mod cull_fill;
 pub mod dof;
 pub mod error;
 pub mod lights;

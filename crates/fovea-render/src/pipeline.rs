@@ -22,7 +22,6 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use glam::Vec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -33,16 +32,13 @@ use fovea_post::fxaa::{fxaa, FxaaParams};
 use fovea_post::gaussian_aa::gaussian_3x3;
 use fovea_post::grid::Grid;
 use fovea_post::inverse_map::{reconstruct, SampleBuffers};
-use fovea_post::pull_push::pull_push;
 use fovea_post::Rgb;
 
 use crate::camera::EyeCamera;
-use crate::dof::{
-    apply_dof, auto_focus_m, culling_limits, keep_sample, roulette_epsilon, scene_max_depth_m,
-    DofSettings, FocusMode,
-};
+use crate::cull_fill::{fill_culled, shade_or_cull, CullBuffers, SampleCull};
+use crate::dof::{apply_dof, auto_focus_m, Culling, DofSettings, FocusMode};
 use crate::error::{RenderError, Result};
-use crate::shade::{culled_basis, shade, RayCounts, ShadingMode};
+use crate::shade::{shade, RayCounts, ShadingMode};
 use crate::trace::{trace_sample, GSample};
 use crate::world::World;
 
@@ -326,13 +322,7 @@ pub fn render_frame(
         None => None,
     };
     let cull = match (&settings.dof, focus_m) {
-        (Some(d), Some(f)) if d.cull => Some((
-            culling_limits(&d.eye, f)?,
-            scene_max_depth_m(world, camera),
-            d.min_keep.clamp(0.0, 1.0),
-            d.seed,
-            d.noise,
-        )),
+        (Some(d), Some(f)) if d.cull => Some(Culling::new(d, camera, world, f)?),
         _ => None,
     };
     times.add("plan", &t);
@@ -374,11 +364,7 @@ pub fn render_frame(
         // When culling: per buffer pixel, whether it is a shaded surface (1), a culled one
         // (2) or neither (0), and its reconstruction basis (`shade::culled_basis`).
         let mut cull_state = match cull {
-            Some(_) => Some(CullBuffers {
-                state: Image::new(bw, bh, 0u8)?,
-                offset: Image::new(bw, bh, [0.0f32; 3])?,
-                basis: Image::new(bw, bh, [0.0f32; 3])?,
-            }),
+            Some(_) => Some(CullBuffers::new(bw, bh)?),
             None => None,
         };
         let rows_per_chunk = (CHUNK_SAMPLES / bw as usize).max(1);
@@ -432,7 +418,7 @@ pub fn render_frame(
             // Shade (unless the DOF roulette culls the sample), in the same order, then
             // scatter to the buffer.
             let t = Stopwatch::start();
-            type Shaded = (Option<Rgb>, f32, (Vec3, Vec3), RayCounts);
+            type Shaded = (Option<Rgb>, f32, Option<SampleCull>, RayCounts);
             let shaded: Vec<Option<Shaded>> = order
                 .par_iter()
                 .zip(gbuf.par_iter())
@@ -441,24 +427,21 @@ pub fn render_frame(
                     let mut rc = RayCounts::default();
                     let key = ((layer as u64) << 48) ^ ((j0 as u64 * row_len as u64) + k as u64);
                     let depth = camera.view_depth(-g.to_eye, g.t);
-                    if let Some((limits, max_depth, min_keep, seed, noise)) = &cull {
+                    if let Some(culling) = &cull {
                         let (i, j) = (k % row_len as u32, j0 + k / row_len as u32);
-                        let eps = roulette_epsilon(*noise, *seed, i, j, key);
-                        let basis = culled_basis(world, g, settings.shading);
-                        if !keep_sample(depth, limits, *max_depth, *min_keep, eps) {
-                            return Some((None, depth, basis, rc));
-                        }
-                        let v = shade(world, g, settings.shading, key, &mut rc);
-                        return Some((Some(v.to_array()), depth, basis, rc));
+                        let keep = culling.keep(depth, i, j, key);
+                        let (v, info) =
+                            shade_or_cull(world, g, settings.shading, keep, key, &mut rc);
+                        return Some((v.map(|v| v.to_array()), depth, Some(info), rc));
                     }
                     let v = shade(world, g, settings.shading, key, &mut rc);
-                    Some((Some(v.to_array()), depth, (Vec3::ZERO, Vec3::ZERO), rc))
+                    Some((Some(v.to_array()), depth, None, rc))
                 })
                 .collect();
             let mut chunk_counts = RayCounts::default();
             let chunk_start = j0 as usize * row_len;
             for (&k, s) in order.iter().zip(shaded) {
-                if let Some((c, d, (offset, basis), rc)) = s {
+                if let Some((c, d, info, rc)) = s {
                     d_chunk[k as usize] = d;
                     chunk_counts += rc;
                     let at = chunk_start + k as usize;
@@ -477,10 +460,8 @@ pub fn render_frame(
                             2
                         }
                     };
-                    if let Some(cb) = cull_state.as_mut() {
-                        cb.state.data_mut()[at] = state;
-                        cb.offset.data_mut()[at] = offset.to_array();
-                        cb.basis.data_mut()[at] = basis.to_array();
+                    if let (Some(cb), Some(info)) = (cull_state.as_mut(), info) {
+                        cb.record(at, state, info);
                     }
                 }
             }
@@ -491,7 +472,7 @@ pub fn render_frame(
         // Culled samples get their colour from the shaded ones before any filtering.
         if let Some(cb) = cull_state.filter(|cb| cb.state.data().contains(&2)) {
             let t = Stopwatch::start();
-            color = fill_culled(&color, &cb)?;
+            color = fill_culled(&color, &depth, &cb)?;
             times.add("cull-fill", &t);
         }
         colors.push(color);
@@ -583,63 +564,6 @@ pub fn render_frame(
         coc,
         stats,
     })
-}
-
-/// Smallest basis value (per channel) a shaded sample's radiance is divided by.
-const MIN_BASIS: f32 = 0.02;
-
-/// The buffers of one layer that reconstruct culled samples.
-pub struct CullBuffers {
-    /// 1: shaded surface sample; 2: culled surface sample; 0: neither (a miss, or no sample).
-    pub state: Image<u8>,
-    /// The radiance every surface sample gets without shading (`shade::culled_basis`).
-    pub offset: Image<Rgb>,
-    /// What the smooth ratio multiplies (`shade::culled_basis`).
-    pub basis: Image<Rgb>,
-}
-
-/// Fills culled samples from the shaded surface samples of a sample buffer. Culled samples
-/// were traced, so what does not need rays is known for them: `offset` and `basis`
-/// ([`crate::shade::culled_basis`]). A shaded sample's ratio `(L − offset)/basis` — the
-/// lights' visibility in direct shading, everything but the albedo in path tracing — varies
-/// slowly over a surface; it is spread into the holes by pull-push (only from samples whose
-/// basis is above [`MIN_BASIS`]), and each culled sample gets `offset + basis · ratio`, so
-/// texture and shading detail survive culling.
-pub fn fill_culled(color: &Image<Rgb>, cb: &CullBuffers) -> Result<Image<Rgb>> {
-    let ratio: Vec<Rgb> = color
-        .data()
-        .par_iter()
-        .zip(cb.offset.data().par_iter().zip(cb.basis.data().par_iter()))
-        .map(|(&c, (&o, &b))| [0, 1, 2].map(|ch| (c[ch] - o[ch]) / b[ch].max(MIN_BASIS)))
-        .collect();
-    let ratio = Image::from_vec(color.width(), color.height(), ratio)?;
-    let mask = Image::from_vec(
-        color.width(),
-        color.height(),
-        cb.state
-            .data()
-            .iter()
-            .zip(cb.basis.data())
-            .map(|(&s, b)| s == 1 && b.iter().any(|&v| v >= MIN_BASIS))
-            .collect(),
-    )?;
-    let filled = pull_push(&ratio, &mask)?;
-    let mut out = color.clone();
-    out.data_mut()
-        .par_iter_mut()
-        .zip(cb.state.data().par_iter())
-        .zip(
-            filled
-                .data()
-                .par_iter()
-                .zip(cb.offset.data().par_iter().zip(cb.basis.data().par_iter())),
-        )
-        .for_each(|((o, &s), (&r, (&off, &b)))| {
-            if s == 2 {
-                *o = [0, 1, 2].map(|ch| off[ch] + r[ch].max(0.0) * b[ch]);
-            }
-        });
-    Ok(out)
 }
 
 /// Angle a sample of `mapping` spans at screen point `p`: its spacing `1/(2√(ρ_r ρ_t))`

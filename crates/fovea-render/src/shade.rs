@@ -86,12 +86,50 @@ pub fn brdf_cos(g: &GSample, l: Vec3) -> Vec3 {
 
 /// Direct light at `g` from every light, with one shadow ray per light facing the surface.
 pub fn direct(world: &World, g: &GSample, counts: &mut RayCounts) -> Vec3 {
-    direct_lights(world, g, counts, true)
+    direct_with_visibility(world, g, counts).0
+}
+
+/// [`direct`] and which lights reached the surface: bit `l` of the mask is set when light `l`
+/// (of the first 64) contributes and its shadow ray is unoccluded.
+pub fn direct_with_visibility(world: &World, g: &GSample, counts: &mut RayCounts) -> (Vec3, u64) {
+    let origin = offset_origin(g);
+    let mut sum = Vec3::ZERO;
+    let mut mask = 0u64;
+    for_each_light(world, g, |index, l, dist, c| {
+        counts.shadow += 1;
+        let shadow = Ray {
+            origin,
+            dir: l,
+            t_min: 0.0,
+            t_max: if dist.is_finite() {
+                dist * (1.0 - 1e-4)
+            } else {
+                f32::INFINITY
+            },
+        };
+        if !world.caster.occluded(&shadow) {
+            sum += c;
+            if index < 64 {
+                mask |= 1 << index;
+            }
+        }
+    });
+    (sum, mask)
 }
 
 /// Direct light at `g` as if nothing cast a shadow: no rays, only the BRDF and the lights.
 pub fn direct_unshadowed(world: &World, g: &GSample) -> Vec3 {
-    direct_lights(world, g, &mut RayCounts::default(), false)
+    let mut sum = Vec3::ZERO;
+    for_each_light(world, g, |_, _, _, c| sum += c);
+    sum
+}
+
+/// Each light's unshadowed contribution at `g`, as `(light index, radiance)`, lights that
+/// contribute nothing left out. No rays.
+pub fn direct_per_light(world: &World, g: &GSample) -> Vec<(u32, Vec3)> {
+    let mut out = Vec::new();
+    for_each_light(world, g, |index, _, _, c| out.push((index as u32, c)));
+    out
 }
 
 /// What a sample skipped by DOF-aware culling can still afford, as `(offset, basis)`: its
@@ -112,10 +150,11 @@ pub fn culled_basis(world: &World, g: &GSample, mode: ShadingMode) -> (Vec3, Vec
     }
 }
 
-fn direct_lights(world: &World, g: &GSample, counts: &mut RayCounts, shadows: bool) -> Vec3 {
+/// Calls `f(light index, direction to the light, distance, unshadowed radiance)` for every
+/// light that lights the surface at `g` (in range, in its cone, in front, non-zero BRDF).
+fn for_each_light(world: &World, g: &GSample, mut f: impl FnMut(usize, Vec3, f32, Vec3)) {
     let origin = offset_origin(g);
-    let mut sum = Vec3::ZERO;
-    for light in &world.lights {
+    for (index, light) in world.lights.iter().enumerate() {
         let (l, dist, radiance) = match *light {
             Light::Point {
                 position,
@@ -158,30 +197,12 @@ fn direct_lights(world: &World, g: &GSample, counts: &mut RayCounts, shadows: bo
         if g.face_normal.dot(l) <= 0.0 && g.normal.dot(l) <= 0.0 {
             continue;
         }
-        let f = brdf_cos(g, l);
-        if f == Vec3::ZERO {
+        let brdf = brdf_cos(g, l);
+        if brdf == Vec3::ZERO {
             continue;
         }
-        if !shadows {
-            sum += f * radiance;
-            continue;
-        }
-        counts.shadow += 1;
-        let shadow = Ray {
-            origin,
-            dir: l,
-            t_min: 0.0,
-            t_max: if dist.is_finite() {
-                dist * (1.0 - 1e-4)
-            } else {
-                f32::INFINITY
-            },
-        };
-        if !world.caster.occluded(&shadow) {
-            sum += f * radiance;
-        }
+        f(index, l, dist, brdf * radiance);
     }
-    sum
 }
 
 /// Radiance towards the eye of one G-buffer sample.
