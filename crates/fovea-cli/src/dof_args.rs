@@ -116,7 +116,8 @@ pub struct DofArgs {
     #[arg(long)]
     pub lca: Option<String>,
     /// DOF-aware culling: shade samples by Liu's Russian roulette on the DOF weight
-    /// (Eq. 10–11); culled samples are filled by pull-push before the blur.
+    /// (Eq. 10–11); culled samples skip their shadow rays and are rebuilt from their
+    /// neighbours' light visibility before the blur (docs/dof.md).
     #[arg(long)]
     pub cull: bool,
     /// Seed of the culling roulette.
