@@ -9,6 +9,8 @@
 //!   sampling and full resolution, each a forward/inverse/shading-rate triple.
 //! * [`optics`]: the thin-lens eye (Liu Eq. 4–13, Weier Eq. 3) and pupil models.
 //! * [`analysis`]: sample-count tables and shading-rate curves for reports.
+//! * [`gaze`]: gaze trajectories per frame, from eye-tracker CSV or synthesised (fixations,
+//!   main-sequence saccades, smooth pursuit, Gaussian-velocity random walk).
 //!
 //! ```
 //! use fovea_core::display::DisplayProfile;
@@ -31,6 +33,7 @@ pub mod acuity;
 pub mod analysis;
 pub mod display;
 pub mod error;
+pub mod gaze;
 pub mod image;
 pub mod mapping;
 pub mod math;
