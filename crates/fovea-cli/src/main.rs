@@ -14,6 +14,7 @@ mod output;
 mod plot;
 mod render;
 mod scene_args;
+mod sequence;
 mod table;
 
 /// Perception-driven foveated rendering and depth of field for head-mounted displays.
@@ -42,6 +43,10 @@ enum Command {
     /// Render a thin-lens depth-of-field reference and score every DOF filter against it,
     /// focused near and far (luma PSNR, SSIM, ꟻLIP, ms per megapixel; contact sheet, JSON).
     DofCompare(Box<dof_compare::DofCompareArgs>),
+    /// Render N frames along a gaze trajectory (eye-tracker CSV or synthesised saccades and
+    /// pursuit) with auto focus through the accommodation filter: numbered PNGs (and MP4 with
+    /// ffmpeg); an interrupted run resumes.
+    Sequence(Box<sequence::SequenceArgs>),
 }
 
 /// Ends quietly, as other command-line tools do, when stdout is a pipe whose reader has gone
@@ -83,6 +88,7 @@ fn main() -> ExitCode {
         Command::Render(a) => render::run(*a),
         Command::Bench(a) => bench::run(*a),
         Command::DofCompare(a) => dof_compare::run(*a),
+        Command::Sequence(a) => sequence::run(*a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

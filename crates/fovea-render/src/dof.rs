@@ -345,12 +345,25 @@ pub fn auto_focus_m(
     camera: &EyeCamera,
     gaze: &fovea_core::display::Gaze,
 ) -> Result<f64> {
+    auto_focus_with_prior_m(world, camera, gaze, f64::NAN)
+}
+
+/// [`auto_focus_m`] with a prior focus (metres; NaN for none), usually the accommodation
+/// filter's current focus in a sequence: the depth cluster at the prior weighs double, which
+/// keeps the focus on one object under tracker noise (see `docs/dof.md`).
+pub fn auto_focus_with_prior_m(
+    world: &World,
+    camera: &EyeCamera,
+    gaze: &fovea_core::display::Gaze,
+    prior_m: f64,
+) -> Result<f64> {
     let (patch, por) = depth_patch(world, camera, gaze)?;
-    let est = fovea_core::optics::gaze_depth::estimate_gaze_depth(
+    let est = fovea_core::optics::gaze_depth::estimate_gaze_depth_with_prior(
         &patch,
         fovea_core::units::ScreenPoint::new(por[0], por[1]),
         px_per_degree(camera),
         &fovea_core::optics::gaze_depth::GazeDepthParams::default(),
+        prior_m,
     )?;
     Ok(est.focus_m)
 }

@@ -1,0 +1,356 @@
+//! `fovea sequence`: N frames of a gaze trajectory (an eye-tracker CSV or a synthesised
+//! scenario) through a foveation method, with depth of field whose focus follows the gaze
+//! through the accommodation filter, written as a numbered PNG series (and an MP4 when `ffmpeg`
+//! is installed). Interrupted runs resume: the eye state of every frame is planned first (it
+//! costs a few thousand rays per frame), and frames whose PNG is already there are not
+//! rendered again. Each PNG is written to a temporary name and renamed, so a killed run leaves
+//! no half-written frame.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+
+use fovea_core::display::DisplayProfile;
+use fovea_core::gaze::csv::{parse_csv, CsvOptions};
+use fovea_core::gaze::synth::{RandomWalkParams, Scenario, SynthDisplay};
+use fovea_core::gaze::{GazeSample, GazeTrajectory};
+use fovea_core::mapping::Method;
+use fovea_core::optics::{AccommodationFilter, AccommodationParams};
+use fovea_post::tonemap::ToneCurve;
+use fovea_render::dof::{auto_focus_with_prior_m, FocusMode};
+use fovea_render::pipeline::{render_frame, FrameSettings};
+
+use crate::common::{DisplayArgs, MethodOptions};
+use crate::dof_args::DofArgs;
+use crate::render::memory_limit;
+use crate::scene_args::{prepare, SceneArgs};
+
+/// Most frames of one sequence.
+const MAX_FRAMES: u32 = 100_000;
+
+/// Options of `fovea sequence`.
+#[derive(Args, Debug)]
+#[command(allow_negative_numbers = true)]
+pub struct SequenceArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    #[command(flatten)]
+    pub display: DisplayArgs,
+    /// Foveation method (as `fovea render`), or liu-hybrid.
+    #[arg(long, default_value = "vafr")]
+    pub method: String,
+    #[command(flatten)]
+    pub options: MethodOptions,
+    #[command(flatten)]
+    pub dof: DofArgs,
+    /// Frames to render.
+    #[arg(long, default_value_t = 120)]
+    pub frames: u32,
+    /// Frames per second (the gaze trajectory is sampled at these times).
+    #[arg(long, default_value_t = 90.0)]
+    pub fps: f64,
+    /// Gaze from an eye-tracker CSV (see docs: time + gaze in pixels or normalised, e.g. a
+    /// Pupil Labs gaze_positions.csv); gaps (blinks) hold the last valid gaze.
+    #[arg(long, conflicts_with = "scenario")]
+    pub gaze_csv: Option<PathBuf>,
+    /// Synthesised gaze: demo (fixations, saccades and a pursuit), random-walk, or fixation
+    /// (the screen centre).
+    #[arg(long, default_value = "demo")]
+    pub scenario: String,
+    /// Seed of the synthesised gaze.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Output folder: frame_00000.png …, frames.csv (gaze and focus per frame),
+    /// sequence.json (settings), sequence.mp4 (with ffmpeg).
+    #[arg(long, default_value = "fovea-out/sequence")]
+    pub out: PathBuf,
+    /// Video: auto (when ffmpeg is installed), on (fail without ffmpeg) or off.
+    #[arg(long, default_value = "auto")]
+    pub video: String,
+    /// Start over when the folder holds frames of other settings (otherwise an error).
+    #[arg(long)]
+    pub overwrite: bool,
+    /// Refuse frames needing more memory than this (e.g. 8G).
+    #[arg(long)]
+    pub max_memory: Option<String>,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// The demo scenario: fixate the centre, saccade left, pursue right, saccade back, fixate.
+fn demo(d: &DisplayProfile, seed: u64, duration_s: f64) -> Result<GazeTrajectory> {
+    let (w, h) = (d.width_px as f64, d.height_px as f64);
+    let sd = SynthDisplay::from_profile(d);
+    let s = Scenario::new(sd, (w / 2.0, h / 2.0), 1000.0, seed)
+        .fixation(0.25)
+        .saccade_to((0.3 * w, 0.55 * h))
+        .fixation(0.2)
+        .pursuit_to((0.65 * w, 0.55 * h), 12.0)
+        .saccade_to((w / 2.0, h / 2.0))
+        .fixation(duration_s.max(0.1));
+    Ok(s.build()?)
+}
+
+fn trajectory(args: &SequenceArgs, d: &DisplayProfile, duration_s: f64) -> Result<GazeTrajectory> {
+    let (w, h) = (d.width_px as f64, d.height_px as f64);
+    if let Some(p) = &args.gaze_csv {
+        let text = std::fs::read_to_string(p)
+            .with_context(|| format!("cannot read gaze CSV {}", p.display()))?;
+        let (t, report) = parse_csv(&text, w, h, &CsvOptions::default())
+            .with_context(|| format!("gaze CSV {}", p.display()))?;
+        if !args.quiet {
+            eprintln!(
+                "gaze CSV: {} rows, {} valid, {} held (gaps), {} clamped to the screen",
+                report.rows, report.valid, report.held, report.clamped
+            );
+        }
+        return Ok(t);
+    }
+    let sd = SynthDisplay::from_profile(d);
+    match args.scenario.as_str() {
+        "demo" => demo(d, args.seed, duration_s),
+        "random-walk" => Ok(Scenario::new(sd, (w / 2.0, h / 2.0), 1000.0, args.seed)
+            .random_walk(RandomWalkParams {
+                duration_s: duration_s.max(0.01),
+                ..RandomWalkParams::default()
+            })
+            .build()?),
+        "fixation" => Ok(Scenario::new(sd, (w / 2.0, h / 2.0), 1000.0, args.seed)
+            .fixation(duration_s.max(0.01))
+            .build()?),
+        s => bail!("invalid parameter `scenario` = {s}: expected demo, random-walk or fixation"),
+    }
+}
+
+/// One frame's eye state.
+struct EyeState {
+    gaze: GazeSample,
+    focus_m: Option<f64>,
+}
+
+pub fn run(args: SequenceArgs) -> Result<()> {
+    if !(1..=MAX_FRAMES).contains(&args.frames) {
+        bail!(
+            "invalid parameter `frames` = {}: expected 1 to {MAX_FRAMES}",
+            args.frames
+        );
+    }
+    if !(args.fps.is_finite() && (1.0..=1000.0).contains(&args.fps)) {
+        bail!("invalid parameter `fps` = {}: expected 1 to 1000", args.fps);
+    }
+    let video = match args.video.as_str() {
+        "auto" | "on" | "off" => args.video.as_str(),
+        v => bail!("invalid parameter `video` = {v}: expected auto, on or off"),
+    };
+    let display = args.display.display("vive-pro-eye")?;
+    let liu_hybrid = args.method.trim().eq_ignore_ascii_case("liu-hybrid");
+    let method = if liu_hybrid {
+        Method::VisualPolar
+    } else {
+        Method::parse(&args.method)?
+    };
+    let config = args.options.frame_config()?;
+    let dof = args.dof.settings(liu_hybrid)?;
+    let memory_limit = memory_limit(args.max_memory.as_deref())?;
+    let duration_s = args.frames as f64 / args.fps;
+    let traj = trajectory(&args, &display, duration_s)?;
+    let gazes = traj.resample(args.fps, args.frames as usize)?;
+
+    // The settings the frames depend on: a folder rendered with others is not resumed.
+    let manifest = serde_json::json!({
+        "scene": args.scene.scene,
+        "scene_args": format!("{:?}", args.scene),
+        "display": display,
+        "method": args.method,
+        "options": format!("{:?}", args.options),
+        "dof": dof,
+        "frames": args.frames,
+        "fps": args.fps,
+        "gaze_csv": args.gaze_csv,
+        "scenario": if args.gaze_csv.is_some() { None } else { Some(&args.scenario) },
+        "seed": args.seed,
+    });
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create directory {}", args.out.display()))?;
+    let manifest_path = args.out.join("sequence.json");
+    let manifest_text = serde_json::to_string_pretty(&manifest)? + "\n";
+    if let Ok(old) = std::fs::read_to_string(&manifest_path) {
+        if old != manifest_text {
+            if !args.overwrite {
+                bail!(
+                    "{} holds frames rendered with other settings; pass --overwrite to start over or choose another --out",
+                    args.out.display()
+                );
+            }
+            remove_frames(&args.out)?;
+        }
+    }
+    write_atomic(&manifest_path, manifest_text.as_bytes())?;
+
+    let prepared = prepare(&args.scene, &display)?;
+    let (world, camera) = (&prepared.world, &prepared.camera);
+
+    // Plan the eye state of every frame: gaze, and the focus through the accommodation
+    // filter (auto focus uses the filter's current focus as the estimator's prior).
+    let dt = 1.0 / args.fps;
+    let mut accommodation = AccommodationFilter::new(AccommodationParams::default())?;
+    let mut states = Vec::with_capacity(gazes.len());
+    for g in &gazes {
+        let gaze = display.gaze(g.x_px, g.y_px)?;
+        let focus_m = match dof.as_ref().map(|d| d.focus) {
+            Some(FocusMode::Fixed(f)) => Some(f),
+            Some(FocusMode::Auto) => {
+                let prior = accommodation.current_m().unwrap_or(f64::NAN);
+                let target = auto_focus_with_prior_m(world, camera, &gaze, prior)?;
+                Some(accommodation.update(target, dt)?)
+            }
+            None => None,
+        };
+        states.push(EyeState { gaze: *g, focus_m });
+    }
+    let mut eye_csv = String::from("frame,t_s,gaze_x_px,gaze_y_px,gaze_valid,focus_m\n");
+    for (i, s) in states.iter().enumerate() {
+        eye_csv += &format!(
+            "{i},{:.6},{:.3},{:.3},{},{}\n",
+            s.gaze.t_s,
+            s.gaze.x_px,
+            s.gaze.y_px,
+            s.gaze.valid,
+            s.focus_m.map_or(String::new(), |f| format!("{f:.5}"))
+        );
+    }
+    write_atomic(&args.out.join("frames.csv"), eye_csv.as_bytes())?;
+
+    let pb = if args.quiet {
+        ProgressBar::hidden()
+    } else {
+        let pb = ProgressBar::new(args.frames as u64);
+        pb.set_style(
+            ProgressStyle::with_template("{msg:>10} [{bar:40}] {pos}/{len} frames, eta {eta}")
+                .expect("valid template")
+                .progress_chars("=> "),
+        );
+        pb.set_message("sequence");
+        pb
+    };
+    let (mut rendered, mut skipped) = (0u32, 0u32);
+    for (i, s) in states.iter().enumerate() {
+        let path = frame_path(&args.out, i);
+        if frame_is_complete(&path, &display) {
+            skipped += 1;
+            pb.inc(1);
+            continue;
+        }
+        let gaze = display.gaze(s.gaze.x_px, s.gaze.y_px)?;
+        let mut settings = FrameSettings::new(method, gaze);
+        settings.mapping = config.clone();
+        settings.memory_limit_bytes = memory_limit;
+        settings.dof = dof.clone().map(|mut d| {
+            if let Some(f) = s.focus_m {
+                d.focus = FocusMode::Fixed(f);
+            }
+            d
+        });
+        let frame = render_frame(world, camera, &settings, &|_, _| {})?;
+        let tmp = path.with_extension("png.tmp");
+        write_png(&tmp, &frame.color)?;
+        std::fs::rename(&tmp, &path).with_context(|| format!("cannot write {}", path.display()))?;
+        rendered += 1;
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    println!(
+        "{} frames in {}: {rendered} rendered, {skipped} already there",
+        args.frames,
+        args.out.display()
+    );
+    make_video(&args.out, args.fps, video)?;
+    Ok(())
+}
+
+/// `out/frame_00042.png`.
+fn frame_path(out: &Path, i: usize) -> PathBuf {
+    out.join(format!("frame_{i:05}.png"))
+}
+
+/// A frame counts as done when its PNG decodes to the display's size.
+fn frame_is_complete(path: &Path, d: &DisplayProfile) -> bool {
+    image::image_dimensions(path).is_ok_and(|(w, h)| (w, h) == (d.width_px, d.height_px))
+}
+
+/// Writes 8-bit sRGB PNG (Reinhard tone curve, as `fovea render`) whatever the extension.
+fn write_png(path: &Path, img: &fovea_core::Image<fovea_post::Rgb>) -> Result<()> {
+    let bytes = fovea_post::tonemap::to_srgb8(img, 0.0, ToneCurve::Reinhard);
+    let buf = image::RgbImage::from_raw(img.width(), img.height(), bytes)
+        .ok_or_else(|| anyhow::anyhow!("frame buffer size"))?;
+    buf.save_with_format(path, image::ImageFormat::Png)
+        .with_context(|| format!("cannot write {}", path.display()))
+}
+
+fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let tmp = path.with_extension("tmp");
+    std::fs::write(&tmp, bytes).with_context(|| format!("cannot write {}", tmp.display()))?;
+    std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// Removes the frames (and video) of an earlier run.
+fn remove_frames(out: &Path) -> Result<()> {
+    for e in std::fs::read_dir(out).with_context(|| format!("cannot read {}", out.display()))? {
+        let p = e?.path();
+        let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
+        if (name.starts_with("frame_") && (name.ends_with(".png") || name.ends_with(".tmp")))
+            || name == "sequence.mp4"
+        {
+            std::fs::remove_file(&p).with_context(|| format!("cannot remove {}", p.display()))?;
+        }
+    }
+    Ok(())
+}
+
+/// Encodes `frame_%05d.png` to `sequence.mp4` with ffmpeg when asked and available.
+fn make_video(out: &Path, fps: f64, video: &str) -> Result<()> {
+    if video == "off" {
+        return Ok(());
+    }
+    let have = std::process::Command::new("ffmpeg")
+        .arg("-version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !have {
+        if video == "on" {
+            bail!("--video on needs ffmpeg on the PATH (Debian: apt-get install ffmpeg)");
+        }
+        println!("no ffmpeg on the PATH: PNG frames only (install ffmpeg for sequence.mp4)");
+        return Ok(());
+    }
+    let mp4 = out.join("sequence.mp4");
+    let status = std::process::Command::new("ffmpeg")
+        .args([
+            "-y",
+            "-loglevel",
+            "error",
+            "-framerate",
+            &format!("{fps}"),
+            "-i",
+        ])
+        .arg(out.join("frame_%05d.png"))
+        .args([
+            "-c:v",
+            "libx264",
+            "-pix_fmt",
+            "yuv420p",
+            "-vf",
+            "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+        ])
+        .arg(&mp4)
+        .status()
+        .context("cannot run ffmpeg")?;
+    if !status.success() {
+        bail!("ffmpeg failed ({status}) writing {}", mp4.display());
+    }
+    println!("wrote {}", mp4.display());
+    Ok(())
+}

@@ -1,0 +1,104 @@
+//! `fovea sequence`: numbered frames, the eye-state table, resuming an interrupted run,
+//! refusing a folder of other settings, gaze CSV input and bad gaze files.
+
+use std::path::Path;
+
+use assert_cmd::Command;
+
+fn fovea() -> Command {
+    Command::cargo_bin("fovea").unwrap()
+}
+
+fn run(out: &Path, extra: &[&str]) -> std::process::Output {
+    fovea()
+        .args([
+            "sequence", "--res", "120x90", "--lights", "1", "--frames", "4",
+        ])
+        .args(["--dof", "gather", "--video", "off", "-q", "--out"])
+        .arg(out)
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+fn ok(o: &std::process::Output) -> String {
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+#[test]
+fn frames_resume_and_settings_are_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("seq");
+    let first = ok(&run(&out, &[]));
+    assert!(first.contains("4 rendered, 0 already there"), "{first}");
+    for i in 0..4 {
+        assert!(out.join(format!("frame_{i:05}.png")).is_file());
+    }
+    // The eye state of every frame: gaze and the accommodated focus.
+    let csv = std::fs::read_to_string(out.join("frames.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 5, "{csv}");
+    for line in csv.lines().skip(1) {
+        let focus: f64 = line.rsplit(',').next().unwrap().parse().unwrap();
+        assert!(focus > 0.0 && focus.is_finite(), "{line}");
+    }
+    // Nothing to do the second time; one lost frame is rendered again, alone.
+    let again = ok(&run(&out, &[]));
+    assert!(again.contains("0 rendered, 4 already there"), "{again}");
+    let kept = std::fs::read(out.join("frame_00001.png")).unwrap();
+    std::fs::remove_file(out.join("frame_00002.png")).unwrap();
+    // A half-written frame (as a killed run would leave under its temporary name) is ignored.
+    std::fs::write(out.join("frame_00003.png.tmp"), b"partial").unwrap();
+    let resumed = ok(&run(&out, &[]));
+    assert!(resumed.contains("1 rendered, 3 already there"), "{resumed}");
+    assert_eq!(std::fs::read(out.join("frame_00001.png")).unwrap(), kept);
+    // Other settings: refused, unless --overwrite.
+    let other = run(&out, &["--method", "kfr"]);
+    assert!(!other.status.success());
+    let err = String::from_utf8_lossy(&other.stderr);
+    assert!(
+        err.contains("--overwrite") && !err.contains("panicked"),
+        "{err}"
+    );
+    let fresh = ok(&run(&out, &["--method", "kfr", "--overwrite"]));
+    assert!(fresh.contains("4 rendered"), "{fresh}");
+}
+
+#[test]
+fn gaze_csv_with_blinks_and_bad_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = dir.path().join("gaze.csv");
+    std::fs::write(
+        &good,
+        "timestamp_ms,x_norm,y_norm,confidence\n0,0.5,0.5,0.9\n10,0.52,0.5,0.9\n20,NaN,0.5,0.9\n30,0.55,0.52,0.95\n40,0.6,0.52,0.2\n",
+    )
+    .unwrap();
+    let o = ok(&run(
+        &dir.path().join("a"),
+        &["--gaze-csv", good.to_str().unwrap()],
+    ));
+    assert!(o.contains("4 rendered"), "{o}");
+    let csv = std::fs::read_to_string(dir.path().join("a/frames.csv")).unwrap();
+    // The blink at 20 ms holds the last valid gaze and is marked invalid.
+    assert!(csv.lines().nth(3).unwrap().contains(",false,"), "{csv}");
+    for (name, text) in [
+        ("missing.csv", "timestamp_ms,x_norm\n0,0.5\n"),
+        ("order.csv", "t,x,y\n0,10,10\n0.02,11,10\n0.01,12,10\n"),
+        ("empty.csv", ""),
+    ] {
+        let p = dir.path().join(name);
+        std::fs::write(&p, text).unwrap();
+        let o = run(&dir.path().join(name), &["--gaze-csv", p.to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{name}");
+        assert!(
+            err.contains("error") && !err.contains("panicked"),
+            "{name}: {err}"
+        );
+        assert_eq!(err.trim().lines().count(), 1, "{name}: {err}");
+    }
+    let o = run(&dir.path().join("b"), &["--frames", "0"]);
+    assert!(!o.status.success());
+    let o = run(&dir.path().join("c"), &["--scenario", "dance"]);
+    assert!(!o.status.success());
+}
