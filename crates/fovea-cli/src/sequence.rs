@@ -19,6 +19,8 @@ use fovea_core::gaze::{GazeSample, GazeTrajectory};
 use fovea_core::mapping::Method;
 use fovea_core::optics::{AccommodationFilter, AccommodationParams};
 use fovea_post::tonemap::ToneCurve;
+use fovea_render::camera::EyeCamera;
+use fovea_render::camera_path::CameraPath;
 use fovea_render::dof::{auto_focus_with_prior_m, FocusMode};
 use fovea_render::pipeline::{render_frame, FrameSettings};
 
@@ -59,6 +61,11 @@ pub struct SequenceArgs {
     /// (the screen centre).
     #[arg(long, default_value = "demo")]
     pub scenario: String,
+    /// Camera path CSV (`t,x,y,z,look_x,look_y,look_z[,up_x,up_y,up_z]`, seconds and metres,
+    /// interpolated linearly); default: the scene's camera, still. Lights stay where they were
+    /// set for the first frame.
+    #[arg(long)]
+    pub camera_path: Option<PathBuf>,
     /// Seed of the synthesised gaze.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -157,6 +164,16 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     let memory_limit = memory_limit(args.max_memory.as_deref())?;
     let duration_s = args.frames as f64 / args.fps;
     let traj = trajectory(&args, &display, duration_s)?;
+    let (camera_path, camera_path_text) = match &args.camera_path {
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("cannot read camera path {}", p.display()))?;
+            let path =
+                CameraPath::parse(&text).with_context(|| format!("camera path {}", p.display()))?;
+            (Some(path), text)
+        }
+        None => (None, String::new()),
+    };
     let gazes = traj.resample(args.fps, args.frames as usize)?;
 
     // The settings the frames depend on: a folder rendered with others is not resumed.
@@ -172,6 +189,7 @@ pub fn run(args: SequenceArgs) -> Result<()> {
         "gaze_csv": args.gaze_csv,
         "scenario": if args.gaze_csv.is_some() { None } else { Some(&args.scenario) },
         "seed": args.seed,
+        "camera_path": camera_path_text,
     });
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create directory {}", args.out.display()))?;
@@ -191,14 +209,24 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     write_atomic(&manifest_path, manifest_text.as_bytes())?;
 
     let prepared = prepare(&args.scene, &display)?;
-    let (world, camera) = (&prepared.world, &prepared.camera);
+    let world = &prepared.world;
+    // The camera of each frame: the scene's, or the path's pose at the frame's time.
+    let cameras: Vec<EyeCamera> = (0..args.frames as usize)
+        .map(|i| match &camera_path {
+            Some(p) => {
+                let (pos, look, up) = p.at(i as f64 / args.fps);
+                Ok(EyeCamera::new(pos, look - pos, up, &display)?)
+            }
+            None => Ok(prepared.camera.clone()),
+        })
+        .collect::<Result<_>>()?;
 
     // Plan the eye state of every frame: gaze, and the focus through the accommodation
     // filter (auto focus uses the filter's current focus as the estimator's prior).
     let dt = 1.0 / args.fps;
     let mut accommodation = AccommodationFilter::new(AccommodationParams::default())?;
     let mut states = Vec::with_capacity(gazes.len());
-    for g in &gazes {
+    for (g, camera) in gazes.iter().zip(&cameras) {
         let gaze = display.gaze(g.x_px, g.y_px)?;
         let focus_m = match dof.as_ref().map(|d| d.focus) {
             Some(FocusMode::Fixed(f)) => Some(f),
@@ -254,7 +282,7 @@ pub fn run(args: SequenceArgs) -> Result<()> {
             }
             d
         });
-        let frame = render_frame(world, camera, &settings, &|_, _| {})?;
+        let frame = render_frame(world, &cameras[i], &settings, &|_, _| {})?;
         let tmp = path.with_extension("png.tmp");
         write_png(&tmp, &frame.color)?;
         std::fs::rename(&tmp, &path).with_context(|| format!("cannot write {}", path.display()))?;

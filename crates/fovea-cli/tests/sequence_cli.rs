@@ -97,6 +97,28 @@ fn gaze_csv_with_blinks_and_bad_files() {
         );
         assert_eq!(err.trim().lines().count(), 1, "{name}: {err}");
     }
+    // A camera path: a dolly towards the scene; bad paths are one-line errors.
+    let path = dir.path().join("path.csv");
+    std::fs::write(
+        &path,
+        "t,x,y,z,look_x,look_y,look_z\n0,0,1.6,0,0,1.4,-10\n0.05,0,1.6,-1,0,1.4,-11\n",
+    )
+    .unwrap();
+    let o = ok(&run(
+        &dir.path().join("d"),
+        &["--camera-path", path.to_str().unwrap()],
+    ));
+    assert!(o.contains("4 rendered"), "{o}");
+    let a = std::fs::read(dir.path().join("d/frame_00000.png")).unwrap();
+    let b = std::fs::read(dir.path().join("d/frame_00003.png")).unwrap();
+    assert_ne!(a, b, "the camera moved");
+    std::fs::write(&path, "t,x,y,z,look_x,look_y,look_z\n0,0,1.6,0,0,1.6,0\n").unwrap();
+    let o = run(
+        &dir.path().join("e"),
+        &["--camera-path", path.to_str().unwrap()],
+    );
+    assert!(!o.status.success());
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("panicked"));
     let o = run(&dir.path().join("b"), &["--frames", "0"]);
     assert!(!o.status.success());
     let o = run(&dir.path().join("c"), &["--scenario", "dance"]);

@@ -16,6 +16,7 @@
 
 pub mod bvh;
 pub mod camera;
+pub mod camera_path;
 pub mod cull_fill;
 pub mod dof;
 pub mod error;
