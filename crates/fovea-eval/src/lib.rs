@@ -4,8 +4,11 @@
 //!
 //! * [`metrics::luma_psnr`]: PSNR of display-encoded luma (the papers' "luma PSNR");
 //! * [`metrics::flip_mean`]: mean ꟻLIP error (Andersson et al. 2020, NVIDIA's reference
-//!   implementation through the `nv-flip` crate) at the display's pixels per degree.
+//!   implementation through the `nv-flip` crate) at the display's pixels per degree;
+//! * [`gradient_intensity::gradient_areas`]: Sobel gradient intensity in four areas across an
+//!   inset boundary (Liu et al., inset boundary smoothing, Sec. 4).
 
 pub mod dof_compare;
+pub mod gradient_intensity;
 pub mod metrics;
 pub mod ssim;

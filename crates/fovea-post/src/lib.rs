@@ -6,6 +6,8 @@
 //!   angle-aligned and wrapping for polar (log-polar) buffers, so filters see no seam.
 //! * [`fxaa`]: FXAA inside the sample buffer (VaFR Sec. 6).
 //! * [`gaussian_aa`]: the 3×3 Gaussian KFR applies in its LP buffer.
+//! * [`inset_smoothing`]: high-res inset over an upsampled low-res periphery, with the
+//!   boundary smoothing of Liu et al. (alpha blend, Gaussian, Gaussian + alpha, Laplacian).
 //! * [`inverse_map`]: sample buffers back to screen pixels with filtered lookups.
 //! * [`pull_push`]: hole filling for sparse screen masks (Weier et al.).
 //! * [`tonemap`]: exposure, tone curve and sRGB encoding.
@@ -17,6 +19,7 @@ pub mod dof;
 pub mod fxaa;
 pub mod gaussian_aa;
 pub mod grid;
+pub mod inset_smoothing;
 pub mod inverse_map;
 pub mod pull_push;
 pub mod tonemap;
