@@ -9,6 +9,7 @@ mod common;
 mod curves;
 mod dof_args;
 mod dof_compare;
+mod inset_analysis;
 mod optics;
 mod output;
 mod plot;
@@ -47,6 +48,9 @@ enum Command {
     /// pursuit) with auto focus through the accommodation filter: numbered PNGs (and MP4 with
     /// ffmpeg); an interrupted run resumes.
     Sequence(Box<sequence::SequenceArgs>),
+    /// The inset paper's gradient-intensity table: full-resolution inset over a rendered
+    /// quarter-resolution periphery, every boundary smoothing, against the full frame.
+    InsetAnalysis(Box<inset_analysis::InsetAnalysisArgs>),
 }
 
 /// Ends quietly, as other command-line tools do, when stdout is a pipe whose reader has gone
@@ -89,6 +93,7 @@ fn main() -> ExitCode {
         Command::Bench(a) => bench::run(*a),
         Command::DofCompare(a) => dof_compare::run(*a),
         Command::Sequence(a) => sequence::run(*a),
+        Command::InsetAnalysis(a) => inset_analysis::run(*a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

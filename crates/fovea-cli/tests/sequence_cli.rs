@@ -124,3 +124,57 @@ fn gaze_csv_with_blinks_and_bad_files() {
     let o = run(&dir.path().join("c"), &["--scenario", "dance"]);
     assert!(!o.status.success());
 }
+
+#[test]
+fn inset_analysis_reports_every_smoothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = fovea()
+        .args([
+            "inset-analysis",
+            "--res",
+            "160x120",
+            "--lights",
+            "1",
+            "--json",
+            "--out",
+        ])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = v["rows"].as_array().unwrap();
+    let names: Vec<&str> = rows.iter().map(|r| r["method"].as_str().unwrap()).collect();
+    assert_eq!(
+        names,
+        [
+            "full",
+            "none",
+            "alpha-blend",
+            "gaussian-1d",
+            "gaussian-2d",
+            "gaussian-1d-alpha",
+            "gaussian-2d-alpha",
+            "laplacian"
+        ]
+    );
+    for r in rows {
+        let a1 = r["report"]["areas"][0]["mean_x"].as_f64().unwrap();
+        assert!(a1.is_finite() && a1 >= 0.0, "{r}");
+        assert!(
+            r["area1_change"].as_f64().unwrap().abs() < 0.05,
+            "Area1 is the inset: {r}"
+        );
+    }
+    let bad = fovea()
+        .args(["inset-analysis", "--res", "161x120", "--out"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    assert!(!String::from_utf8_lossy(&bad.stderr).contains("panicked"));
+}

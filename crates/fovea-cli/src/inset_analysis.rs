@@ -1,0 +1,257 @@
+//! `fovea inset-analysis`: the inset paper's gradient-intensity table. A scene is rendered at
+//! full resolution (the reference), as a full-resolution inset around the gaze, and as a
+//! periphery at 1/4 resolution (half the pixels per side, rendered, not down-sampled); the
+//! two are composited with each boundary-smoothing method and every composite gets the
+//! gradient analysis (grey, 3×3 Sobel ×100, four areas across the inset boundary).
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use serde::Serialize;
+
+use fovea_core::display::DisplayProfile;
+use fovea_core::Image;
+use fovea_eval::gradient_intensity::{gradient_areas, GradientReport, DEFAULT_BAND_PX};
+use fovea_post::inset_smoothing::{composite, GaussianKernel, Rect, Smoothing};
+use fovea_post::Rgb;
+use fovea_render::camera::EyeCamera;
+use fovea_render::shade::ShadingMode;
+use fovea_render::thin_lens::{render_window, Window};
+
+use crate::common::DisplayArgs;
+use crate::output::write_rgb;
+use crate::scene_args::{gaze, prepare, SceneArgs};
+
+/// Options of `fovea inset-analysis`.
+#[derive(Args, Debug)]
+#[command(allow_negative_numbers = true)]
+pub struct InsetAnalysisArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    #[command(flatten)]
+    pub display: DisplayArgs,
+    /// Gaze point X,Y in screen pixels (the inset's centre; default: the screen centre).
+    #[arg(long, conflicts_with = "gaze_at")]
+    pub gaze: Option<String>,
+    /// Gaze at a world point X,Y,Z (metres).
+    #[arg(long)]
+    pub gaze_at: Option<String>,
+    /// Inset size WxH in pixels (default: 40 % of each side).
+    #[arg(long)]
+    pub inset_size: Option<String>,
+    /// Width in pixels of Area2 and Area3 on either side of the boundary.
+    #[arg(long, default_value_t = DEFAULT_BAND_PX)]
+    pub band: u32,
+    /// Output folder: one PNG per composite and inset-analysis.json.
+    #[arg(long, default_value = "fovea-out/inset-analysis")]
+    pub out: PathBuf,
+    /// Print the JSON instead of the table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// One row of the table.
+#[derive(Clone, Debug, Serialize)]
+pub struct Row {
+    /// `full` (the reference), `none` (hard composite) or the smoothing.
+    pub method: String,
+    /// The analysis.
+    pub report: GradientReport,
+    /// Mean gradient of Area2 over Area3 (just inside over just outside the boundary), x
+    /// and y: the full frame's is the target.
+    pub area2_over_area3: [f64; 2],
+    /// Area1 mean gradient magnitude relative to the full frame's, minus 1.
+    pub area1_change: f64,
+}
+
+fn methods() -> Vec<(&'static str, Smoothing)> {
+    vec![
+        ("none", Smoothing::None),
+        ("alpha-blend", Smoothing::ALPHA_BLEND),
+        ("gaussian-1d", Smoothing::Gaussian1d),
+        ("gaussian-2d", Smoothing::Gaussian2d),
+        (
+            "gaussian-1d-alpha",
+            Smoothing::GaussianAlpha {
+                kernel: GaussianKernel::OneD,
+            },
+        ),
+        (
+            "gaussian-2d-alpha",
+            Smoothing::GaussianAlpha {
+                kernel: GaussianKernel::TwoD,
+            },
+        ),
+        ("laplacian", Smoothing::LAPLACIAN),
+    ]
+}
+
+pub fn run(args: InsetAnalysisArgs) -> Result<()> {
+    let display = args.display.display("vive-pro-eye")?;
+    let (w, h) = (display.width_px, display.height_px);
+    if w % 2 != 0 || h % 2 != 0 || w < 32 || h < 32 {
+        bail!(
+            "invalid parameter `display` = {w}x{h}: expected even sides of at least 32 px (the periphery is half of each)"
+        );
+    }
+    if !(1..=256).contains(&args.band) {
+        bail!(
+            "invalid parameter `band` = {}: expected 1 to 256",
+            args.band
+        );
+    }
+    let prepared = prepare(&args.scene, &display)?;
+    let g = gaze(
+        &display,
+        &prepared.camera,
+        args.gaze.as_deref(),
+        args.gaze_at.as_deref(),
+    )?;
+    let (iw, ih) = match args.inset_size.as_deref() {
+        None => ((w as f64 * 0.4) as u32, (h as f64 * 0.4) as u32),
+        Some(t) => {
+            let v: Vec<u32> = t
+                .split(['x', 'X'])
+                .map(|p| p.trim().parse().ok())
+                .collect::<Option<_>>()
+                .unwrap_or_default();
+            match v.as_slice() {
+                [a, b] if *a >= 4 * args.band && *b >= 4 * args.band && *a < w && *b < h => {
+                    (*a, *b)
+                }
+                _ => bail!(
+                    "invalid parameter `inset-size` = {t}: expected WxH smaller than the screen and at least 4 × band"
+                ),
+            }
+        }
+    };
+    let win = Window::centred(g.point.x_px, g.point.y_px, iw, ih, w, h);
+    let rect = Rect {
+        x0: win.x0,
+        y0: win.y0,
+        w: win.width,
+        h: win.height,
+    };
+    let camera = &prepared.camera;
+    let world = &prepared.world;
+    let shading = ShadingMode::Direct;
+    // The reference, the inset (full-resolution rays in the rectangle) and the periphery on a
+    // display of half the pixels per side with the same field of view.
+    let full = render_window(
+        world,
+        camera,
+        Window::full(w, h),
+        None,
+        1,
+        shading,
+        &|_, _| {},
+    )?;
+    let inset = render_window(world, camera, win, None, 1, shading, &|_, _| {})?;
+    let low_display = DisplayProfile {
+        name: format!("{}-quarter", display.name),
+        width_px: w / 2,
+        height_px: h / 2,
+        lens_centre_px: display
+            .lens_centre_px
+            .map(|p| fovea_core::units::ScreenPoint::new(p.x_px / 2.0, p.y_px / 2.0)),
+        ..display.clone()
+    };
+    let low_camera = EyeCamera::new(camera.position, camera.forward, camera.up, &low_display)?;
+    let low = render_window(
+        world,
+        &low_camera,
+        Window::full(w / 2, h / 2),
+        None,
+        1,
+        shading,
+        &|_, _| {},
+    )?;
+
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create directory {}", args.out.display()))?;
+    let reference = gradient_areas(&full.color, rect, args.band)?;
+    let mut rows = vec![row("full", reference.clone(), &reference)];
+    write_rgb(
+        &args.out.join("full.png"),
+        &full.color,
+        0.0,
+        fovea_post::tonemap::ToneCurve::Reinhard,
+    )?;
+    for (name, m) in methods() {
+        let img: Image<Rgb> = composite(&inset.color, rect, &low.color, w, h, m)?;
+        write_rgb(
+            &args.out.join(format!("{name}.png")),
+            &img,
+            0.0,
+            fovea_post::tonemap::ToneCurve::Reinhard,
+        )?;
+        rows.push(row(
+            name,
+            gradient_areas(&img, rect, args.band)?,
+            &reference,
+        ));
+    }
+    let json = serde_json::json!({
+        "scene": world.scene.name,
+        "display": display.name,
+        "inset": rect,
+        "band_px": args.band,
+        "rows": rows,
+    });
+    let text = serde_json::to_string_pretty(&json)? + "\n";
+    std::fs::write(args.out.join("inset-analysis.json"), &text)
+        .with_context(|| format!("cannot write {}", args.out.display()))?;
+    if args.json {
+        print!("{text}");
+        return Ok(());
+    }
+    println!(
+        "{}, {} {w}x{h}, inset {}x{} at ({}, {}), periphery {}x{}, bands of {} px; gradient ×100 of grey",
+        world.scene.name, display.name, rect.w, rect.h, rect.x0, rect.y0, w / 2, h / 2, args.band
+    );
+    println!("| method | Area1 x / y | Area2 x / y | Area3 x / y | Area4 x / y | slope 2→3 x / y | Area2/Area3 x / y | high/low x / y |");
+    println!("|---|---|---|---|---|---|---|---|");
+    for r in &rows {
+        let a = &r.report.areas;
+        let ratio = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.2}"));
+        println!(
+            "| {} | {:.2} / {:.2} | {:.2} / {:.2} | {:.2} / {:.2} | {:.2} / {:.2} | {:.2} / {:.2} | {:.2} / {:.2} | {} / {} |",
+            r.method,
+            a[0].mean_x,
+            a[0].mean_y,
+            a[1].mean_x,
+            a[1].mean_y,
+            a[2].mean_x,
+            a[2].mean_y,
+            a[3].mean_x,
+            a[3].mean_y,
+            r.report.slope_23_x,
+            r.report.slope_23_y,
+            r.area2_over_area3[0],
+            r.area2_over_area3[1],
+            ratio(r.report.ratio_x),
+            ratio(r.report.ratio_y)
+        );
+    }
+    println!("wrote {}", args.out.display());
+    Ok(())
+}
+
+fn row(method: &str, report: GradientReport, full: &GradientReport) -> Row {
+    let rel = |a: f64, b: f64| {
+        if b.abs() > 1e-12 {
+            (a - b) / b.abs()
+        } else {
+            0.0
+        }
+    };
+    let div = |a: f64, b: f64| if b.abs() > 1e-12 { a / b } else { f64::NAN };
+    let a = &report.areas;
+    Row {
+        method: method.to_string(),
+        area2_over_area3: [div(a[1].mean_x, a[2].mean_x), div(a[1].mean_y, a[2].mean_y)],
+        area1_change: rel(report.areas[0].mean_magnitude, full.areas[0].mean_magnitude),
+        report,
+    }
+}
