@@ -136,8 +136,8 @@ pub fn run(args: InsetAnalysisArgs) -> Result<()> {
     let camera = &prepared.camera;
     let world = &prepared.world;
     let shading = ShadingMode::Direct;
-    // The reference, the inset (full-resolution rays in the rectangle) and the periphery on a
-    // display of half the pixels per side with the same field of view.
+    // The reference and the periphery on a display of half the pixels per side with the same
+    // field of view.
     let full = render_window(
         world,
         camera,
@@ -147,7 +147,17 @@ pub fn run(args: InsetAnalysisArgs) -> Result<()> {
         shading,
         &|_, _| {},
     )?;
-    let inset = render_window(world, camera, win, None, 1, shading, &|_, _| {})?;
+    // The inset's rays are the full frame's pixel-centre rays inside the rectangle.
+    let inset = fovea_eval::metrics::crop(
+        &full.color,
+        fovea_eval::metrics::Region {
+            x0: rect.x0,
+            y0: rect.y0,
+            x1: rect.x0 + rect.w,
+            y1: rect.y0 + rect.h,
+        },
+    )
+    .context("inset rectangle outside the screen")?;
     let low_display = DisplayProfile {
         name: format!("{}-quarter", display.name),
         width_px: w / 2,
@@ -179,7 +189,7 @@ pub fn run(args: InsetAnalysisArgs) -> Result<()> {
         fovea_post::tonemap::ToneCurve::Reinhard,
     )?;
     for (name, m) in methods() {
-        let img: Image<Rgb> = composite(&inset.color, rect, &low.color, w, h, m)?;
+        let img: Image<Rgb> = composite(&inset, rect, &low.color, w, h, m)?;
         write_rgb(
             &args.out.join(format!("{name}.png")),
             &img,

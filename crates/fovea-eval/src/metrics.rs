@@ -69,7 +69,8 @@ pub fn crop<T: Clone>(img: &Image<T>, r: Region) -> Option<Image<T>> {
     Image::from_vec(r.width(), r.height(), data).ok()
 }
 
-fn encoded_luma(img: &Image<Rgb>) -> Vec<f64> {
+/// Display-encoded (8-bit sRGB, clamped) Rec. 601 luma in [0, 1], per pixel.
+pub(crate) fn encoded_luma(img: &Image<Rgb>) -> Vec<f64> {
     to_srgb8(img, 0.0, ToneCurve::Clamp)
         .chunks_exact(3)
         .map(|c| (0.299 * c[0] as f64 + 0.587 * c[1] as f64 + 0.114 * c[2] as f64) / 255.0)

@@ -26,7 +26,6 @@
 //! image to get that).
 
 use fovea_core::Image;
-use fovea_post::tonemap::{to_srgb8, ToneCurve};
 use fovea_post::Rgb;
 
 use crate::metrics::Region;
@@ -166,9 +165,9 @@ fn check_region(w: u32, h: u32, r: Region) -> Option<()> {
 
 /// Display-encoded luma in [0, 1], as `metrics::luma_psnr` computes it.
 fn encoded_luma(img: &Image<Rgb>) -> Option<Image<f32>> {
-    let data = to_srgb8(img, 0.0, ToneCurve::Clamp)
-        .chunks_exact(3)
-        .map(|c| ((0.299 * c[0] as f64 + 0.587 * c[1] as f64 + 0.114 * c[2] as f64) / 255.0) as f32)
+    let data = crate::metrics::encoded_luma(img)
+        .into_iter()
+        .map(|v| v as f32)
         .collect();
     Image::from_vec(img.width(), img.height(), data).ok()
 }
