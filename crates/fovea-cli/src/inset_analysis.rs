@@ -1,7 +1,8 @@
 //! `fovea inset-analysis`: the inset paper's gradient-intensity table. A scene is rendered at
 //! full resolution (the reference), as a full-resolution inset around the gaze, and as a
-//! periphery at 1/4 resolution (half the pixels per side, rendered, not down-sampled); the
-//! two are composited with each boundary-smoothing method and every composite gets the
+//! periphery at reduced resolution (by default 1/4 per side as in the paper's "rendered at
+//! 1/4 normal resolution and then upsampled by 4×"; `--periphery-factor 2` for a quarter of
+//! the pixels), rendered, not down-sampled; the two are composited with each boundary-smoothing method and every composite gets the
 //! gradient analysis (grey, 3×3 Sobel ×100, four areas across the inset boundary).
 
 use std::path::PathBuf;
@@ -37,9 +38,14 @@ pub struct InsetAnalysisArgs {
     /// Gaze at a world point X,Y,Z (metres).
     #[arg(long)]
     pub gaze_at: Option<String>,
-    /// Inset size WxH in pixels (default: 40 % of each side).
+    /// Inset size WxH in pixels (default: 1/4 of each side, the paper's "1/4 × 1/4 the size
+    /// of the entire frame").
     #[arg(long)]
     pub inset_size: Option<String>,
+    /// The periphery's resolution divisor per side: 4 (the paper's "1/4 resolution, upsampled
+    /// by 4×") or 2.
+    #[arg(long, default_value_t = 4)]
+    pub periphery_factor: u32,
     /// Width in pixels of Area2 and Area3 on either side of the boundary.
     #[arg(long, default_value_t = DEFAULT_BAND_PX)]
     pub band: u32,
@@ -90,9 +96,13 @@ fn methods() -> Vec<(&'static str, Smoothing)> {
 pub fn run(args: InsetAnalysisArgs) -> Result<()> {
     let display = args.display.display("vive-pro-eye")?;
     let (w, h) = (display.width_px, display.height_px);
-    if w % 2 != 0 || h % 2 != 0 || w < 32 || h < 32 {
+    let f = args.periphery_factor;
+    if f != 2 && f != 4 {
+        bail!("invalid parameter `periphery-factor` = {f}: expected 2 or 4");
+    }
+    if w % f != 0 || h % f != 0 || w < 32 || h < 32 {
         bail!(
-            "invalid parameter `display` = {w}x{h}: expected even sides of at least 32 px (the periphery is half of each)"
+            "invalid parameter `display` = {w}x{h}: expected sides of at least 32 px divisible by the periphery factor {f}"
         );
     }
     if !(1..=256).contains(&args.band) {
@@ -109,7 +119,7 @@ pub fn run(args: InsetAnalysisArgs) -> Result<()> {
         args.gaze_at.as_deref(),
     )?;
     let (iw, ih) = match args.inset_size.as_deref() {
-        None => ((w as f64 * 0.4) as u32, (h as f64 * 0.4) as u32),
+        None => (w / 4, h / 4),
         Some(t) => {
             let v: Vec<u32> = t
                 .split(['x', 'X'])
@@ -136,8 +146,8 @@ pub fn run(args: InsetAnalysisArgs) -> Result<()> {
     let camera = &prepared.camera;
     let world = &prepared.world;
     let shading = ShadingMode::Direct;
-    // The reference and the periphery on a display of half the pixels per side with the same
-    // field of view.
+    // The reference, and the periphery on a display of 1/f of the pixels per side with the
+    // same field of view.
     let full = render_window(
         world,
         camera,
@@ -159,19 +169,19 @@ pub fn run(args: InsetAnalysisArgs) -> Result<()> {
     )
     .context("inset rectangle outside the screen")?;
     let low_display = DisplayProfile {
-        name: format!("{}-quarter", display.name),
-        width_px: w / 2,
-        height_px: h / 2,
+        name: format!("{}-div{f}", display.name),
+        width_px: w / f,
+        height_px: h / f,
         lens_centre_px: display
             .lens_centre_px
-            .map(|p| fovea_core::units::ScreenPoint::new(p.x_px / 2.0, p.y_px / 2.0)),
+            .map(|p| fovea_core::units::ScreenPoint::new(p.x_px / f as f64, p.y_px / f as f64)),
         ..display.clone()
     };
     let low_camera = EyeCamera::new(camera.position, camera.forward, camera.up, &low_display)?;
     let low = render_window(
         world,
         &low_camera,
-        Window::full(w / 2, h / 2),
+        Window::full(w / f, h / f),
         None,
         1,
         shading,
@@ -207,6 +217,7 @@ pub fn run(args: InsetAnalysisArgs) -> Result<()> {
         "display": display.name,
         "inset": rect,
         "band_px": args.band,
+        "periphery_factor": f,
         "rows": rows,
     });
     let text = serde_json::to_string_pretty(&json)? + "\n";
@@ -218,7 +229,7 @@ pub fn run(args: InsetAnalysisArgs) -> Result<()> {
     }
     println!(
         "{}, {} {w}x{h}, inset {}x{} at ({}, {}), periphery {}x{}, bands of {} px; gradient ×100 of grey",
-        world.scene.name, display.name, rect.w, rect.h, rect.x0, rect.y0, w / 2, h / 2, args.band
+        world.scene.name, display.name, rect.w, rect.h, rect.x0, rect.y0, w / f, h / f, args.band
     );
     println!("| method | Area1 x / y | Area2 x / y | Area3 x / y | Area4 x / y | slope 2→3 x / y | Area2/Area3 x / y | high/low x / y |");
     println!("|---|---|---|---|---|---|---|---|");

@@ -9,6 +9,7 @@ mod common;
 mod curves;
 mod dof_args;
 mod dof_compare;
+mod flicker;
 mod inset_analysis;
 mod optics;
 mod output;
@@ -17,6 +18,7 @@ mod render;
 mod scene_args;
 mod sequence;
 mod table;
+mod temporal_args;
 
 /// Perception-driven foveated rendering and depth of field for head-mounted displays.
 #[derive(Parser, Debug)]
@@ -49,8 +51,11 @@ enum Command {
     /// ffmpeg); an interrupted run resumes.
     Sequence(Box<sequence::SequenceArgs>),
     /// The inset paper's gradient-intensity table: full-resolution inset over a rendered
-    /// quarter-resolution periphery, every boundary smoothing, against the full frame.
+    /// 1/4-resolution periphery, every boundary smoothing, against the full frame.
     InsetAnalysis(Box<inset_analysis::InsetAnalysisArgs>),
+    /// Peripheral flicker of foveation methods over a sequence with saccades, pursuit and a
+    /// moving camera, with and without temporal accumulation, against full resolution.
+    Flicker(Box<flicker::FlickerArgs>),
 }
 
 /// Ends quietly, as other command-line tools do, when stdout is a pipe whose reader has gone
@@ -94,6 +99,7 @@ fn main() -> ExitCode {
         Command::DofCompare(a) => dof_compare::run(*a),
         Command::Sequence(a) => sequence::run(*a),
         Command::InsetAnalysis(a) => inset_analysis::run(*a),
+        Command::Flicker(a) => flicker::run(*a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -22,15 +22,20 @@ use fovea_post::tonemap::ToneCurve;
 use fovea_render::camera::EyeCamera;
 use fovea_render::camera_path::CameraPath;
 use fovea_render::dof::{auto_focus_with_prior_m, FocusMode};
-use fovea_render::pipeline::{render_frame, FrameSettings};
+use fovea_render::pipeline::{render_frame, render_frame_temporal, FrameSettings};
+use fovea_render::temporal::TemporalAccumulator;
 
 use crate::common::{DisplayArgs, MethodOptions};
 use crate::dof_args::DofArgs;
 use crate::render::memory_limit;
 use crate::scene_args::{prepare, SceneArgs};
+use crate::temporal_args::TemporalArgs;
 
 /// Most frames of one sequence.
 const MAX_FRAMES: u32 = 100_000;
+
+/// Frames re-rendered (not written) before the first missing frame of a resumed temporal run.
+const WARMUP_FRAMES: usize = 32;
 
 /// Options of `fovea sequence`.
 #[derive(Args, Debug)]
@@ -50,6 +55,12 @@ pub struct SequenceArgs {
     /// Frames to render.
     #[arg(long, default_value_t = 120)]
     pub frames: u32,
+    /// Temporal accumulation (reprojection of the previous frame): on or off. A resumed run
+    /// re-renders up to 32 frames before the first missing one to rebuild the history.
+    #[arg(long, default_value = "off")]
+    pub temporal: String,
+    #[command(flatten)]
+    pub temporal_opts: TemporalArgs,
     /// Frames per second (the gaze trajectory is sampled at these times).
     #[arg(long, default_value_t = 90.0)]
     pub fps: f64,
@@ -57,8 +68,8 @@ pub struct SequenceArgs {
     /// Pupil Labs gaze_positions.csv); gaps (blinks) hold the last valid gaze.
     #[arg(long, conflicts_with = "scenario")]
     pub gaze_csv: Option<PathBuf>,
-    /// Synthesised gaze: demo (fixations, saccades and a pursuit), random-walk, or fixation
-    /// (the screen centre).
+    /// Synthesised gaze: demo (fixations, saccades and a pursuit), saccade-pursuit (120
+    /// frames' worth of both), random-walk, or fixation (the screen centre).
     #[arg(long, default_value = "demo")]
     pub scenario: String,
     /// Camera path CSV (`t,x,y,z,look_x,look_y,look_z[,up_x,up_y,up_z]`, seconds and metres,
@@ -101,14 +112,42 @@ fn demo(d: &DisplayProfile, seed: u64, duration_s: f64) -> Result<GazeTrajectory
     Ok(s.build()?)
 }
 
-fn trajectory(args: &SequenceArgs, d: &DisplayProfile, duration_s: f64) -> Result<GazeTrajectory> {
+/// Saccades and pursuit in about 1.3 s (120 frames at 90 Hz): fixate left of centre, pursue
+/// right at 15°/s for 10°, saccade up-right, fixate, saccade back to the start.
+fn saccade_pursuit(d: &DisplayProfile, seed: u64, duration_s: f64) -> Result<GazeTrajectory> {
     let (w, h) = (d.width_px as f64, d.height_px as f64);
-    if let Some(p) = &args.gaze_csv {
+    let sd = SynthDisplay::from_profile(d);
+    let step = d.radius_px(fovea_core::units::Degrees(10.0));
+    let start = (w / 2.0 - step, h / 2.0);
+    let s = Scenario::new(sd, start, 1000.0, seed)
+        .fixation(0.12)
+        .pursuit_to((w / 2.0, h / 2.0), 15.0)
+        .saccade_to((w / 2.0 + 1.2 * step, h / 2.0 - 0.5 * step))
+        .fixation(0.2)
+        .saccade_to(start)
+        .fixation(duration_s.max(0.1));
+    Ok(s.build()?)
+}
+
+/// Names accepted by `--scenario`.
+pub const SCENARIOS: &str = "demo, saccade-pursuit, random-walk or fixation";
+
+/// The gaze of a sequence: an eye-tracker CSV, or a synthesised scenario of `duration_s`.
+pub fn gaze_trajectory(
+    gaze_csv: Option<&Path>,
+    scenario: &str,
+    seed: u64,
+    quiet: bool,
+    d: &DisplayProfile,
+    duration_s: f64,
+) -> Result<GazeTrajectory> {
+    let (w, h) = (d.width_px as f64, d.height_px as f64);
+    if let Some(p) = gaze_csv {
         let text = std::fs::read_to_string(p)
             .with_context(|| format!("cannot read gaze CSV {}", p.display()))?;
         let (t, report) = parse_csv(&text, w, h, &CsvOptions::default())
             .with_context(|| format!("gaze CSV {}", p.display()))?;
-        if !args.quiet {
+        if !quiet {
             eprintln!(
                 "gaze CSV: {} rows, {} valid, {} held (gaps), {} clamped to the screen",
                 report.rows, report.valid, report.held, report.clamped
@@ -117,18 +156,19 @@ fn trajectory(args: &SequenceArgs, d: &DisplayProfile, duration_s: f64) -> Resul
         return Ok(t);
     }
     let sd = SynthDisplay::from_profile(d);
-    match args.scenario.as_str() {
-        "demo" => demo(d, args.seed, duration_s),
-        "random-walk" => Ok(Scenario::new(sd, (w / 2.0, h / 2.0), 1000.0, args.seed)
+    match scenario {
+        "demo" => demo(d, seed, duration_s),
+        "saccade-pursuit" => saccade_pursuit(d, seed, duration_s),
+        "random-walk" => Ok(Scenario::new(sd, (w / 2.0, h / 2.0), 1000.0, seed)
             .random_walk(RandomWalkParams {
                 duration_s: duration_s.max(0.01),
                 ..RandomWalkParams::default()
             })
             .build()?),
-        "fixation" => Ok(Scenario::new(sd, (w / 2.0, h / 2.0), 1000.0, args.seed)
+        "fixation" => Ok(Scenario::new(sd, (w / 2.0, h / 2.0), 1000.0, seed)
             .fixation(duration_s.max(0.01))
             .build()?),
-        s => bail!("invalid parameter `scenario` = {s}: expected demo, random-walk or fixation"),
+        s => bail!("invalid parameter `scenario` = {s}: expected {SCENARIOS}"),
     }
 }
 
@@ -161,9 +201,22 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     };
     let config = args.options.frame_config()?;
     let dof = args.dof.settings(liu_hybrid)?;
+    let temporal = match args.temporal.trim().to_ascii_lowercase().as_str() {
+        "on" => Some(args.temporal_opts.settings()?),
+        "off" => None,
+        t => bail!("invalid parameter `temporal` = {t}: expected on or off"),
+    };
+    let contrast = args.temporal_opts.contrast()?;
     let memory_limit = memory_limit(args.max_memory.as_deref())?;
     let duration_s = args.frames as f64 / args.fps;
-    let traj = trajectory(&args, &display, duration_s)?;
+    let traj = gaze_trajectory(
+        args.gaze_csv.as_deref(),
+        &args.scenario,
+        args.seed,
+        args.quiet,
+        &display,
+        duration_s,
+    )?;
     let (camera_path, camera_path_text) = match &args.camera_path {
         Some(p) => {
             let text = std::fs::read_to_string(p)
@@ -184,6 +237,8 @@ pub fn run(args: SequenceArgs) -> Result<()> {
         "method": args.method,
         "options": format!("{:?}", args.options),
         "dof": dof,
+        "temporal": temporal,
+        "peripheral_contrast": contrast,
         "frames": args.frames,
         "fps": args.fps,
         "gaze_csv": args.gaze_csv,
@@ -265,6 +320,25 @@ pub fn run(args: SequenceArgs) -> Result<()> {
         pb
     };
     let (mut rendered, mut skipped) = (0u32, 0u32);
+    let settings_of = |s: &EyeState| -> Result<FrameSettings> {
+        let gaze = display.gaze(s.gaze.x_px, s.gaze.y_px)?;
+        let mut settings = FrameSettings::new(method, gaze);
+        settings.mapping = config.clone();
+        settings.memory_limit_bytes = memory_limit;
+        settings.contrast = contrast;
+        settings.dof = dof.clone().map(|mut d| {
+            if let Some(f) = s.focus_m {
+                d.focus = FocusMode::Fixed(f);
+            }
+            d
+        });
+        Ok(settings)
+    };
+    // With accumulation: the accumulator and the last frame it has seen.
+    let mut history: Option<(TemporalAccumulator, Option<usize>)> = match temporal {
+        Some(t) => Some((TemporalAccumulator::new(t)?, None)),
+        None => None,
+    };
     for (i, s) in states.iter().enumerate() {
         let path = frame_path(&args.out, i);
         if frame_is_complete(&path, &display) {
@@ -272,17 +346,26 @@ pub fn run(args: SequenceArgs) -> Result<()> {
             pb.inc(1);
             continue;
         }
-        let gaze = display.gaze(s.gaze.x_px, s.gaze.y_px)?;
-        let mut settings = FrameSettings::new(method, gaze);
-        settings.mapping = config.clone();
-        settings.memory_limit_bytes = memory_limit;
-        settings.dof = dof.clone().map(|mut d| {
-            if let Some(f) = s.focus_m {
-                d.focus = FocusMode::Fixed(f);
+        let frame = match history.as_mut() {
+            Some((acc, last)) => {
+                if i > 0 && *last != Some(i - 1) {
+                    // Resumed: rebuild the history from the frames before this one.
+                    acc.reset();
+                    for k in i.saturating_sub(WARMUP_FRAMES)..i {
+                        render_frame_temporal(
+                            world,
+                            &cameras[k],
+                            &settings_of(&states[k])?,
+                            acc,
+                            &|_, _| {},
+                        )?;
+                    }
+                }
+                *last = Some(i);
+                render_frame_temporal(world, &cameras[i], &settings_of(s)?, acc, &|_, _| {})?
             }
-            d
-        });
-        let frame = render_frame(world, &cameras[i], &settings, &|_, _| {})?;
+            None => render_frame(world, &cameras[i], &settings_of(s)?, &|_, _| {})?,
+        };
         let tmp = path.with_extension("png.tmp");
         write_png(&tmp, &frame.color)?;
         std::fs::rename(&tmp, &path).with_context(|| format!("cannot write {}", path.display()))?;

@@ -6,9 +6,12 @@
 //! * [`metrics::flip_mean`]: mean ꟻLIP error (Andersson et al. 2020, NVIDIA's reference
 //!   implementation through the `nv-flip` crate) at the display's pixels per degree;
 //! * [`gradient_intensity::gradient_areas`]: Sobel gradient intensity in four areas across an
-//!   inset boundary (Liu et al., inset boundary smoothing, Sec. 4).
+//!   inset boundary (Liu et al., inset boundary smoothing, Sec. 4);
+//! * [`flicker::FlickerMeter`]: temporal flicker of a sequence against the full-resolution
+//!   sequence, by eccentricity band.
 
 pub mod dof_compare;
+pub mod flicker;
 pub mod gradient_intensity;
 pub mod metrics;
 pub mod ssim;

@@ -4,23 +4,27 @@
 //!
 //! * [`grid`]: neighbour lookups in a sample buffer — clamped for screen-aligned buffers,
 //!   angle-aligned and wrapping for polar (log-polar) buffers, so filters see no seam.
+//! * [`contrast`]: peripheral contrast enhancement (Weier et al., after Patney et al.).
 //! * [`fxaa`]: FXAA inside the sample buffer (VaFR Sec. 6).
 //! * [`gaussian_aa`]: the 3×3 Gaussian KFR applies in its LP buffer.
 //! * [`inset_smoothing`]: high-res inset over an upsampled low-res periphery, with the
 //!   boundary smoothing of Liu et al. (alpha blend, Gaussian, Gaussian + alpha, Laplacian).
 //! * [`inverse_map`]: sample buffers back to screen pixels with filtered lookups.
+//! * [`mip`]: 2×2-box mip pyramid with bilinear and Quincunx lookups (Weier et al.).
 //! * [`pull_push`]: hole filling for sparse screen masks (Weier et al.).
 //! * [`tonemap`]: exposure, tone curve and sRGB encoding.
 
 #![allow(clippy::needless_range_loop)] // per-channel pixel loops read best indexed
 
 pub mod alloc;
+pub mod contrast;
 pub mod dof;
 pub mod fxaa;
 pub mod gaussian_aa;
 pub mod grid;
 pub mod inset_smoothing;
 pub mod inverse_map;
+pub mod mip;
 pub mod pull_push;
 pub mod tonemap;
 

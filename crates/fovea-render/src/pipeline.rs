@@ -8,7 +8,13 @@
 //! 4. **aa**: sample-space anti-aliasing — FXAA in the LP buffer (VaFR, visual-polar),
 //!    the 3×3 Gaussian (KFR, LaFR), none for the others unless asked;
 //! 5. **reconstruct**: the inverse mapping to screen pixels with filtered lookups
-//!    (`fovea_post::inverse_map`).
+//!    (`fovea_post::inverse_map`);
+//! 6. optionally **contrast**: peripheral contrast enhancement (`fovea_post::contrast`), then
+//!    **dof**: the depth-of-field filter.
+//!
+//! In a sequence, [`render_frame_temporal`] jitters the samples in sample space, folds the
+//! previous frame into the fresh samples between shade and AA, and keeps this frame for the
+//! next (`crate::temporal`).
 //!
 //! Full resolution runs through the same code with the identity mapping: every pixel is a
 //! sample, no AA, the buffer is the screen. Trace and shade run chunk by chunk (about
@@ -39,8 +45,10 @@ use crate::cull_fill::{fill_culled, shade_or_cull, CullBuffers, SampleCull};
 use crate::dof::{apply_dof, auto_focus_m, Culling, DofSettings, FocusMode};
 use crate::error::{RenderError, Result};
 use crate::shade::{shade, RayCounts, ShadingMode};
+use crate::temporal::{SpacingLut, TemporalAccumulator, TemporalStats};
 use crate::trace::{trace_sample, GSample};
 use crate::world::World;
+use fovea_post::contrast::{enhance, PeripheralContrast};
 
 /// Samples per trace/shade chunk.
 const CHUNK_SAMPLES: usize = 1 << 18;
@@ -106,6 +114,8 @@ pub struct FrameSettings {
     pub memory_limit_bytes: u64,
     /// Depth of field: focus, DOF-aware culling and the screen-space filter (`None`: sharp).
     pub dof: Option<DofSettings>,
+    /// Peripheral contrast enhancement after reconstruction (`None`: off).
+    pub contrast: Option<PeripheralContrast>,
 }
 
 impl FrameSettings {
@@ -121,6 +131,7 @@ impl FrameSettings {
             density_view: false,
             memory_limit_bytes: default_memory_limit(),
             dof: None,
+            contrast: None,
         }
     }
 }
@@ -181,6 +192,8 @@ pub struct FrameStats {
     pub samples_culled: u64,
     /// The DOF filter applied, if any.
     pub dof_filter: Option<String>,
+    /// Temporal accumulation of this frame (in a sequence with accumulation on).
+    pub temporal: Option<TemporalStats>,
 }
 
 /// A rendered frame.
@@ -285,6 +298,32 @@ pub fn render_frame(
     settings: &FrameSettings,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<Frame> {
+    render(world, camera, settings, None, progress)
+}
+
+/// Renders the next frame of a sequence with temporal accumulation: samples jittered in
+/// sample space, the previous frame (kept in `accumulator`) reprojected and folded into the
+/// fresh samples before AA, and this frame kept for the next.
+pub fn render_frame_temporal(
+    world: &World,
+    camera: &EyeCamera,
+    settings: &FrameSettings,
+    accumulator: &mut TemporalAccumulator,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<Frame> {
+    render(world, camera, settings, Some(accumulator), progress)
+}
+
+fn render(
+    world: &World,
+    camera: &EyeCamera,
+    settings: &FrameSettings,
+    mut accumulator: Option<&mut TemporalAccumulator>,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<Frame> {
+    if let Some(c) = &settings.contrast {
+        c.validate()?;
+    }
     let t_total = Stopwatch::start();
     let display = &camera.display;
     let mut times = StageTimes::default();
@@ -312,6 +351,9 @@ pub fn render_frame(
     }
     let sizes = mapping.buffers();
     let aa = settings.aa.resolve(settings.method);
+    let jitter = accumulator
+        .as_ref()
+        .map_or([0.0, 0.0], |a| a.jitter(settings.method));
     // Eye state: the focus (auto focus casts a small depth patch around the gaze) and, for
     // DOF-aware culling, the DOF limits and the scene's depth range.
     let focus_m = match &settings.dof {
@@ -399,8 +441,8 @@ pub fn render_frame(
                     }
                     let s = SamplePoint {
                         layer,
-                        u: i as f64 + 0.5,
-                        v: j as f64 + 0.5,
+                        u: i as f64 + 0.5 + jitter[0],
+                        v: j as f64 + 0.5 + jitter[1],
                     };
                     let p = mapping.inverse(s)?;
                     let column = column_spread.as_ref().and_then(|cs| cs.get(i as usize));
@@ -479,6 +521,21 @@ pub fn render_frame(
         depths.push(depth);
     }
 
+    // Temporal accumulation: the previous frame folded into the fresh samples.
+    let mut temporal = None;
+    if let Some(acc) = accumulator.as_deref_mut() {
+        let t = Stopwatch::start();
+        let mut buffers = SampleBuffers {
+            color: colors,
+            depth: depths,
+        };
+        temporal =
+            Some(acc.accumulate(mapping.as_ref(), settings, camera, &mut buffers, jitter)?);
+        colors = buffers.color;
+        depths = buffers.depth;
+        times.add("temporal", &t);
+    }
+
     // 4. Sample-space anti-aliasing.
     let t = Stopwatch::start();
     if aa != AaMode::None {
@@ -511,6 +568,29 @@ pub fn render_frame(
         },
     )?;
     times.add("reconstruct", &t);
+    if let Some(acc) = accumulator {
+        let t = Stopwatch::start();
+        acc.finish(mapping.as_ref(), camera, &screen)?;
+        times.add("temporal", &t);
+    }
+    let screen = match &settings.contrast {
+        Some(c) => {
+            let t = Stopwatch::start();
+            let lut = SpacingLut::new(mapping.as_ref(), display, settings.gaze)?;
+            let gaze = settings.gaze;
+            let ecc = |x: u32, y: u32| {
+                let p = fovea_core::units::ScreenPoint::new(x as f64 + 0.5, y as f64 + 0.5);
+                display.eccentricity(p, &gaze).0 as f32
+            };
+            let color = enhance(&screen.color, c, &ecc, &|e| lut.at(e as f64))?;
+            times.add("contrast", &t);
+            fovea_post::inverse_map::ScreenFrame {
+                color,
+                depth: screen.depth,
+            }
+        }
+        None => screen,
+    };
 
     // 6. Depth of field in screen space.
     let (color, coc) = match (&settings.dof, focus_m) {
@@ -556,6 +636,7 @@ pub fn render_frame(
             .dof
             .as_ref()
             .and_then(|d| d.filter.map(|k| k.name().to_string())),
+        temporal,
     };
     Ok(Frame {
         color,

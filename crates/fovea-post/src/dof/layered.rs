@@ -53,6 +53,7 @@ use fovea_core::{FoveaError, Image, Result};
 
 use super::disc::{check_max_radius, sanitized_color};
 use super::{sanitize_coc, DofFilter, DofInput};
+use crate::mip::MipPyramid;
 use crate::Rgb;
 
 /// Weier et al.'s layered near/mid/far filter: Gaussian in the fovea, mip blur outside.
@@ -84,8 +85,6 @@ impl Default for Layered {
     }
 }
 
-/// σ of the footprint of one Quincunx-sampled mip texel of side `b`, over `b`.
-const MIP_SIGMA_PER_TEXEL: f32 = 0.612;
 /// σ table resolution, steps per pixel.
 const SIGMA_STEPS_PER_PX: f32 = 8.0;
 
@@ -365,7 +364,7 @@ fn blur_layer<const C: usize>(
         return gauss;
     }
     let max_sigma = sigma_px.iter().fold(0.0f32, |a, &s| a.max(s));
-    let pyr = MipPyramid::new(w, h, layer, max_sigma);
+    let pyr = MipPyramid::for_sigma(w, h, layer, max_sigma);
     let mut out = vec![[0.0f32; C]; w * h];
     out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
         for (x, o) in row.iter_mut().enumerate() {
@@ -422,97 +421,6 @@ impl GaussTable {
 
     fn half_width(&self, sigma_px: f32) -> usize {
         self.kernel(sigma_px).len() / 2
-    }
-}
-
-/// A 2×2-box mip pyramid of a `C`-channel layer.
-struct MipPyramid<const C: usize> {
-    levels: Vec<(usize, usize, Vec<[f32; C]>)>,
-}
-
-impl<const C: usize> MipPyramid<C> {
-    fn new(w: usize, h: usize, layer: &[[f32; C]], max_sigma_px: f32) -> Self {
-        // Enough levels for the largest footprint (one more for the trilinear blend).
-        let top = (max_sigma_px / MIP_SIGMA_PER_TEXEL).max(1.0).log2().ceil() as usize + 1;
-        let mut levels = vec![(w, h, layer.to_vec())];
-        while levels.len() <= top {
-            let (pw, ph, prev) = levels.last().expect("level 0 exists");
-            let (pw, ph) = (*pw, *ph);
-            if pw == 1 && ph == 1 {
-                break;
-            }
-            let (nw, nh) = (pw.div_ceil(2), ph.div_ceil(2));
-            let next: Vec<[f32; C]> = (0..nw * nh)
-                .into_par_iter()
-                .map(|k| {
-                    let (x, y) = (k % nw, k / nw);
-                    let mut acc = [0.0f32; C];
-                    let mut n = 0.0f32;
-                    for yy in 2 * y..(2 * y + 2).min(ph) {
-                        for xx in 2 * x..(2 * x + 2).min(pw) {
-                            let q = &prev[yy * pw + xx];
-                            for c in 0..C {
-                                acc[c] += q[c];
-                            }
-                            n += 1.0;
-                        }
-                    }
-                    acc.map(|v| v / n)
-                })
-                .collect();
-            levels.push((nw, nh, next));
-        }
-        Self { levels }
-    }
-
-    /// Bilinear sample of level `l` at screen position `(sx, sy)` (pixels, continuous).
-    #[inline]
-    fn bilinear(&self, l: usize, sx: f32, sy: f32) -> [f32; C] {
-        let (lw, lh, data) = &self.levels[l];
-        let scale = (1u32 << l) as f32;
-        let u = (sx / scale - 0.5).clamp(0.0, (*lw - 1) as f32);
-        let v = (sy / scale - 0.5).clamp(0.0, (*lh - 1) as f32);
-        let (x0, y0) = (u.floor() as usize, v.floor() as usize);
-        let (x1, y1) = ((x0 + 1).min(lw - 1), (y0 + 1).min(lh - 1));
-        let (fx, fy) = (u - x0 as f32, v - y0 as f32);
-        let p = |x: usize, y: usize| &data[y * lw + x];
-        let (a, b, c, d) = (p(x0, y0), p(x1, y0), p(x0, y1), p(x1, y1));
-        std::array::from_fn(|k| {
-            let top = a[k] + (b[k] - a[k]) * fx;
-            let bot = c[k] + (d[k] - c[k]) * fx;
-            top + (bot - top) * fy
-        })
-    }
-
-    /// Quincunx (centre ½, corners ⅛ at `±b/2`) trilinear sample whose footprint has
-    /// standard deviation ≈ `sigma_px`.
-    fn quincunx(&self, sx: f32, sy: f32, sigma_px: f32) -> [f32; C] {
-        let b = sigma_px / MIP_SIGMA_PER_TEXEL;
-        let lf = b.max(1.0).log2().min((self.levels.len() - 1) as f32);
-        let l0 = lf.floor() as usize;
-        let l1 = (l0 + 1).min(self.levels.len() - 1);
-        let f = lf - l0 as f32;
-        let o = 0.5 * b;
-        let taps = [
-            (0.0, 0.0, 0.5),
-            (-o, -o, 0.125),
-            (o, -o, 0.125),
-            (-o, o, 0.125),
-            (o, o, 0.125),
-        ];
-        let mut acc = [0.0f32; C];
-        for (dx, dy, wt) in taps {
-            let s0 = self.bilinear(l0, sx + dx, sy + dy);
-            let s1 = if f > 0.0 {
-                self.bilinear(l1, sx + dx, sy + dy)
-            } else {
-                s0
-            };
-            for c in 0..C {
-                acc[c] += wt * (s0[c] + (s1[c] - s0[c]) * f);
-            }
-        }
-        acc
     }
 }
 
@@ -699,34 +607,5 @@ mod tests {
             ..Default::default()
         };
         assert!(bad.apply(&f.input()).is_err());
-    }
-
-    #[test]
-    fn mip_footprint_sigma_matches_the_target() {
-        // A single bright pixel sampled through the pyramid: the second moment of the
-        // response, averaged over the pixel's position within the mip blocks, should be
-        // close to the requested σ.
-        let (w, h) = (96usize, 8usize);
-        for sigma in [2.0f32, 3.0, 4.0, 6.0, 8.0] {
-            let mut var = 0.0f32;
-            for p in 40..56usize {
-                let mut layer = vec![[0.0f32; 1]; w * h];
-                layer[4 * w + p] = [1.0];
-                let pyr = MipPyramid::new(w, h, &layer, sigma);
-                let (mut m0, mut m2) = (0.0f32, 0.0f32);
-                for y in 0..h {
-                    for x in 0..w {
-                        let v = pyr.quincunx(x as f32 + 0.5, y as f32 + 0.5, sigma)[0];
-                        let dx = x as f32 - p as f32;
-                        m0 += v;
-                        m2 += v * dx * dx;
-                    }
-                }
-                var += m2 / m0 / 16.0;
-            }
-            let s = var.sqrt();
-            eprintln!("mip footprint: target σ {sigma}, measured {s:.2}");
-            assert!((s / sigma - 1.0).abs() < 0.15, "{sigma}: {s}");
-        }
     }
 }

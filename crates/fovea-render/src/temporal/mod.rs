@@ -1,0 +1,475 @@
+//! Temporal accumulation across the frames of a sequence: the previous frame's shading is
+//! reprojected to the current frame and folded into a running estimate, so that peripheral
+//! samples, which are few and change with every gaze or camera move, stop flickering.
+//!
+//! Two paths, chosen by the method:
+//!
+//! * [`sample_space`] — log-polar and other buffer methods (VaFR's stated limitation is
+//!   flicker): each frame's samples are jittered by a sub-texel Halton offset in sample space,
+//!   and every texel of the new buffer fetches the previous *buffer* (its own mapping, gaze and
+//!   camera) at the reprojected position, bilinearly, with depth rejection and a clamp to the
+//!   new neighbourhood's colour range.
+//! * [`weier_taa`] — Weier et al. 2018, Sec. 3.1: each ray-cast pixel of the sparse pattern
+//!   fetches the previous frame's *reconstructed* image, stored as a mip pyramid with depth in
+//!   the alpha channel, at its reprojected position with five Quincunx taps at the mip level of
+//!   the sample's footprint; each tap's weight falls with its depth difference to the new
+//!   sample. The pull-push reconstruction then fills the screen from the smoothed samples.
+//!
+//! **Reprojection.** A texel's screen point `p` (its centre through the inverse mapping) and
+//! its depth `z` give the world point `P = o + d·z/(d·f)` (`d` the ray direction, `f` the view
+//! axis); `P` seen from the previous camera is the previous screen point `q` and the expected
+//! previous depth `z' = (P − o')·f'`. Misses (sky) reproject as directions, with `z' = ∞`.
+//!
+//! **Running estimate** (shared by both paths). The history colour `h` is the depth-weighted
+//! mean of the taps and `v ∈ [0, 1]` their total weight (bilinear or Quincunx weight × depth
+//! agreement, 1 when `|Δz| ≤ τ·z'`, 0 from `2τ·z'`, linear between). With `n` the number of
+//! frames the history already holds, the new sample's weight is
+//! `α = 1 − (1 − max(α_min, 1/(n + 1)))·v`: a plain average while the history is young, an
+//! exponential average with the user-set minimum weight `α_min` after that, and the new sample
+//! alone where the history was rejected. `n` restarts at 1 where `v < ½`.
+
+pub mod sample_space;
+pub mod weier_taa;
+
+use serde::Serialize;
+
+use fovea_core::display::{DisplayProfile, Gaze};
+use fovea_core::mapping::{build, FoveationMapping, MappingConfig, Method};
+use fovea_core::math::halton2;
+use fovea_core::units::ScreenPoint;
+use fovea_post::inverse_map::{SampleBuffers, ScreenFrame};
+use fovea_post::Rgb;
+use glam::Vec3;
+
+use crate::camera::EyeCamera;
+use crate::error::{RenderError, Result};
+
+/// Depth stored for misses where a finite value is needed (mip averages, comparisons).
+pub(crate) const SKY_DEPTH_M: f32 = 1.0e9;
+
+/// Jitter cycle length (Halton 2, 3 points).
+pub const JITTER_PERIOD: u64 = 16;
+
+/// Options of the temporal accumulation.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct TemporalSettings {
+    /// Smallest weight of the new sample in the running estimate (Weier's user-set minimum);
+    /// `1/α_min` is about the number of frames averaged.
+    pub alpha_min: f32,
+    /// Relative depth difference `τ` up to which a history tap counts fully (rejected from
+    /// `2τ`).
+    pub depth_tolerance: f32,
+    /// Sub-texel Halton jitter of the samples in sample space (not for Weier's pattern, whose
+    /// `S_out` is static by design). Off by default: it anti-aliases a still frame over the
+    /// jitter cycle, but in motion the per-frame change it adds to the large peripheral
+    /// texels outweighs what accumulation removes (docs/temporal.md has the measurements).
+    pub jitter: bool,
+    /// Clamp the history colour to the range of the new sample's 3×3 neighbourhood (in sample
+    /// space), which removes ghosts of changed shading.
+    pub clamp: bool,
+}
+
+impl Default for TemporalSettings {
+    fn default() -> Self {
+        Self {
+            alpha_min: 0.1,
+            depth_tolerance: 0.03,
+            jitter: false,
+            clamp: true,
+        }
+    }
+}
+
+impl TemporalSettings {
+    /// Checks the ranges: `α_min` in (0, 1], `τ` in (0, 1].
+    pub fn validate(&self) -> Result<()> {
+        if !(self.alpha_min > 0.0 && self.alpha_min <= 1.0) {
+            return Err(RenderError::invalid(
+                "alpha-min",
+                self.alpha_min,
+                "a weight in (0, 1], e.g. 0.1",
+            ));
+        }
+        if !(self.depth_tolerance > 0.0 && self.depth_tolerance <= 1.0) {
+            return Err(RenderError::invalid(
+                "depth-tolerance",
+                self.depth_tolerance,
+                "a relative depth difference in (0, 1], e.g. 0.03",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// What the accumulation did in one frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct TemporalStats {
+    /// Samples blended with a history value.
+    pub reused: u64,
+    /// Samples whose history was rejected (off screen, outside the previous buffer, depth
+    /// mismatch) or that had none (first frame).
+    pub fresh: u64,
+    /// The jitter used, buffer texels.
+    pub jitter: [f64; 2],
+}
+
+/// The previous frame, as each path needs it.
+enum History {
+    Samples(sample_space::SampleHistory),
+    Pyramid(weier_taa::PyramidHistory),
+}
+
+/// Temporal state carried from frame to frame of one sequence (one per method and eye).
+pub struct TemporalAccumulator {
+    settings: TemporalSettings,
+    frame: u64,
+    history: Option<History>,
+    /// Method of the history; a change of method resets.
+    method: Option<Method>,
+    /// Weier path: ages of this frame's samples, until [`finish`](Self::finish) stores them.
+    weier_ages: Option<(fovea_core::Image<u16>, SpacingLut, Gaze)>,
+    last: TemporalStats,
+}
+
+impl TemporalAccumulator {
+    /// A fresh accumulator.
+    pub fn new(settings: TemporalSettings) -> Result<Self> {
+        settings.validate()?;
+        Ok(Self {
+            settings,
+            frame: 0,
+            history: None,
+            method: None,
+            weier_ages: None,
+            last: TemporalStats::default(),
+        })
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &TemporalSettings {
+        &self.settings
+    }
+
+    /// Forgets the history (a cut in the sequence).
+    pub fn reset(&mut self) {
+        self.history = None;
+        self.method = None;
+    }
+
+    /// The previous frame of a buffer method, if the accumulator holds one (for analysis:
+    /// [`sample_space::SampleHistory::lookup`]).
+    pub fn sample_history(&self) -> Option<&sample_space::SampleHistory> {
+        match &self.history {
+            Some(History::Samples(h)) => Some(h),
+            _ => None,
+        }
+    }
+
+    /// Statistics of the last frame.
+    pub fn last_stats(&self) -> TemporalStats {
+        self.last
+    }
+
+    /// The sample-space jitter of the next frame, in buffer texels (zero for Weier's pattern
+    /// and when jitter is off): the Halton (2, 3) point `frame mod 16 + 1`, centred.
+    pub fn jitter(&self, method: Method) -> [f64; 2] {
+        if !self.settings.jitter || method == Method::Weier {
+            return [0.0, 0.0];
+        }
+        let (a, b) = halton2(self.frame % JITTER_PERIOD + 1, (0.0, 0.0));
+        [a - 0.5, b - 0.5]
+    }
+
+    /// Blends the previous frame into this frame's freshly shaded samples (before AA).
+    /// `settings` are the frame's (method, mapping parameters, gaze), from which the history
+    /// rebuilds this frame's mapping.
+    pub(crate) fn accumulate(
+        &mut self,
+        mapping: &dyn FoveationMapping,
+        settings: &crate::pipeline::FrameSettings,
+        camera: &EyeCamera,
+        buffers: &mut SampleBuffers,
+        jitter: [f64; 2],
+    ) -> Result<TemporalStats> {
+        let method = mapping.method();
+        if self.method != Some(method) {
+            self.history = None;
+        }
+        let mut stats = if method == Method::Weier {
+            let lut = SpacingLut::new(mapping, &camera.display, settings.gaze)?;
+            let (stats, ages) = match &self.history {
+                Some(History::Pyramid(h)) => weier_taa::blend(
+                    h,
+                    &self.settings,
+                    mapping,
+                    camera,
+                    settings.gaze,
+                    &lut,
+                    buffers,
+                )?,
+                _ => weier_taa::first_frame(mapping, buffers)?,
+            };
+            self.weier_ages = Some((ages, lut, settings.gaze));
+            stats
+        } else {
+            let lut = SpacingLut::new(mapping, &camera.display, settings.gaze)?;
+            let (stats, ages) = match &self.history {
+                Some(History::Samples(h)) => sample_space::blend(
+                    h,
+                    &self.settings,
+                    mapping,
+                    camera,
+                    settings.gaze,
+                    &lut,
+                    buffers,
+                )?,
+                _ => sample_space::first_frame(mapping, buffers)?,
+            };
+            let rebuilt = build(method, &camera.display, settings.gaze, &settings.mapping)?;
+            self.history = Some(History::Samples(sample_space::SampleHistory::new(
+                rebuilt,
+                camera.clone(),
+                settings.gaze,
+                lut,
+                buffers,
+                ages,
+            )));
+            stats
+        };
+        stats.jitter = jitter;
+        self.method = Some(method);
+        self.last = stats;
+        Ok(stats)
+    }
+
+    /// Keeps the reconstructed frame as Weier's history pyramid (other methods keep their
+    /// sample buffers in [`accumulate`](Self::accumulate)), and advances the frame counter.
+    pub(crate) fn finish(
+        &mut self,
+        mapping: &dyn FoveationMapping,
+        camera: &EyeCamera,
+        screen: &ScreenFrame,
+    ) -> Result<()> {
+        if mapping.method() == Method::Weier {
+            if let Some((ages, lut, gaze)) = self.weier_ages.take() {
+                let next = weier_taa::PyramidHistory::new(camera, screen, ages, lut, gaze)?;
+                self.history = Some(History::Pyramid(next));
+            }
+        }
+        self.frame += 1;
+        Ok(())
+    }
+}
+
+/// Number of shaded texels of `layer`.
+pub(crate) fn shaded_count(mapping: &dyn FoveationMapping, layer: u32, w: u32, h: u32) -> u64 {
+    let mut n = 0;
+    for j in 0..h {
+        for i in 0..w {
+            n += mapping.is_shaded(layer, i, j) as u64;
+        }
+    }
+    n
+}
+
+/// A texel's world point seen from the previous camera: `(q, z')`, the previous screen point
+/// and the expected previous view depth (`∞` for misses). `None` behind the previous camera.
+#[inline]
+pub(crate) fn reproject(
+    camera: &EyeCamera,
+    previous: &EyeCamera,
+    p: ScreenPoint,
+    depth_m: f32,
+) -> Option<(ScreenPoint, f32)> {
+    let dir = camera.direction(p.x_px as f32, p.y_px as f32);
+    if !depth_m.is_finite() || depth_m >= SKY_DEPTH_M {
+        return previous.screen_point_of(dir).map(|q| (q, f32::INFINITY));
+    }
+    let cos = dir.dot(camera.forward);
+    if cos <= 1e-6 {
+        return None;
+    }
+    let world: Vec3 = camera.position + dir * (depth_m / cos);
+    let rel = world - previous.position;
+    let z = rel.dot(previous.forward);
+    previous.screen_point_of(rel).map(|q| (q, z))
+}
+
+/// Agreement of a history depth with the expected one: 1 within `τ·z'`, 0 from `2τ·z'`.
+#[inline]
+pub(crate) fn depth_weight(history_m: f32, expected_m: f32, tau: f32) -> f32 {
+    let h_sky = !history_m.is_finite() || history_m >= SKY_DEPTH_M * 0.5;
+    let e_sky = !expected_m.is_finite();
+    match (h_sky, e_sky) {
+        (true, true) => 1.0,
+        (true, false) | (false, true) => 0.0,
+        (false, false) => {
+            let rel = (history_m - expected_m).abs() / expected_m.max(1e-4);
+            (2.0 - rel / tau).clamp(0.0, 1.0)
+        }
+    }
+}
+
+/// Trust in a history sampled coarser than the new samples (after a saccade the new fovea
+/// reads the old periphery): `v` and the age scale by `(b/b_prev)²` (≤ 1), the ratio of
+/// sample densities, `b` and `b_prev` being the new and the previous sample spacing.
+#[inline]
+pub(crate) fn resolution_weight(v: f32, n: u16, b: f32, b_prev: f32) -> (f32, u16) {
+    if !(b_prev > b && b > 0.0) {
+        return (v, n);
+    }
+    let r = (b / b_prev) * (b / b_prev);
+    (v * r, ((n as f32 * r).floor() as u16).max(1))
+}
+
+/// The running estimate: `(colour, new age)` from the new sample `c`, the history `h` with
+/// total weight `v` and age `n`.
+#[inline]
+pub(crate) fn running_estimate(c: Rgb, h: Rgb, v: f32, n: u16, alpha_min: f32) -> (Rgb, u16) {
+    if v <= 1e-3 || n == 0 {
+        return (c, 1);
+    }
+    let a_hist = alpha_min.max(1.0 / (n as f32 + 1.0));
+    let a = 1.0 - (1.0 - a_hist) * v.min(1.0);
+    let out = [
+        a * c[0] + (1.0 - a) * h[0],
+        a * c[1] + (1.0 - a) * h[1],
+        a * c[2] + (1.0 - a) * h[2],
+    ];
+    let age = if v >= 0.5 { n.saturating_add(1) } else { 1 };
+    (out, age)
+}
+
+/// Sample spacing in screen pixels as a function of eccentricity: the full-resolution
+/// shading rate over the mapping's (`1` where the mapping samples at least as densely as the
+/// screen), tabulated every 0.1°.
+pub struct SpacingLut {
+    step_deg: f64,
+    values: Vec<f32>,
+}
+
+impl SpacingLut {
+    /// The table of `mapping` on `display` at `gaze`.
+    pub fn new(
+        mapping: &dyn FoveationMapping,
+        display: &DisplayProfile,
+        gaze: Gaze,
+    ) -> Result<Self> {
+        let full = build(Method::Full, display, gaze, &MappingConfig::default())?;
+        let step_deg = 0.1;
+        let e_max = display.farthest_corner_eccentricity(&gaze).0 + 1.0;
+        let n = (e_max / step_deg).ceil() as usize + 2;
+        let values = (0..n)
+            .map(|k| {
+                let e = k as f64 * step_deg;
+                let full_rate = (full.radial_rate_cpd(e) * full.tangential_rate_cpd(e))
+                    .max(0.0)
+                    .sqrt();
+                let rate = (mapping.radial_rate_cpd(e) * mapping.tangential_rate_cpd(e))
+                    .max(0.0)
+                    .sqrt();
+                if rate > 0.0 && full_rate.is_finite() && rate.is_finite() {
+                    (full_rate / rate).max(1.0) as f32
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        Ok(Self { step_deg, values })
+    }
+
+    /// The largest spacing in the table, pixels.
+    pub fn max(&self) -> f32 {
+        self.values.iter().fold(1.0f32, |a, &b| a.max(b))
+    }
+
+    /// Spacing at eccentricity `e_deg`, pixels (linear interpolation, clamped).
+    pub fn at(&self, e_deg: f64) -> f32 {
+        let x = (e_deg.max(0.0) / self.step_deg).min((self.values.len() - 1) as f64);
+        let k = (x.floor() as usize).min(self.values.len() - 2);
+        let f = (x - k as f64) as f32;
+        self.values[k] + (self.values[k + 1] - self.values[k]) * f
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn depth_weight_ramps() {
+        assert_eq!(depth_weight(1.0, 1.0, 0.05), 1.0);
+        assert_eq!(depth_weight(1.05, 1.0, 0.05), 1.0);
+        assert!((depth_weight(1.075, 1.0, 0.05) - 0.5).abs() < 1e-5);
+        assert_eq!(depth_weight(1.2, 1.0, 0.05), 0.0);
+        assert_eq!(depth_weight(SKY_DEPTH_M, f32::INFINITY, 0.05), 1.0);
+        assert_eq!(depth_weight(2.0, f32::INFINITY, 0.05), 0.0);
+        assert_eq!(depth_weight(f32::INFINITY, 2.0, 0.05), 0.0);
+    }
+
+    #[test]
+    fn running_estimate_averages_then_decays() {
+        // Constant history weight 1: frames 1..=4 average uniformly.
+        let mut acc = [1.0f32, 0.0, 0.0];
+        let mut n = 1u16;
+        for k in 2..=4 {
+            let (c, a) = running_estimate([k as f32, 0.0, 0.0], acc, 1.0, n, 0.1);
+            acc = c;
+            n = a;
+        }
+        assert!((acc[0] - 2.5).abs() < 1e-5, "{acc:?}");
+        assert_eq!(n, 4);
+        // Old history: weight of the new sample is α_min.
+        let (c, _) = running_estimate([1.0; 3], [0.0; 3], 1.0, 100, 0.1);
+        assert!((c[0] - 0.1).abs() < 1e-6);
+        // Rejected history: the new sample alone, age restarts.
+        let (c, a) = running_estimate([1.0; 3], [0.0; 3], 0.0, 100, 0.1);
+        assert_eq!((c[0], a), (1.0, 1));
+        // Half-trusted history.
+        let (c, a) = running_estimate([1.0; 3], [0.0; 3], 0.4, 100, 0.1);
+        assert!((c[0] - (1.0 - 0.9 * 0.4)).abs() < 1e-6);
+        assert_eq!(a, 1);
+    }
+
+    #[test]
+    fn jitter_cycles_through_centred_halton_points() {
+        let mut acc = TemporalAccumulator::new(TemporalSettings {
+            jitter: true,
+            ..Default::default()
+        })
+        .unwrap();
+        let mut seen = Vec::new();
+        for _ in 0..JITTER_PERIOD {
+            let j = acc.jitter(Method::Vafr);
+            assert!(j[0].abs() < 0.5 && j[1].abs() < 0.5);
+            seen.push(j);
+            acc.frame += 1;
+        }
+        assert_eq!(acc.jitter(Method::Vafr), seen[0]);
+        let mean = seen
+            .iter()
+            .fold([0.0; 2], |m, j| [m[0] + j[0], m[1] + j[1]]);
+        assert!(mean[0].abs() / 16.0 < 0.05 && mean[1].abs() / 16.0 < 0.05);
+        assert_eq!(acc.jitter(Method::Weier), [0.0, 0.0]);
+    }
+
+    #[test]
+    fn bad_settings_are_errors() {
+        for s in [
+            TemporalSettings {
+                alpha_min: 0.0,
+                ..Default::default()
+            },
+            TemporalSettings {
+                alpha_min: f32::NAN,
+                ..Default::default()
+            },
+            TemporalSettings {
+                depth_tolerance: -1.0,
+                ..Default::default()
+            },
+        ] {
+            assert!(TemporalAccumulator::new(s).is_err());
+        }
+    }
+}
