@@ -29,7 +29,7 @@ use crate::common::{DisplayArgs, MethodOptions};
 use crate::output::write_rgb;
 use crate::render::memory_limit;
 use crate::scene_args::{parse_vec3, prepare, SceneArgs};
-use crate::sequence::{gaze_trajectory, SCENARIOS};
+use crate::sequence::gaze_trajectory;
 use crate::temporal_args::{parse_temporal_modes, TemporalArgs};
 
 /// Options of `fovea flicker`.
@@ -110,7 +110,7 @@ struct VariantReport {
     mean_psnr_db: f64,
     /// The same within 10° of the gaze (a square of that radius), dB.
     mean_central_psnr_db: f64,
-    /// Mean over frames of the reused fraction of samples (accumulation on).
+    /// Mean over frames 1… of the reused fraction of samples (accumulation on).
     mean_reused: Option<f64>,
     #[serde(skip)]
     psnr: Vec<f64>,
@@ -181,8 +181,7 @@ pub fn run(args: FlickerArgs) -> Result<()> {
         args.quiet,
         &display,
         duration_s,
-    )
-    .with_context(|| format!("scenarios: {SCENARIOS}"))?
+    )?
     .resample(args.fps, args.frames as usize)?;
     let prepared = prepare(&args.scene, &display)?;
     let world = &prepared.world;
@@ -290,7 +289,9 @@ pub fn run(args: FlickerArgs) -> Result<()> {
                 Some(acc) => {
                     let f = render_frame_temporal(world, camera, &s, acc, &|_, _| {})?;
                     let t = acc.last_stats();
-                    v.reused_sum += t.reused as f64 / (t.reused + t.fresh).max(1) as f64;
+                    if i > 0 {
+                        v.reused_sum += t.reused as f64 / (t.reused + t.fresh).max(1) as f64;
+                    }
                     f
                 }
                 None => render_frame(world, camera, &s, &|_, _| {})?,
@@ -339,7 +340,7 @@ pub fn run(args: FlickerArgs) -> Result<()> {
             mean_reused: v
                 .accumulator
                 .as_ref()
-                .map(|_| v.reused_sum / args.frames as f64),
+                .map(|_| v.reused_sum / (args.frames - 1) as f64),
             psnr: v.psnr.clone(),
         })
         .collect();

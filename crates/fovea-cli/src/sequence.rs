@@ -56,7 +56,9 @@ pub struct SequenceArgs {
     #[arg(long, default_value_t = 120)]
     pub frames: u32,
     /// Temporal accumulation (reprojection of the previous frame): on or off. A resumed run
-    /// re-renders up to 32 frames before the first missing one to rebuild the history.
+    /// rebuilds the history from the (up to) 32 frames before the first missing one, without
+    /// writing them: identical frames when it falls within the first 32, otherwise history
+    /// older than 32 frames (weight ≤ (1 − α_min)³² ≈ 3 %) is lost.
     #[arg(long, default_value = "off")]
     pub temporal: String,
     #[command(flatten)]
@@ -228,6 +230,17 @@ pub fn run(args: SequenceArgs) -> Result<()> {
         None => (None, String::new()),
     };
     let gazes = traj.resample(args.fps, args.frames as usize)?;
+    // The CSV's contents, not only its path, decide the frames.
+    let gaze_csv_hash = match &args.gaze_csv {
+        Some(p) => Some(format!(
+            "{:016x}",
+            fnv1a(
+                &std::fs::read(p)
+                    .with_context(|| format!("cannot read gaze CSV {}", p.display()))?
+            )
+        )),
+        None => None,
+    };
 
     // The settings the frames depend on: a folder rendered with others is not resumed.
     let manifest = serde_json::json!({
@@ -242,6 +255,7 @@ pub fn run(args: SequenceArgs) -> Result<()> {
         "frames": args.frames,
         "fps": args.fps,
         "gaze_csv": args.gaze_csv,
+        "gaze_csv_fnv1a": gaze_csv_hash,
         "scenario": if args.gaze_csv.is_some() { None } else { Some(&args.scenario) },
         "seed": args.seed,
         "camera_path": camera_path_text,
@@ -380,6 +394,13 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     );
     make_video(&args.out, args.fps, video)?;
     Ok(())
+}
+
+/// 64-bit FNV-1a hash (stable across Rust versions, unlike `DefaultHasher`).
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+    })
 }
 
 /// `out/frame_00042.png`.

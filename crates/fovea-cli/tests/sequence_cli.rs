@@ -178,3 +178,101 @@ fn inset_analysis_reports_every_smoothing() {
     assert!(!bad.status.success());
     assert!(!String::from_utf8_lossy(&bad.stderr).contains("panicked"));
 }
+
+#[test]
+fn temporal_sequence_resumes_with_the_same_frames() {
+    // With accumulation a frame depends on the ones before it: a resumed run rebuilds the
+    // history from the frames before the first missing one, so it writes the same images.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("seq");
+    let extra = [
+        "--temporal",
+        "on",
+        "--method",
+        "weier",
+        "--peripheral-contrast",
+        "0.5",
+    ];
+    let first = ok(&run(&out, &extra));
+    assert!(first.contains("4 rendered, 0 already there"), "{first}");
+    let before: Vec<Vec<u8>> = (2..4)
+        .map(|i| std::fs::read(out.join(format!("frame_{i:05}.png"))).unwrap())
+        .collect();
+    for i in 2..4 {
+        std::fs::remove_file(out.join(format!("frame_{i:05}.png"))).unwrap();
+    }
+    let resumed = ok(&run(&out, &extra));
+    assert!(resumed.contains("2 rendered, 2 already there"), "{resumed}");
+    for (k, i) in (2..4).enumerate() {
+        let now = std::fs::read(out.join(format!("frame_{i:05}.png"))).unwrap();
+        assert!(now == before[k], "frame {i} differs after resuming");
+    }
+    // Bad temporal options: one-line errors.
+    for bad in [
+        ["--temporal", "maybe"],
+        ["--alpha-min", "0"],
+        ["--peripheral-contrast", "-1"],
+    ] {
+        let o = run(&out, &bad);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success() && !err.contains("panicked"),
+            "{bad:?}: {err}"
+        );
+        assert_eq!(err.trim().lines().count(), 1, "{bad:?}: {err}");
+    }
+}
+
+#[test]
+fn flicker_runs_and_rejects_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("flicker");
+    let o = fovea()
+        .args([
+            "flicker",
+            "--res",
+            "96x80",
+            "--lights",
+            "1",
+            "--frames",
+            "4",
+            "--methods",
+            "vafr,weier",
+            "-q",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let text = ok(&o);
+    assert!(
+        text.contains("| vafr | on |") && text.contains("| weier | off |"),
+        "{text}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("flicker.json")).unwrap()).unwrap();
+    let variants = json["variants"].as_array().unwrap();
+    assert_eq!(variants.len(), 4);
+    for v in variants {
+        assert_eq!(v["flicker"]["frames"].as_array().unwrap().len(), 3);
+    }
+    let csv = std::fs::read_to_string(out.join("flicker-frames.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 4 * 4, "{csv}");
+    for bad in [
+        vec!["flicker", "--frames", "1"],
+        vec!["flicker", "--methods", "full"],
+        vec!["flicker", "--methods", "vafr,nope"],
+        vec!["flicker", "--bands", "5,1"],
+        vec!["flicker", "--temporal", "sometimes"],
+        vec!["flicker", "--reference-spp", "0"],
+        vec!["flicker", "--camera-move", "1,nan,0"],
+    ] {
+        let o = fovea().args(&bad).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success() && !err.contains("panicked"),
+            "{bad:?}: {err}"
+        );
+        assert_eq!(err.trim().lines().count(), 1, "{bad:?}: {err}");
+    }
+}

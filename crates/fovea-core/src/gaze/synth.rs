@@ -74,12 +74,14 @@ impl SynthDisplay {
         })
     }
 
-    /// The display's resolution and its lens-centre [`DisplayProfile::ppd`].
+    /// The display's resolution and the pixels per degree of its rendered projection at the
+    /// centre, `π/(180·c_r)` — the angle the eye turns through to move across the image (a
+    /// headset's quoted optical ppd, [`DisplayProfile::ppd`], is another quantity).
     pub fn from_profile(d: &DisplayProfile) -> Self {
         SynthDisplay {
             width_px: d.width_px as f64,
             height_px: d.height_px as f64,
-            px_per_deg: d.ppd(),
+            px_per_deg: d.rectilinear_ppd(crate::units::Degrees(0.0)),
         }
     }
 

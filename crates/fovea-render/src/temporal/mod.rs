@@ -62,7 +62,7 @@ pub struct TemporalSettings {
     /// Sub-texel Halton jitter of the samples in sample space (not for Weier's pattern, whose
     /// `S_out` is static by design). Off by default: it anti-aliases a still frame over the
     /// jitter cycle, but in motion the per-frame change it adds to the large peripheral
-    /// texels outweighs what accumulation removes (docs/temporal.md has the measurements).
+    /// texels outweighs what accumulation removes (docs/sequences.md has the measurements).
     pub jitter: bool,
     /// Clamp the history colour to the range of the new sample's 3×3 neighbourhood (in sample
     /// space), which removes ghosts of changed shading.
