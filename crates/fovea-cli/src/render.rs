@@ -79,6 +79,14 @@ pub struct RenderArgs {
     /// Refuse frames needing more memory than this (e.g. 8G, 512M; default 80 % of available).
     #[arg(long)]
     pub max_memory: Option<String>,
+    /// Eyes: one (--eye) or both (a side-by-side left | right image, each eye with its own
+    /// gaze at the fixated world point).
+    #[arg(long, default_value = "one")]
+    pub eyes: String,
+    /// With --eyes both: dup (render both eyes) or rep (reproject the left eye's sample
+    /// buffer to the right eye and trace only the holes, VaFR_Rep).
+    #[arg(long, default_value = "rep")]
+    pub stereo: String,
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
@@ -186,6 +194,11 @@ pub fn run(args: RenderArgs) -> Result<()> {
     settings.density_view = args.density_out.is_some();
     settings.memory_limit_bytes = memory_limit;
     settings.dof = dof;
+    match args.eyes.trim().to_ascii_lowercase().as_str() {
+        "one" | "1" => {}
+        "both" | "2" => return run_stereo(&args, &prepared, settings, tone),
+        e => bail!("invalid parameter `eyes` = {e}: expected one or both"),
+    }
 
     let pb = progress_bar(args.quiet, method.name());
     let frame = render_frame(
@@ -267,6 +280,99 @@ pub fn run(args: RenderArgs) -> Result<()> {
             s.stages_ms.get("dof").copied().unwrap_or(0.0),
         );
     }
+    println!("wrote {} and {}", args.out.display(), stats_path.display());
+    Ok(())
+}
+
+/// The world point the gaze fixates: the first surface on the ray through the gaze pixel of
+/// `camera` (10 m along it where nothing is hit).
+pub fn fixation_point(
+    world: &fovea_render::world::World,
+    camera: &fovea_render::camera::EyeCamera,
+    gaze: &fovea_core::display::Gaze,
+) -> glam::Vec3 {
+    let ray = camera.ray(gaze.point);
+    let g = fovea_render::trace::trace_sample(world, &ray, 0.0);
+    let t = if g.t.is_finite() { g.t } else { 10.0 };
+    ray.origin + ray.dir * t
+}
+
+/// `--eyes both`: each eye's gaze at the fixated point, the binocular frame, one side-by-side
+/// image.
+fn run_stereo(
+    args: &RenderArgs,
+    prepared: &crate::scene_args::Prepared,
+    settings: FrameSettings,
+    tone: ToneCurve,
+) -> Result<()> {
+    use fovea_render::camera::Eye;
+    use fovea_render::stereo::{render_stereo, StereoMode};
+    if args.depth_out.is_some() || args.density_out.is_some() || args.coc_out.is_some() {
+        bail!("--depth-out, --density-out and --coc-out are for one eye (--eyes one)");
+    }
+    let mode = StereoMode::parse(&args.stereo)?;
+    let display = &prepared.camera.display;
+    let centre = prepared.rig.eye(Eye::Centre, display)?;
+    let target = fixation_point(&prepared.world, &centre, &settings.gaze);
+    let eye_settings = |eye: Eye| -> Result<(fovea_render::camera::EyeCamera, FrameSettings)> {
+        let cam = prepared.rig.eye(eye, display)?;
+        let q = cam
+            .screen_point_of(target - cam.position)
+            .ok_or_else(|| anyhow::anyhow!("the fixated point is behind the {eye:?} eye"))?;
+        let w = display.width_px as f64;
+        let h = display.height_px as f64;
+        let g = display.gaze(q.x_px.clamp(0.0, w), q.y_px.clamp(0.0, h))?;
+        let mut s = settings.clone();
+        s.gaze = g;
+        Ok((cam, s))
+    };
+    let (lc, ls) = eye_settings(Eye::Left)?;
+    let (rc, rs) = eye_settings(Eye::Right)?;
+    let pb = progress_bar(args.quiet, mode.name());
+    let frame = render_stereo(&prepared.world, &lc, &rc, &ls, &rs, mode, &|done, total| {
+        pb.set_length(total);
+        pb.set_position(done);
+    })?;
+    pb.finish_and_clear();
+    let (w, h) = (display.width_px, display.height_px);
+    let mut both = fovea_core::Image::new(2 * w, h, [0.0f32; 3])?;
+    for y in 0..h {
+        for x in 0..w {
+            *both.get_mut(x, y) = *frame.left.color.get(x, y);
+            *both.get_mut(w + x, y) = *frame.right.color.get(x, y);
+        }
+    }
+    write_rgb(&args.out, &both, args.exposure, tone)?;
+    let stats_path = args
+        .stats
+        .clone()
+        .unwrap_or_else(|| args.out.with_extension("json"));
+    let json = serde_json::json!({
+        "scene": prepared.world.scene.name,
+        "display": display.name,
+        "ipd_m": prepared.rig.ipd_m,
+        "fixation": [target.x, target.y, target.z],
+        "gaze_left": [ls.gaze.point.x_px, ls.gaze.point.y_px],
+        "gaze_right": [rs.gaze.point.x_px, rs.gaze.point.y_px],
+        "stereo": frame.stats,
+        "left": frame.left.stats,
+        "right": frame.right.stats,
+    });
+    std::fs::write(&stats_path, serde_json::to_string_pretty(&json)? + "\n")
+        .with_context(|| format!("cannot write {}", stats_path.display()))?;
+    let st = &frame.stats;
+    println!(
+        "{} {w}x{h} ×2 {} {} | primary rays: left {}, right {} ({} warped, {} cracks filled, {} holes traced) | {:.0} ms",
+        prepared.world.scene.name,
+        settings.method,
+        mode.name(),
+        thousands(st.rays_primary_left),
+        thousands(st.rays_primary_right),
+        thousands(st.warped),
+        thousands(st.cracks_filled),
+        thousands(st.holes_traced),
+        st.total_ms
+    );
     println!("wrote {} and {}", args.out.display(), stats_path.display());
     Ok(())
 }

@@ -123,6 +123,8 @@ pub struct Prepared {
     pub world: World,
     /// The eye's camera.
     pub camera: EyeCamera,
+    /// The head with both eyes (`--ipd`).
+    pub rig: HmdRig,
 }
 
 /// A loaded scene with its BVH and head rig: viewable on any display through
@@ -192,6 +194,7 @@ pub fn prepare(args: &SceneArgs, display: &DisplayProfile) -> Result<Prepared> {
     let mut loaded = load(args)?;
     let camera = loaded.view(args, display)?;
     Ok(Prepared {
+        rig: loaded.rig.clone(),
         world: loaded.world,
         camera,
     })

@@ -24,6 +24,7 @@ pub mod lights;
 pub mod pipeline;
 pub mod scene;
 pub mod shade;
+pub mod stereo;
 pub mod temporal;
 pub mod thin_lens;
 pub mod trace;

@@ -116,6 +116,8 @@ pub struct FrameSettings {
     pub dof: Option<DofSettings>,
     /// Peripheral contrast enhancement after reconstruction (`None`: off).
     pub contrast: Option<PeripheralContrast>,
+    /// Keep the shaded sample buffers (before AA) in [`Frame::samples`].
+    pub keep_samples: bool,
 }
 
 impl FrameSettings {
@@ -132,6 +134,7 @@ impl FrameSettings {
             memory_limit_bytes: default_memory_limit(),
             dof: None,
             contrast: None,
+            keep_samples: false,
         }
     }
 }
@@ -209,6 +212,20 @@ pub struct Frame {
     pub coc: Option<Image<f32>>,
     /// Counts and timings.
     pub stats: FrameStats,
+    /// The shaded sample buffers before AA (when [`FrameSettings::keep_samples`]).
+    pub samples: Option<SampleBuffers>,
+}
+
+/// Sample values known before tracing (e.g. warped from the other eye): texels whose `known`
+/// flag is set get no ray and keep `color` and `depth`.
+#[derive(Clone, Debug)]
+pub struct Prefill {
+    /// Colour per layer, the mapping's buffer sizes.
+    pub color: Vec<Image<Rgb>>,
+    /// Depth per layer.
+    pub depth: Vec<Image<f32>>,
+    /// Which texels are known.
+    pub known: Vec<Image<bool>>,
 }
 
 /// Bytes a frame of `mapping` on `display` needs at its peak: sample buffers (colour + depth,
@@ -298,7 +315,19 @@ pub fn render_frame(
     settings: &FrameSettings,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<Frame> {
-    render(world, camera, settings, None, progress)
+    render(world, camera, settings, None, None, progress)
+}
+
+/// Renders a frame whose `prefill.known` texels are already shaded: only the others get rays
+/// (binocular reprojection traces just the holes). `prefill` must match the mapping's buffers.
+pub fn render_frame_prefilled(
+    world: &World,
+    camera: &EyeCamera,
+    settings: &FrameSettings,
+    prefill: &Prefill,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<Frame> {
+    render(world, camera, settings, None, Some(prefill), progress)
 }
 
 /// Renders the next frame of a sequence with temporal accumulation: samples jittered in
@@ -311,7 +340,7 @@ pub fn render_frame_temporal(
     accumulator: &mut TemporalAccumulator,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<Frame> {
-    render(world, camera, settings, Some(accumulator), progress)
+    render(world, camera, settings, Some(accumulator), None, progress)
 }
 
 fn render(
@@ -319,6 +348,7 @@ fn render(
     camera: &EyeCamera,
     settings: &FrameSettings,
     mut accumulator: Option<&mut TemporalAccumulator>,
+    prefill: Option<&Prefill>,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<Frame> {
     if let Some(c) = &settings.contrast {
@@ -350,6 +380,32 @@ fn render(
         });
     }
     let sizes = mapping.buffers();
+    if let Some(p) = prefill {
+        let fits =
+            |w: u32, h: u32, k: usize| sizes.get(k).is_some_and(|b| b.width == w && b.height == h);
+        if p.color.len() != sizes.len()
+            || p.depth.len() != sizes.len()
+            || p.known.len() != sizes.len()
+            || p.color
+                .iter()
+                .enumerate()
+                .any(|(k, c)| !fits(c.width(), c.height(), k))
+            || p.depth
+                .iter()
+                .enumerate()
+                .any(|(k, c)| !fits(c.width(), c.height(), k))
+            || p.known
+                .iter()
+                .enumerate()
+                .any(|(k, c)| !fits(c.width(), c.height(), k))
+        {
+            return Err(RenderError::invalid(
+                "prefill",
+                format!("{} layers", p.color.len()),
+                format!("buffers of the mapping's sizes {sizes:?}"),
+            ));
+        }
+    }
     let aa = settings.aa.resolve(settings.method);
     let jitter = accumulator
         .as_ref()
@@ -401,8 +457,17 @@ fn render(
     for (layer, size) in sizes.iter().enumerate() {
         let layer = layer as u32;
         let (bw, bh) = (size.width, size.height);
-        let mut color = Image::new(bw, bh, [0.0f32; 3])?;
-        let mut depth = Image::new(bw, bh, f32::INFINITY)?;
+        let known = prefill.map(|p| &p.known[layer as usize]);
+        let (mut color, mut depth) = match prefill {
+            Some(p) => (
+                p.color[layer as usize].clone(),
+                p.depth[layer as usize].clone(),
+            ),
+            None => (
+                Image::new(bw, bh, [0.0f32; 3])?,
+                Image::new(bw, bh, f32::INFINITY)?,
+            ),
+        };
         // When culling: per buffer pixel, whether it is a shaded surface (1), a culled one
         // (2) or neither (0), and its reconstruction basis (`shade::culled_basis`).
         let mut cull_state = match cull {
@@ -436,7 +501,7 @@ fn render(
                 .map(|&k| {
                     let k = k as usize;
                     let (i, j) = ((k % row_len) as u32, j0 + (k / row_len) as u32);
-                    if !mapping.is_shaded(layer, i, j) {
+                    if !mapping.is_shaded(layer, i, j) || known.is_some_and(|m| *m.get(i, j)) {
                         return None;
                     }
                     let s = SamplePoint {
@@ -535,6 +600,11 @@ fn render(
         depths = buffers.depth;
         times.add("temporal", &t);
     }
+
+    let samples = settings.keep_samples.then(|| SampleBuffers {
+        color: colors.clone(),
+        depth: depths.clone(),
+    });
 
     // 4. Sample-space anti-aliasing.
     let t = Stopwatch::start();
@@ -644,6 +714,7 @@ fn render(
         density,
         coc,
         stats,
+        samples,
     })
 }
 

@@ -1,0 +1,330 @@
+//! Binocular frames (VaFR Sec. 5.1 and 9: VaFR_Dup and VaFR_Rep).
+//!
+//! * **Dup** renders both eyes through the foveated pipeline, each with its own camera and
+//!   gaze.
+//! * **Rep** renders the left eye, then forward-warps the left eye's shaded sample buffer into
+//!   the right eye's: every left texel's world point (texel centre through the inverse mapping,
+//!   at its depth) is projected into the right camera and through the right eye's forward
+//!   mapping, and lands in the texel containing it, nearest surface first (a z-buffer in the
+//!   right buffer). Misses (sky) warp as directions and never cover a surface. Cracks — right
+//!   texels left empty where the warped samples spread apart — are filled from their
+//!   neighbours when at least three of the four around are covered and agree in depth within
+//!   2 %; everything else (disocclusions, the screen edge the left eye does not see) is traced.
+//!   Only those holes cost primary rays and shading; AA and reconstruction then run on the
+//!   right buffer as usual.
+//!
+//! The warp copies the left eye's radiance: view-dependent shading (specular highlights)
+//! is seen from the left eye's position, the approximation VaFR_Rep makes.
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use fovea_core::mapping::{build, FoveationMapping, SamplePoint};
+use fovea_core::Image;
+use fovea_post::grid::Grid;
+use fovea_post::Rgb;
+
+use crate::camera::EyeCamera;
+use crate::error::{RenderError, Result};
+use crate::pipeline::{render_frame, render_frame_prefilled, Frame, FrameSettings, Prefill};
+use crate::world::World;
+
+/// How the second eye is produced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StereoMode {
+    /// Both eyes rendered (VaFR_Dup).
+    Dup,
+    /// Right eye reprojected from the left eye's buffer, holes traced (VaFR_Rep).
+    Rep,
+}
+
+impl StereoMode {
+    /// Parses `dup` or `rep`.
+    pub fn parse(s: &str) -> Result<Self> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "dup" => Ok(StereoMode::Dup),
+            "rep" => Ok(StereoMode::Rep),
+            _ => Err(RenderError::invalid("stereo", s, "dup or rep")),
+        }
+    }
+
+    /// `dup` or `rep`.
+    pub fn name(self) -> &'static str {
+        match self {
+            StereoMode::Dup => "dup",
+            StereoMode::Rep => "rep",
+        }
+    }
+}
+
+/// Counts of a binocular frame.
+#[derive(Clone, Debug, Serialize)]
+pub struct StereoStats {
+    /// The mode.
+    pub mode: StereoMode,
+    /// Primary rays of the left eye.
+    pub rays_primary_left: u64,
+    /// Primary rays of the right eye (Rep: the holes only).
+    pub rays_primary_right: u64,
+    /// Both eyes.
+    pub rays_primary: u64,
+    /// Rep: right texels covered by warped left samples.
+    pub warped: u64,
+    /// Rep: right texels filled from covered neighbours (cracks).
+    pub cracks_filled: u64,
+    /// Rep: right texels traced (disocclusions, unseen edges).
+    pub holes_traced: u64,
+    /// Wall time of both eyes, milliseconds.
+    pub total_ms: f64,
+    /// Rep: wall time of the warp and crack fill, milliseconds.
+    pub warp_ms: f64,
+}
+
+/// A binocular frame.
+pub struct StereoFrame {
+    /// Left eye.
+    pub left: Frame,
+    /// Right eye.
+    pub right: Frame,
+    /// Counts.
+    pub stats: StereoStats,
+}
+
+/// Renders both eyes. `left` and `right` carry each eye's gaze; everything else (method,
+/// parameters, shading, DOF) should agree.
+pub fn render_stereo(
+    world: &World,
+    left_camera: &EyeCamera,
+    right_camera: &EyeCamera,
+    left: &FrameSettings,
+    right: &FrameSettings,
+    mode: StereoMode,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<StereoFrame> {
+    if left.method != right.method {
+        return Err(RenderError::invalid(
+            "stereo",
+            format!("{} / {}", left.method, right.method),
+            "the same method for both eyes",
+        ));
+    }
+    let t0 = std::time::Instant::now();
+    match mode {
+        StereoMode::Dup => {
+            let l = render_frame(world, left_camera, left, progress)?;
+            let r = render_frame(world, right_camera, right, progress)?;
+            let stats = StereoStats {
+                mode,
+                rays_primary_left: l.stats.rays_primary,
+                rays_primary_right: r.stats.rays_primary,
+                rays_primary: l.stats.rays_primary + r.stats.rays_primary,
+                warped: 0,
+                cracks_filled: 0,
+                holes_traced: 0,
+                total_ms: t0.elapsed().as_secs_f64() * 1e3,
+                warp_ms: 0.0,
+            };
+            Ok(StereoFrame {
+                left: l,
+                right: r,
+                stats,
+            })
+        }
+        StereoMode::Rep => {
+            let mut ls = left.clone();
+            ls.keep_samples = true;
+            let mut l = render_frame(world, left_camera, &ls, progress)?;
+            let samples = l
+                .samples
+                .take()
+                .ok_or_else(|| RenderError::Unsupported("the left eye kept no samples".into()))?;
+            let tw = std::time::Instant::now();
+            let lm = build(left.method, &left_camera.display, left.gaze, &left.mapping)?;
+            let rm = build(
+                right.method,
+                &right_camera.display,
+                right.gaze,
+                &right.mapping,
+            )?;
+            let (prefill, warped) = warp(
+                lm.as_ref(),
+                left_camera,
+                &samples.color,
+                &samples.depth,
+                rm.as_ref(),
+                right_camera,
+            )?;
+            let (prefill, cracks) = fill_cracks(rm.as_ref(), prefill);
+            let warp_ms = tw.elapsed().as_secs_f64() * 1e3;
+            let r = render_frame_prefilled(world, right_camera, right, &prefill, progress)?;
+            let stats = StereoStats {
+                mode,
+                rays_primary_left: l.stats.rays_primary,
+                rays_primary_right: r.stats.rays_primary,
+                rays_primary: l.stats.rays_primary + r.stats.rays_primary,
+                warped,
+                cracks_filled: cracks,
+                holes_traced: r.stats.rays_primary,
+                total_ms: t0.elapsed().as_secs_f64() * 1e3,
+                warp_ms,
+            };
+            Ok(StereoFrame {
+                left: l,
+                right: r,
+                stats,
+            })
+        }
+    }
+}
+
+/// Forward warp of the left sample buffers into the right mapping's buffers.
+fn warp(
+    lm: &dyn FoveationMapping,
+    left: &EyeCamera,
+    color: &[Image<Rgb>],
+    depth: &[Image<f32>],
+    rm: &dyn FoveationMapping,
+    right: &EyeCamera,
+) -> Result<(Prefill, u64)> {
+    let sizes = rm.buffers();
+    let mut out = Prefill {
+        color: Vec::with_capacity(sizes.len()),
+        depth: Vec::with_capacity(sizes.len()),
+        known: Vec::with_capacity(sizes.len()),
+    };
+    for b in &sizes {
+        out.color.push(Image::new(b.width, b.height, [0.0f32; 3])?);
+        out.depth
+            .push(Image::new(b.width, b.height, f32::INFINITY)?);
+        out.known.push(Image::new(b.width, b.height, false)?);
+    }
+    // Where each left texel lands: (layer, i, j, right depth, colour); computed in parallel,
+    // resolved with the z-test in order.
+    type Hit = (u32, u32, u32, f32, Rgb);
+    for (l, (c, d)) in color.iter().zip(depth).enumerate() {
+        let layer = l as u32;
+        let w = c.width() as usize;
+        let hits: Vec<Hit> = (0..w * c.height() as usize)
+            .into_par_iter()
+            .filter_map(|k| {
+                let (i, j) = ((k % w) as u32, (k / w) as u32);
+                if !lm.is_shaded(layer, i, j) {
+                    return None;
+                }
+                let p = lm.inverse(SamplePoint {
+                    layer,
+                    u: i as f64 + 0.5,
+                    v: j as f64 + 0.5,
+                })?;
+                let dir = left.direction(p.x_px as f32, p.y_px as f32);
+                let z = *d.get(i, j);
+                let (q, zr) = if z.is_finite() {
+                    let cos = dir.dot(left.forward);
+                    if cos <= 1e-6 {
+                        return None;
+                    }
+                    let world = left.position + dir * (z / cos);
+                    let rel = world - right.position;
+                    (right.screen_point_of(rel)?, rel.dot(right.forward))
+                } else {
+                    (right.screen_point_of(dir)?, f32::INFINITY)
+                };
+                let s = rm.forward(q)?;
+                let (ti, tj) = (s.u.floor(), s.v.floor());
+                if !(ti >= 0.0 && tj >= 0.0) {
+                    return None;
+                }
+                let (ti, tj) = (ti as u32, tj as u32);
+                let b = sizes.get(s.layer as usize)?;
+                if ti >= b.width || tj >= b.height || !rm.is_shaded(s.layer, ti, tj) {
+                    return None;
+                }
+                Some((s.layer, ti, tj, zr, *c.get(i, j)))
+            })
+            .collect();
+        for (rl, ti, tj, zr, col) in hits {
+            let rl = rl as usize;
+            let known = *out.known[rl].get(ti, tj);
+            let cur = *out.depth[rl].get(ti, tj);
+            // Surfaces win over sky; the nearer surface wins.
+            if !known || zr < cur {
+                *out.depth[rl].get_mut(ti, tj) = zr;
+                *out.color[rl].get_mut(ti, tj) = col;
+                *out.known[rl].get_mut(ti, tj) = true;
+            }
+        }
+    }
+    let warped = out
+        .known
+        .iter()
+        .map(|k| k.data().iter().filter(|&&b| b).count() as u64)
+        .sum();
+    Ok((out, warped))
+}
+
+/// Fills empty texels that have at least three covered neighbours (of four) agreeing in depth
+/// within 2 % (or all sky) with their mean; returns the count.
+fn fill_cracks(rm: &dyn FoveationMapping, mut p: Prefill) -> (Prefill, u64) {
+    let polar = rm.polar_layout();
+    let mut filled = 0;
+    for l in 0..p.color.len() {
+        let (w, h) = (p.color[l].width(), p.color[l].height());
+        let grid = match &polar {
+            Some(layout) => Grid::polar(layout),
+            None => Grid::Rect {
+                width: w,
+                height: h,
+            },
+        };
+        let layer = l as u32;
+        let (known, color, depth) = (&p.known[l], &p.color[l], &p.depth[l]);
+        let fills: Vec<(u32, u32, Rgb, f32)> = (0..w as usize * h as usize)
+            .into_par_iter()
+            .filter_map(|k| {
+                let (i, j) = ((k % w as usize) as u32, (k / w as usize) as u32);
+                if *known.get(i, j) || !rm.is_shaded(layer, i, j) {
+                    return None;
+                }
+                let mut n = Vec::with_capacity(4);
+                for (di, dj) in [(-1, 0), (1, 0), (0, -1), (0, 1)] {
+                    let (ni, nj) = grid.step(i, j, di, dj);
+                    if (ni, nj) != (i, j) && grid.valid(ni, nj) && *known.get(ni, nj) {
+                        n.push((*color.get(ni, nj), *depth.get(ni, nj)));
+                    }
+                }
+                if n.len() < 3 {
+                    return None;
+                }
+                let sky = n.iter().filter(|x| !x.1.is_finite()).count();
+                let z = if sky == n.len() {
+                    f32::INFINITY
+                } else if sky > 0 {
+                    return None;
+                } else {
+                    let (lo, hi) = n
+                        .iter()
+                        .fold((f32::MAX, f32::MIN), |(a, b), x| (a.min(x.1), b.max(x.1)));
+                    if hi > lo * 1.02 {
+                        return None;
+                    }
+                    n.iter().map(|x| x.1).sum::<f32>() / n.len() as f32
+                };
+                let mut c = [0.0f32; 3];
+                for x in &n {
+                    for ch in 0..3 {
+                        c[ch] += x.0[ch] / n.len() as f32;
+                    }
+                }
+                Some((i, j, c, z))
+            })
+            .collect();
+        for (i, j, c, z) in fills {
+            *p.color[l].get_mut(i, j) = c;
+            *p.depth[l].get_mut(i, j) = z;
+            *p.known[l].get_mut(i, j) = true;
+            filled += 1;
+        }
+    }
+    (p, filled)
+}
