@@ -64,6 +64,13 @@ pub struct BenchArgs {
     /// Timed repetitions of each DOF filter (the median is reported).
     #[arg(long, default_value_t = 3)]
     pub dof_reps: u32,
+    /// Eyes: one, or both (also times binocular frames of every foveated method as
+    /// VaFR_Dup and VaFR_Rep, side by side).
+    #[arg(long, default_value = "one")]
+    pub eyes: String,
+    /// Timed repetitions of each binocular mode (alternating Dup and Rep; medians reported).
+    #[arg(long, default_value_t = 3)]
+    pub stereo_reps: u32,
     /// Print JSON only.
     #[arg(long)]
     pub json: bool,
@@ -153,6 +160,18 @@ pub fn run(args: BenchArgs) -> Result<()> {
     }
     let dof_settings = args.eye.settings(None)?;
     let mut dof_report = Vec::new();
+    let stereo = match args.eyes.trim().to_ascii_lowercase().as_str() {
+        "one" | "1" => false,
+        "both" | "2" => true,
+        e => anyhow::bail!("invalid parameter `eyes` = {e}: expected one or both"),
+    };
+    if !(1..=100).contains(&args.stereo_reps) {
+        anyhow::bail!(
+            "invalid parameter `stereo-reps` = {}: expected 1 to 100",
+            args.stereo_reps
+        );
+    }
+    let mut stereo_report = Vec::new();
 
     // Loaded and built once; the camera and generated lights follow each display.
     let mut loaded = load(&args.scene)?;
@@ -237,6 +256,36 @@ pub fn run(args: BenchArgs) -> Result<()> {
             }
             runs.push(run);
         }
+        if stereo {
+            for &m in methods.iter().filter(|&&m| m != Method::Full) {
+                let row = time_stereo(
+                    world,
+                    loaded.rig(),
+                    display,
+                    m,
+                    &config,
+                    shading_mode,
+                    memory_limit,
+                    args.stereo_reps,
+                )?;
+                if !args.json {
+                    println!(
+                        "{} {}x{} {m} binocular: dup {:.0} ms, {} primary rays | rep {:.0} ms, {} primary rays ({} holes) | rep/dup time {:.2}, rays {:.2}",
+                        display.name,
+                        display.width_px,
+                        display.height_px,
+                        row["dup_ms"].as_f64().unwrap_or(f64::NAN),
+                        thousands(row["dup_rays_primary"].as_u64().unwrap_or(0)),
+                        row["rep_ms"].as_f64().unwrap_or(f64::NAN),
+                        thousands(row["rep_rays_primary"].as_u64().unwrap_or(0)),
+                        thousands(row["rep_holes"].as_u64().unwrap_or(0)),
+                        row["rep_over_dup_time"].as_f64().unwrap_or(f64::NAN),
+                        row["rep_over_dup_rays"].as_f64().unwrap_or(f64::NAN),
+                    );
+                }
+                stereo_report.push(row);
+            }
+        }
     }
     let world = &loaded.world;
     let (scene_name, triangles, n_lights) =
@@ -249,6 +298,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         "threads": rayon::current_num_threads(),
         "bvh_throughput": bvh_report,
         "dof": dof_report,
+        "binocular": stereo_report,
         "runs": runs.iter().map(|r| {
             let s = &r.stats;
             let post = |st: &std::collections::BTreeMap<String, f64>| {
@@ -305,6 +355,71 @@ pub fn run(args: BenchArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Binocular frame of `method` on `display`, Dup and Rep alternately `reps` times, both eyes
+/// fixating the first surface under the centre of the cyclopean view; medians.
+#[allow(clippy::too_many_arguments)]
+fn time_stereo(
+    world: &fovea_render::world::World,
+    rig: &fovea_render::camera::HmdRig,
+    display: &DisplayProfile,
+    method: Method,
+    config: &fovea_core::mapping::MappingConfig,
+    shading_mode: fovea_render::shade::ShadingMode,
+    memory_limit: u64,
+    reps: u32,
+) -> Result<serde_json::Value> {
+    use fovea_render::camera::Eye;
+    use fovea_render::stereo::{render_stereo, StereoMode};
+    let centre = rig.eye(Eye::Centre, display)?;
+    let target = crate::render::fixation_point(world, &centre, &display.centre_gaze());
+    let eye = |e: Eye| -> Result<(EyeCamera, FrameSettings)> {
+        let cam = rig.eye(e, display)?;
+        let q = cam
+            .screen_point_of(target - cam.position)
+            .ok_or_else(|| anyhow::anyhow!("the fixated point is behind the {e:?} eye"))?;
+        let g = display.gaze(
+            q.x_px.clamp(0.0, display.width_px as f64),
+            q.y_px.clamp(0.0, display.height_px as f64),
+        )?;
+        let mut s = FrameSettings::new(method, g);
+        s.mapping = config.clone();
+        s.shading = shading_mode;
+        s.memory_limit_bytes = memory_limit;
+        Ok((cam, s))
+    };
+    let (lc, ls) = eye(Eye::Left)?;
+    let (rc, rs) = eye(Eye::Right)?;
+    let (mut dup_ms, mut rep_ms) = (Vec::new(), Vec::new());
+    let (mut dup_rays, mut rep_rays, mut holes) = (0, 0, 0);
+    for _ in 0..reps {
+        let d = render_stereo(world, &lc, &rc, &ls, &rs, StereoMode::Dup, &|_, _| {})?;
+        dup_ms.push(d.stats.total_ms);
+        dup_rays = d.stats.rays_primary;
+        let r = render_stereo(world, &lc, &rc, &ls, &rs, StereoMode::Rep, &|_, _| {})?;
+        rep_ms.push(r.stats.total_ms);
+        rep_rays = r.stats.rays_primary;
+        holes = r.stats.holes_traced;
+    }
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let (dm, rm) = (median(&mut dup_ms), median(&mut rep_ms));
+    Ok(serde_json::json!({
+        "display": display.name,
+        "width": display.width_px,
+        "height": display.height_px,
+        "method": method.name(),
+        "dup_ms": dm,
+        "rep_ms": rm,
+        "dup_rays_primary": dup_rays,
+        "rep_rays_primary": rep_rays,
+        "rep_holes": holes,
+        "rep_over_dup_time": rm / dm,
+        "rep_over_dup_rays": rep_rays as f64 / dup_rays as f64,
+    }))
 }
 
 /// One DOF filter's time on one frame.

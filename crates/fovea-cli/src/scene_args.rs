@@ -168,6 +168,11 @@ pub fn load(args: &SceneArgs) -> Result<Loaded> {
 }
 
 impl Loaded {
+    /// The head rig (both eyes).
+    pub fn rig(&self) -> &HmdRig {
+        &self.rig
+    }
+
     /// The eye's camera for `display`, with the world's lights set for it: the scene's own,
     /// or generated around the view (`--lights N`, or 4 when the scene has none).
     pub fn view(&mut self, args: &SceneArgs, display: &DisplayProfile) -> Result<EyeCamera> {

@@ -216,3 +216,69 @@ fn draco_compressed_chess_board_names_the_extension() {
     ]);
     assert!(e.contains("KHR_draco_mesh_compression"), "{e}");
 }
+
+#[test]
+fn binocular_render_and_bench() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("stereo.png");
+    let o = Command::cargo_bin("fovea")
+        .unwrap()
+        .args([
+            "render", "--eyes", "both", "--stereo", "rep", "--res", "160x180", "--lights", "1",
+            "-q", "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Side by side: twice the width.
+    assert_eq!(image::image_dimensions(&out).unwrap(), (320, 180));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.with_extension("json")).unwrap())
+            .unwrap();
+    let st = &json["stereo"];
+    assert_eq!(st["mode"], "rep");
+    assert!(st["rays_primary_right"].as_u64().unwrap() < st["rays_primary_left"].as_u64().unwrap());
+    let b = Command::cargo_bin("fovea")
+        .unwrap()
+        .args([
+            "bench",
+            "--res",
+            "160x180",
+            "--eyes",
+            "both",
+            "--stereo-reps",
+            "1",
+            "--bvh-rays",
+            "0",
+            "--lights",
+            "1",
+            "--json",
+            "-q",
+        ])
+        .output()
+        .unwrap();
+    assert!(b.status.success(), "{}", String::from_utf8_lossy(&b.stderr));
+    let bj: serde_json::Value = serde_json::from_slice(&b.stdout).unwrap();
+    let row = &bj["binocular"][0];
+    assert_eq!(row["method"], "vafr");
+    assert!(row["rep_over_dup_rays"].as_f64().unwrap() < 0.6);
+    for bad in [
+        vec!["render", "--eyes", "three"],
+        vec!["render", "--eyes", "both", "--stereo", "triple"],
+        vec!["render", "--eyes", "both", "--depth-out", "d.png"],
+        vec!["bench", "--eyes", "both", "--stereo-reps", "0"],
+    ] {
+        let o = Command::cargo_bin("fovea")
+            .unwrap()
+            .args(&bad)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success() && !err.contains("panicked"),
+            "{bad:?}: {err}"
+        );
+        assert_eq!(err.trim().lines().count(), 1, "{bad:?}: {err}");
+    }
+}

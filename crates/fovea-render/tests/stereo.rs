@@ -48,9 +48,10 @@ fn rep_traces_at_most_60_percent_of_dup_and_matches_the_direct_right_eye() {
         rep.stats.cracks_filled,
         rep.stats.holes_traced
     );
+    // Stated bound: PSNR ≥ 33 dB, ꟻLIP ≤ 0.05 (measured 35.7 dB, 0.035).
     assert!(ratio <= 0.6, "{ratio}");
-    assert!(psnr >= 30.0, "{psnr}");
-    assert!(flip <= 0.1, "{flip}");
+    assert!(psnr >= 33.0, "{psnr}");
+    assert!(flip <= 0.05, "{flip}");
     // The left eyes are the same frame.
     assert_eq!(dup.left.color.data(), rep.left.color.data());
 }
@@ -121,4 +122,49 @@ fn disocclusions_behind_a_thin_pole_are_traced_not_smeared() {
     assert!(rep.stats.holes_traced > 0);
     assert!((smeared as f64) < 0.002 * bg as f64, "{smeared}");
     assert!(err < 0.03, "{err}");
+}
+
+#[test]
+fn rep_on_a_real_scene() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/scenes/japanese-classroom/scene.xml");
+    if !path.exists() {
+        println!("skipping: ../shared/scenes not found");
+        return;
+    }
+    let d = DisplayProfile::preset("vive-pro-eye").unwrap();
+    let scene = fovea_render::scene::Scene::load(&path).unwrap();
+    let mut world = World::new(scene, Backend::Obvhs).unwrap();
+    let head = Vec3::new(-1.4, 1.05, 4.0);
+    let forward = (Vec3::new(-1.0, 0.7, 0.0) - head).normalize();
+    let rig = HmdRig::new(head, forward, Vec3::Y, 0.063).unwrap();
+    let centre = rig.eye(Eye::Centre, &d).unwrap();
+    world.lights = fovea_render::lights::view_lights(&world, &centre, 4).unwrap();
+    let (lc, rc) = (
+        rig.eye(Eye::Left, &d).unwrap(),
+        rig.eye(Eye::Right, &d).unwrap(),
+    );
+    // Fixate the first surface at the screen centre of the cyclopean eye.
+    let ray = centre.ray(d.centre_gaze().point);
+    let hit = fovea_render::trace::trace_sample(&world, &ray, 0.0);
+    let target = ray.origin + ray.dir * hit.t.min(10.0);
+    let ls = FrameSettings::new(Method::Vafr, gaze_at(&lc, target));
+    let rs = FrameSettings::new(Method::Vafr, gaze_at(&rc, target));
+    let dup = render_stereo(&world, &lc, &rc, &ls, &rs, StereoMode::Dup, &|_, _| {}).unwrap();
+    let rep = render_stereo(&world, &lc, &rc, &ls, &rs, StereoMode::Rep, &|_, _| {}).unwrap();
+    let ratio = rep.stats.rays_primary as f64 / dup.stats.rays_primary as f64;
+    let whole = Region::full(d.width_px, d.height_px);
+    let psnr = luma_psnr(&dup.right.color, &rep.right.color, whole).unwrap();
+    let flip = flip_mean(&dup.right.color, &rep.right.color, whole, d.ppd() as f32).unwrap();
+    println!(
+        "classroom, Vive Pro Eye: rep traces {:.1} % of dup's primary rays ({} holes, {} cracks filled); right eye rep vs direct: PSNR {psnr:.2} dB, FLIP {flip:.4}",
+        100.0 * ratio,
+        rep.stats.holes_traced,
+        rep.stats.cracks_filled
+    );
+    // Stated bound: PSNR ≥ 29 dB, ꟻLIP ≤ 0.06 (measured 30.5 dB, 0.038: warped samples sit up
+    // to half a texel off their texel's centre, which shows on the classroom's fine textures).
+    assert!(ratio <= 0.6, "{ratio}");
+    assert!(psnr >= 29.0, "{psnr}");
+    assert!(flip <= 0.06, "{flip}");
 }
