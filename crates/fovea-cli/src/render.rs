@@ -83,6 +83,13 @@ pub struct RenderArgs {
     /// gaze at the fixated world point).
     #[arg(long, default_value = "one")]
     pub eyes: String,
+    /// Gaze-contingent level of detail (Liu Eq. 14): on keeps objects within 5° of the gaze
+    /// and inside the depth of field at full detail and renders the rest simplified.
+    #[arg(long, default_value = "off")]
+    pub lod: String,
+    /// Share of triangles the simplified level keeps (quadric simplification, meshoptimizer).
+    #[arg(long, default_value_t = 0.3)]
+    pub lod_keep: f32,
     /// With --eyes both: dup (render both eyes) or rep (reproject the left eye's sample
     /// buffer to the right eye and trace only the holes, VaFR_Rep).
     #[arg(long, default_value = "rep")]
@@ -200,16 +207,23 @@ pub fn run(args: RenderArgs) -> Result<()> {
         e => bail!("invalid parameter `eyes` = {e}: expected one or both"),
     }
 
+    let lod_on = match args.lod.trim().to_ascii_lowercase().as_str() {
+        "on" => true,
+        "off" => false,
+        l => bail!("invalid parameter `lod` = {l}: expected on or off"),
+    };
+    let (lod_world, lod_stats) = if lod_on {
+        let (w, st) = lod_world(&prepared, &settings, args.lod_keep)?;
+        (Some(w), Some(st))
+    } else {
+        (None, None)
+    };
+    let world = lod_world.as_ref().unwrap_or(&prepared.world);
     let pb = progress_bar(args.quiet, method.name());
-    let frame = render_frame(
-        &prepared.world,
-        &prepared.camera,
-        &settings,
-        &|done, total| {
-            pb.set_length(total);
-            pb.set_position(done);
-        },
-    )?;
+    let frame = render_frame(world, &prepared.camera, &settings, &|done, total| {
+        pb.set_length(total);
+        pb.set_position(done);
+    })?;
     pb.finish_and_clear();
 
     write_rgb(&args.out, &frame.color, args.exposure, tone)?;
@@ -239,6 +253,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         "bvh_build_ms": prepared.world.build_ms,
         "display": display.name,
         "gaze": [gaze.point.x_px, gaze.point.y_px],
+        "lod": lod_stats,
         "frame": s,
     });
     std::fs::write(&stats_path, serde_json::to_string_pretty(&json)? + "\n")
@@ -262,6 +277,16 @@ pub fn run(args: RenderArgs) -> Result<()> {
         .map(|k| format!("{k} {:.1}", s.stages_ms.get(*k).copied().unwrap_or(0.0)))
         .collect();
     println!("stages (ms): {}", stages.join(", "));
+    if let Some(l) = &lod_stats {
+        println!(
+            "lod: {} of {} objects at full detail | {} of {} triangles traced ({:.1} % fewer)",
+            l.full_detail,
+            l.full_detail + l.simplified,
+            thousands(l.triangles as u64),
+            thousands(l.triangles_full as u64),
+            100.0 * (1.0 - l.triangles as f64 / l.triangles_full.max(1) as f64)
+        );
+    }
     if let Some(d) = &settings.dof {
         let focus = s.focus_m.unwrap_or(f64::NAN);
         let saved = if s.samples_shaded + s.samples_culled > 0 {
@@ -375,4 +400,39 @@ fn run_stereo(
     );
     println!("wrote {} and {}", args.out.display(), stats_path.display());
     Ok(())
+}
+
+/// The frame's world with gaze-contingent level of detail: focus from the DOF settings (auto:
+/// the depth around the gaze), Eq. 14 per object, simplified meshes elsewhere.
+fn lod_world(
+    prepared: &crate::scene_args::Prepared,
+    settings: &FrameSettings,
+    keep: f32,
+) -> Result<(fovea_render::world::World, fovea_render::lod::LodStats)> {
+    use fovea_render::dof::{auto_focus_m, FocusMode};
+    use fovea_render::lod::{LodParams, LodScene};
+    let world = &prepared.world;
+    let camera = &prepared.camera;
+    let params = LodParams {
+        keep_ratio: keep,
+        ..Default::default()
+    };
+    let lod = LodScene::new(world.scene.clone(), params)?;
+    let (eye, focus) = match &settings.dof {
+        Some(d) => (
+            d.eye,
+            match d.focus {
+                FocusMode::Fixed(f) => f,
+                FocusMode::Auto => auto_focus_m(world, camera, &settings.gaze)?,
+            },
+        ),
+        None => (
+            fovea_core::optics::EyeModel::default(),
+            auto_focus_m(world, camera, &settings.gaze)?,
+        ),
+    };
+    let gaze_dir = camera.ray(settings.gaze.point).dir;
+    let (mut w, st) = lod.frame_world(camera, gaze_dir, &eye, focus, world.caster.backend())?;
+    w.lights = world.lights.clone();
+    Ok((w, st))
 }

@@ -21,6 +21,7 @@ pub mod cull_fill;
 pub mod dof;
 pub mod error;
 pub mod lights;
+pub mod lod;
 pub mod pipeline;
 pub mod scene;
 pub mod shade;
