@@ -148,3 +148,30 @@ fn invalid_parameters_fail_in_one_line() {
         assert!(!err.contains("panicked"), "{args:?}: {err}");
     }
 }
+
+#[test]
+fn headset_calibration_reproduces_vafr_fig3_within_2_points() {
+    let o = assert_cmd::Command::cargo_bin("fovea")
+        .unwrap()
+        .args([
+            "table",
+            "--calibrate",
+            "vive-pro-eye,pimax-crystal",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let rows: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for (row, paper) in rows.as_array().unwrap().iter().zip([20.0, 8.0]) {
+        let saved = row["capped_saved_pct"].as_f64().unwrap();
+        println!(
+            "{}: capping saves {saved:.1} % (paper {paper} %)",
+            row["headset"]
+        );
+        assert!((saved - paper).abs() <= 2.0, "{row}");
+        // The anisotropic factor saves samples on its own and on top of the cap.
+        assert!(row["anisotropic_saved_pct"].as_f64().unwrap() > 20.0);
+        assert!(row["capped_anisotropic_saved_pct"].as_f64().unwrap() > saved);
+    }
+}
