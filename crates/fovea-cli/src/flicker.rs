@@ -19,7 +19,6 @@ use fovea_core::mapping::Method;
 use fovea_eval::flicker::{FlickerMeter, FlickerReport, PERIPHERY_DEG};
 use fovea_eval::metrics::{luma_psnr, Region};
 use fovea_render::camera::EyeCamera;
-use fovea_render::camera_path::CameraPath;
 use fovea_render::pipeline::{render_frame, render_frame_temporal, FrameSettings};
 use fovea_render::shade::ShadingMode;
 use fovea_render::temporal::TemporalAccumulator;
@@ -29,7 +28,7 @@ use crate::common::{DisplayArgs, MethodOptions};
 use crate::output::write_rgb;
 use crate::render::memory_limit;
 use crate::scene_args::{parse_vec3, prepare, SceneArgs};
-use crate::sequence::gaze_trajectory;
+use crate::sequence::{gaze_trajectory, read_camera_path};
 use crate::temporal_args::{parse_temporal_modes, TemporalArgs};
 
 /// Options of `fovea flicker`.
@@ -188,10 +187,7 @@ pub fn run(args: FlickerArgs) -> Result<()> {
     let base = &prepared.camera;
     let cameras: Vec<EyeCamera> = match &args.camera_path {
         Some(p) => {
-            let text = std::fs::read_to_string(p)
-                .with_context(|| format!("cannot read camera path {}", p.display()))?;
-            let path =
-                CameraPath::parse(&text).with_context(|| format!("camera path {}", p.display()))?;
+            let (path, _) = read_camera_path(p)?;
             (0..args.frames as usize)
                 .map(|i| {
                     let (pos, look, up) = path.at(i as f64 / args.fps);

@@ -221,10 +221,7 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     )?;
     let (camera_path, camera_path_text) = match &args.camera_path {
         Some(p) => {
-            let text = std::fs::read_to_string(p)
-                .with_context(|| format!("cannot read camera path {}", p.display()))?;
-            let path =
-                CameraPath::parse(&text).with_context(|| format!("camera path {}", p.display()))?;
+            let (path, text) = read_camera_path(p)?;
             (Some(path), text)
         }
         None => (None, String::new()),
@@ -394,6 +391,14 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     );
     make_video(&args.out, args.fps, video)?;
     Ok(())
+}
+
+/// A camera path CSV and its text.
+pub fn read_camera_path(p: &Path) -> Result<(CameraPath, String)> {
+    let text = std::fs::read_to_string(p)
+        .with_context(|| format!("cannot read camera path {}", p.display()))?;
+    let path = CameraPath::parse(&text).with_context(|| format!("camera path {}", p.display()))?;
+    Ok((path, text))
 }
 
 /// 64-bit FNV-1a hash (stable across Rust versions, unlike `DefaultHasher`).
