@@ -186,6 +186,29 @@ pub fn run(args: RenderArgs) -> Result<()> {
     };
     let shading_mode = shading(&args.shading, args.bounces, args.spp, args.seed)?;
     let aa = AaMode::parse(&args.aa)?;
+    let both_eyes = match args.eyes.trim().to_ascii_lowercase().as_str() {
+        "one" | "1" => false,
+        "both" | "2" => true,
+        e => bail!("invalid parameter `eyes` = {e}: expected one or both"),
+    };
+    let stereo_mode = fovea_render::stereo::StereoMode::parse(&args.stereo)?;
+    if both_eyes
+        && (args.depth_out.is_some() || args.density_out.is_some() || args.coc_out.is_some())
+    {
+        bail!("--depth-out, --density-out and --coc-out are for one eye (--eyes one)");
+    }
+    let lod_on = match args.lod.trim().to_ascii_lowercase().as_str() {
+        "on" => true,
+        "off" => false,
+        l => bail!("invalid parameter `lod` = {l}: expected on or off"),
+    };
+    if lod_on {
+        fovea_render::lod::LodParams {
+            keep_ratio: args.lod_keep,
+            ..Default::default()
+        }
+        .validate()?;
+    }
     let memory_limit = memory_limit(args.max_memory.as_deref())?;
     let prepared = prepare(&args.scene, &display)?;
     let gaze = gaze(
@@ -201,17 +224,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     settings.density_view = args.density_out.is_some();
     settings.memory_limit_bytes = memory_limit;
     settings.dof = dof;
-    match args.eyes.trim().to_ascii_lowercase().as_str() {
-        "one" | "1" => {}
-        "both" | "2" => return run_stereo(&args, &prepared, settings, tone),
-        e => bail!("invalid parameter `eyes` = {e}: expected one or both"),
-    }
 
-    let lod_on = match args.lod.trim().to_ascii_lowercase().as_str() {
-        "on" => true,
-        "off" => false,
-        l => bail!("invalid parameter `lod` = {l}: expected on or off"),
-    };
     let (lod_world, lod_stats) = if lod_on {
         let (w, st) = lod_world(&prepared, &settings, args.lod_keep)?;
         (Some(w), Some(st))
@@ -219,6 +232,17 @@ pub fn run(args: RenderArgs) -> Result<()> {
         (None, None)
     };
     let world = lod_world.as_ref().unwrap_or(&prepared.world);
+    if both_eyes {
+        return run_stereo(
+            &args,
+            &prepared,
+            world,
+            settings,
+            stereo_mode,
+            tone,
+            lod_stats,
+        );
+    }
     let pb = progress_bar(args.quiet, method.name());
     let frame = render_frame(world, &prepared.camera, &settings, &|done, total| {
         pb.set_length(total);
@@ -324,21 +348,23 @@ pub fn fixation_point(
 
 /// `--eyes both`: each eye's gaze at the fixated point, the binocular frame, one side-by-side
 /// image.
+/// With `--lod on` the level of detail is chosen for the cyclopean gaze and shared by both
+/// eyes.
+#[allow(clippy::too_many_arguments)]
 fn run_stereo(
     args: &RenderArgs,
     prepared: &crate::scene_args::Prepared,
+    world: &fovea_render::world::World,
     settings: FrameSettings,
+    mode: fovea_render::stereo::StereoMode,
     tone: ToneCurve,
+    lod_stats: Option<fovea_render::lod::LodStats>,
 ) -> Result<()> {
     use fovea_render::camera::Eye;
-    use fovea_render::stereo::{render_stereo, StereoMode};
-    if args.depth_out.is_some() || args.density_out.is_some() || args.coc_out.is_some() {
-        bail!("--depth-out, --density-out and --coc-out are for one eye (--eyes one)");
-    }
-    let mode = StereoMode::parse(&args.stereo)?;
+    use fovea_render::stereo::render_stereo;
     let display = &prepared.camera.display;
     let centre = prepared.rig.eye(Eye::Centre, display)?;
-    let target = fixation_point(&prepared.world, &centre, &settings.gaze);
+    let target = fixation_point(world, &centre, &settings.gaze);
     let eye_settings = |eye: Eye| -> Result<(fovea_render::camera::EyeCamera, FrameSettings)> {
         let cam = prepared.rig.eye(eye, display)?;
         let q = cam
@@ -354,7 +380,7 @@ fn run_stereo(
     let (lc, ls) = eye_settings(Eye::Left)?;
     let (rc, rs) = eye_settings(Eye::Right)?;
     let pb = progress_bar(args.quiet, mode.name());
-    let frame = render_stereo(&prepared.world, &lc, &rc, &ls, &rs, mode, &|done, total| {
+    let frame = render_stereo(world, &lc, &rc, &ls, &rs, mode, &|done, total| {
         pb.set_length(total);
         pb.set_position(done);
     })?;
@@ -380,6 +406,7 @@ fn run_stereo(
         "gaze_left": [ls.gaze.point.x_px, ls.gaze.point.y_px],
         "gaze_right": [rs.gaze.point.x_px, rs.gaze.point.y_px],
         "stereo": frame.stats,
+        "lod": lod_stats,
         "left": frame.left.stats,
         "right": frame.right.stats,
     });

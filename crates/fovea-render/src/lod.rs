@@ -57,21 +57,21 @@ impl LodParams {
     pub fn validate(&self) -> Result<()> {
         if !(self.keep_ratio > 0.0 && self.keep_ratio <= 1.0) {
             return Err(RenderError::invalid(
-                "lod keep ratio",
+                "lod-keep",
                 self.keep_ratio,
                 "a share of triangles in (0, 1], e.g. 0.3",
             ));
         }
         if !(self.max_error > 0.0 && self.max_error <= 1.0) {
             return Err(RenderError::invalid(
-                "lod error",
+                "lod-error",
                 self.max_error,
                 "a relative error in (0, 1]",
             ));
         }
         if !(0.0..=90.0).contains(&self.fovea_deg) {
             return Err(RenderError::invalid(
-                "lod fovea",
+                "lod-fovea",
                 self.fovea_deg,
                 "degrees in [0, 90]",
             ));
@@ -208,7 +208,7 @@ fn simplify(m: &Mesh, p: &LodParams) -> Result<Vec<[u32; 3]>> {
         None,
     );
     if out.is_empty() {
-        // Simplified away entirely (a tiny object): keep one level coarser than nothing.
+        // Simplified away entirely (a tiny object): keep the full mesh.
         return Ok(m.indices.clone());
     }
     Ok(out.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect())

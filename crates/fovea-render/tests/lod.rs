@@ -79,7 +79,6 @@ fn lod_simplifies_outside_the_fovea_and_keeps_the_fixated_object() {
     let limits = eye.dof_limits(fovea_core::units::Metres(focus)).unwrap();
     let flags = lod.flags(&cam, gaze_dir, &limits);
     assert!(flags[fixated], "the fixated sphere keeps full detail");
-    // A sphere 2 m behind the fixated one, on the gaze line's side: out of focus.
     let (world_lod, stats) = lod.world(&flags, Backend::Obvhs).unwrap();
     let saved = 1.0 - stats.triangles as f64 / stats.triangles_full as f64;
     println!(
