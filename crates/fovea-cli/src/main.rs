@@ -7,6 +7,7 @@ use clap::{Parser, Subcommand};
 mod bench;
 mod common;
 mod curves;
+mod demo;
 mod dof_args;
 mod dof_compare;
 mod flicker;
@@ -30,6 +31,10 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    /// The first thing to run: the built-in scene on a headset along a short gaze path, VaFR
+    /// with auto-focus depth of field; frames, the full-resolution reference, a side-by-side,
+    /// a sample-density overlay and index.html in ./fovea-out/demo/.
+    Demo(demo::DemoArgs),
     /// Plot radial and tangential shading rate against eccentricity for every mapping
     /// (PNG + CSV), with the acuity curve (VaFR Figs. 5, 8, 9, 10, 21).
     Curves(curves::CurvesArgs),
@@ -91,6 +96,7 @@ fn main() -> ExitCode {
         }
     };
     let result = match cli.command {
+        Command::Demo(a) => demo::run(a),
         Command::Curves(a) => curves::run(a),
         Command::Table(a) => table::run(a),
         Command::Optics(a) => optics::run(a),

@@ -282,3 +282,48 @@ fn binocular_render_and_bench() {
         assert_eq!(err.trim().lines().count(), 1, "{bad:?}: {err}");
     }
 }
+
+#[test]
+fn demo_writes_frames_reference_overlay_and_index() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = Command::cargo_bin("fovea")
+        .unwrap()
+        .args(["demo", "--frames", "2", "-q", "--out"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let d = dir.path().join("demo");
+    for f in [
+        "frame_00000.png",
+        "frame_00001.png",
+        "reference.png",
+        "side-by-side.png",
+        "density-overlay.png",
+    ] {
+        assert!(image::image_dimensions(d.join(f)).is_ok(), "{f}");
+    }
+    assert_eq!(
+        image::image_dimensions(d.join("side-by-side.png")).unwrap(),
+        (2880, 1600)
+    );
+    let html = std::fs::read_to_string(d.join("index.html")).unwrap();
+    assert!(html.contains("side-by-side.png") && html.contains("VaFR"));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("index.html"));
+    for bad in [
+        vec!["demo", "--frames", "0"],
+        vec!["demo", "--headset", "nope"],
+    ] {
+        let o = Command::cargo_bin("fovea")
+            .unwrap()
+            .args(&bad)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success() && !err.contains("panicked"),
+            "{bad:?}: {err}"
+        );
+        assert_eq!(err.trim().lines().count(), 1, "{bad:?}: {err}");
+    }
+}

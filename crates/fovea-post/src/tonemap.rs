@@ -27,6 +27,17 @@ pub fn linear_to_srgb(c: f32) -> f32 {
     }
 }
 
+/// sRGB-encoded value in [0, 1] → linear (the inverse of [`linear_to_srgb`]).
+#[inline]
+pub fn srgb_to_linear(e: f32) -> f32 {
+    let e = e.clamp(0.0, 1.0);
+    if e <= 0.040_45 {
+        e / 12.92
+    } else {
+        ((e + 0.055) / 1.055).powf(2.4)
+    }
+}
+
 /// Encodes a linear image to 8-bit sRGB RGB bytes, rows in parallel.
 pub fn to_srgb8(img: &Image<Rgb>, exposure_stops: f32, curve: ToneCurve) -> Vec<u8> {
     let k = 2f32.powf(exposure_stops);
@@ -85,6 +96,14 @@ impl Srgb8Table {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn srgb_round_trips() {
+        for k in 0..=100 {
+            let v = k as f32 / 100.0;
+            assert!((srgb_to_linear(linear_to_srgb(v)) - v).abs() < 1e-5, "{v}");
+        }
+    }
 
     #[test]
     fn table_encoding_equals_the_transfer_function() {

@@ -1,0 +1,202 @@
+//! `fovea demo`: what a new user runs first. The built-in scene on a headset preset, along a
+//! short built-in gaze trajectory (fixation, pursuit, saccade), VaFR foveation with auto focus
+//! through the accommodation filter and the default DOF filter; writes the frames, the
+//! full-resolution reference of the middle frame, a side-by-side, a sample-density overlay and
+//! `index.html` to the output folder.
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+
+use fovea_core::mapping::Method;
+use fovea_core::optics::{AccommodationFilter, AccommodationParams};
+use fovea_core::Image;
+use fovea_post::dof::FilterKind;
+use fovea_post::tonemap::ToneCurve;
+use fovea_post::Rgb;
+use fovea_render::bvh::Backend;
+use fovea_render::camera::EyeCamera;
+use fovea_render::dof::{auto_focus_with_prior_m, DofSettings, FocusMode};
+use fovea_render::pipeline::{render_frame, FrameSettings};
+use fovea_render::scene::builtin;
+use fovea_render::world::World;
+
+use crate::output::write_rgb;
+use crate::sequence::gaze_trajectory;
+
+/// Options of `fovea demo`.
+#[derive(Args, Debug)]
+pub struct DemoArgs {
+    /// Headset or resolution preset.
+    #[arg(long, default_value = "vive-pro-eye")]
+    pub headset: String,
+    /// Frames along the built-in gaze trajectory (30 per second of gaze).
+    #[arg(long, default_value_t = 12)]
+    pub frames: u32,
+    /// Output folder.
+    #[arg(long, default_value = "fovea-out")]
+    pub out: PathBuf,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+pub fn run(args: DemoArgs) -> Result<()> {
+    if !(1..=240).contains(&args.frames) {
+        bail!(
+            "invalid parameter `frames` = {}: expected 1 to 240",
+            args.frames
+        );
+    }
+    let t0 = std::time::Instant::now();
+    let display = fovea_core::display::DisplayProfile::preset(&args.headset)?;
+    let scene = builtin::depth_range()?;
+    let camera = EyeCamera::from_desc(&scene.cameras[0], &display)?;
+    let world = World::new(scene, Backend::best_available())?;
+    let fps = 30.0;
+    let gazes = gaze_trajectory(
+        None,
+        "saccade-pursuit",
+        1,
+        true,
+        &display,
+        args.frames as f64 / fps,
+    )?
+    .resample(fps, args.frames as usize)?;
+    let dir = args.out.join("demo");
+    std::fs::create_dir_all(&dir)
+        .with_context(|| format!("cannot create directory {}", dir.display()))?;
+    let pb = if args.quiet {
+        ProgressBar::hidden()
+    } else {
+        let pb = ProgressBar::new(args.frames as u64 + 1);
+        pb.set_style(
+            ProgressStyle::with_template("{msg:>6} [{bar:40}] {pos}/{len} frames, eta {eta}")
+                .expect("valid template")
+                .progress_chars("=> "),
+        );
+        pb.set_message("demo");
+        pb
+    };
+    let mut accommodation = AccommodationFilter::new(AccommodationParams::default())?;
+    let middle = args.frames as usize / 2;
+    let mut kept = None;
+    let mut samples = 0;
+    for (i, g) in gazes.iter().enumerate() {
+        let gaze = display.gaze(g.x_px, g.y_px)?;
+        let prior = accommodation.current_m().unwrap_or(f64::NAN);
+        let target = auto_focus_with_prior_m(&world, &camera, &gaze, prior)?;
+        let focus = accommodation.update(target, 1.0 / fps)?;
+        let mut s = FrameSettings::new(Method::Vafr, gaze);
+        s.dof = Some(DofSettings::new(
+            Some(FilterKind::Gather),
+            FocusMode::Fixed(focus),
+        ));
+        s.density_view = i == middle;
+        let f = render_frame(&world, &camera, &s, &|_, _| {})?;
+        samples = f.stats.samples;
+        write_rgb(
+            &dir.join(format!("frame_{i:05}.png")),
+            &f.color,
+            0.0,
+            ToneCurve::Reinhard,
+        )?;
+        if i == middle {
+            kept = Some((f, s, focus));
+        }
+        pb.inc(1);
+    }
+    let (fov, settings, focus) = kept.context("no frame rendered")?;
+    // The reference: the same frame at full resolution, with the same depth of field.
+    let mut rs = settings.clone();
+    rs.method = Method::Full;
+    rs.density_view = false;
+    let reference = render_frame(&world, &camera, &rs, &|_, _| {})?;
+    pb.inc(1);
+    pb.finish_and_clear();
+    write_rgb(
+        &dir.join("reference.png"),
+        &reference.color,
+        0.0,
+        ToneCurve::Reinhard,
+    )?;
+    let (w, h) = (display.width_px, display.height_px);
+    let mut both = Image::new(2 * w, h, [0.0f32; 3])?;
+    for y in 0..h {
+        for x in 0..w {
+            *both.get_mut(x, y) = *fov.color.get(x, y);
+            *both.get_mut(w + x, y) = *reference.color.get(x, y);
+        }
+    }
+    write_rgb(
+        &dir.join("side-by-side.png"),
+        &both,
+        0.0,
+        ToneCurve::Reinhard,
+    )?;
+    let overlay = density_overlay(&fov.color, fov.density.as_ref())?;
+    write_rgb(
+        &dir.join("density-overlay.png"),
+        &overlay,
+        0.0,
+        ToneCurve::Clamp,
+    )?;
+    let full_px = display.pixel_count();
+    let html = format!(
+        r#"<!doctype html>
+<html lang="en"><head><meta charset="utf-8"><title>fovea demo</title>
+<style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto}}img{{max-width:100%}}</style></head>
+<body>
+<h1>fovea demo — {name}, {w}×{h} per eye</h1>
+<p>Left: what the eye gets when the renderer knows where it looks — VaFR shades {samples} samples per frame ({share:.0} % of the {full_px} pixels), densest at the gaze, and blurs what lies outside the depth the eye focuses on (auto focus, {focus:.2} m here). Right: every pixel ray-traced at full resolution with the same blur.</p>
+<p>The density overlay tints each pixel by how many samples VaFR spends on it (red = one or more per pixel, blue = few); the frames follow a gaze that fixates, pursues and jumps.</p>
+<h2>Foveated | full resolution (frame {middle})</h2><img src="side-by-side.png" alt="foveated and full-resolution frames side by side">
+<h2>Samples per pixel</h2><img src="density-overlay.png" alt="sample density over the frame">
+<h2>Frames</h2>{frames}
+</body></html>
+"#,
+        name = display.name,
+        share = 100.0 * samples as f64 / full_px as f64,
+        frames = (0..args.frames)
+            .map(|i| format!(r#"<img src="frame_{i:05}.png" width="220" alt="frame {i}">"#))
+            .collect::<Vec<_>>()
+            .join("\n"),
+    );
+    let index = dir.join("index.html");
+    std::fs::write(&index, html).with_context(|| format!("cannot write {}", index.display()))?;
+    println!(
+        "{} frames of the built-in scene on {} ({w}x{h}), VaFR + auto-focus depth of field, in {:.0} s",
+        args.frames,
+        display.name,
+        t0.elapsed().as_secs_f64()
+    );
+    println!("open {}", index.display());
+    Ok(())
+}
+
+/// The frame in grey with the sample density as a colour tint: red where VaFR shades a
+/// sample or more per pixel, through green, to blue where it shades 1/64 or fewer.
+fn density_overlay(color: &Image<Rgb>, density: Option<&Image<f32>>) -> Result<Image<Rgb>> {
+    let d = density.context("the density view was not rendered")?;
+    let mut out = Image::new(color.width(), color.height(), [0.0f32; 3])?;
+    for ((o, c), &s) in out.data_mut().iter_mut().zip(color.data()).zip(d.data()) {
+        let grey = fovea_post::tonemap::linear_to_srgb(
+            fovea_post::luma(*c).clamp(0.0, 1.0) / (1.0 + fovea_post::luma(*c).clamp(0.0, 1.0)),
+        );
+        // t = 1 at ≥ 1 sample per pixel, 0 at ≤ 1/64.
+        let t = ((s.max(1e-6).log2() + 6.0) / 6.0).clamp(0.0, 1.0);
+        let tint = if t > 0.5 {
+            [2.0 * t - 1.0, 2.0 - 2.0 * t, 0.0]
+        } else {
+            [0.0, 2.0 * t, 1.0 - 2.0 * t]
+        };
+        *o = std::array::from_fn(|k| {
+            let enc = 0.55 * grey + 0.45 * tint[k];
+            // write_rgb encodes to sRGB: pass linear values.
+            fovea_post::tonemap::srgb_to_linear(enc)
+        });
+    }
+    Ok(out)
+}
