@@ -269,17 +269,7 @@ fn binocular_render_and_bench() {
         vec!["render", "--eyes", "both", "--depth-out", "d.png"],
         vec!["bench", "--eyes", "both", "--stereo-reps", "0"],
     ] {
-        let o = Command::cargo_bin("fovea")
-            .unwrap()
-            .args(&bad)
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert!(
-            !o.status.success() && !err.contains("panicked"),
-            "{bad:?}: {err}"
-        );
-        assert_eq!(err.trim().lines().count(), 1, "{bad:?}: {err}");
+        one_line_error(&bad);
     }
 }
 
@@ -314,16 +304,21 @@ fn demo_writes_frames_reference_overlay_and_index() {
         vec!["demo", "--frames", "0"],
         vec!["demo", "--headset", "nope"],
     ] {
-        let o = Command::cargo_bin("fovea")
-            .unwrap()
-            .args(&bad)
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert!(
-            !o.status.success() && !err.contains("panicked"),
-            "{bad:?}: {err}"
-        );
-        assert_eq!(err.trim().lines().count(), 1, "{bad:?}: {err}");
+        one_line_error(&bad);
     }
+}
+
+/// `fovea ARGS` fails with one line on stderr and no panic.
+fn one_line_error(args: &[&str]) {
+    let o = Command::cargo_bin("fovea")
+        .unwrap()
+        .args(args)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && !err.contains("panicked"),
+        "{args:?}: {err}"
+    );
+    assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
 }
