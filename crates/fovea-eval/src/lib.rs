@@ -7,9 +7,11 @@
 //!   implementation through the `nv-flip` crate) at the display's pixels per degree;
 //! * [`gradient_intensity::gradient_areas`]: Sobel gradient intensity in four areas across an
 //!   inset boundary (Liu et al., inset boundary smoothing, Sec. 4);
+//! * [`bands::band_quality`]: PSNR, SSIM, ꟻLIP and samples per pixel by eccentricity band;
 //! * [`flicker::FlickerMeter`]: temporal flicker of a sequence against the full-resolution
 //!   sequence, by eccentricity band.
 
+pub mod bands;
 pub mod dof_compare;
 pub mod flicker;
 pub mod gradient_intensity;
