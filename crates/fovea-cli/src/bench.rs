@@ -370,27 +370,16 @@ fn time_stereo(
     memory_limit: u64,
     reps: u32,
 ) -> Result<serde_json::Value> {
-    use fovea_render::camera::Eye;
-    use fovea_render::stereo::{render_stereo, StereoMode};
-    let centre = rig.eye(Eye::Centre, display)?;
-    let target = crate::render::fixation_point(world, &centre, &display.centre_gaze());
-    let eye = |e: Eye| -> Result<(EyeCamera, FrameSettings)> {
-        let cam = rig.eye(e, display)?;
-        let q = cam
-            .screen_point_of(target - cam.position)
-            .ok_or_else(|| anyhow::anyhow!("the fixated point is behind the {e:?} eye"))?;
-        let g = display.gaze(
-            q.x_px.clamp(0.0, display.width_px as f64),
-            q.y_px.clamp(0.0, display.height_px as f64),
-        )?;
+    use fovea_render::stereo::{fixating_eyes, render_stereo, StereoMode};
+    let (_, [(lc, lg), (rc, rg)]) = fixating_eyes(world, rig, display, &display.centre_gaze())?;
+    let settings = |g| {
         let mut s = FrameSettings::new(method, g);
         s.mapping = config.clone();
         s.shading = shading_mode;
         s.memory_limit_bytes = memory_limit;
-        Ok((cam, s))
+        s
     };
-    let (lc, ls) = eye(Eye::Left)?;
-    let (rc, rs) = eye(Eye::Right)?;
+    let (ls, rs) = (settings(lg), settings(rg));
     let (mut dup_ms, mut rep_ms) = (Vec::new(), Vec::new());
     let (mut dup_rays, mut rep_rays, mut holes) = (0, 0, 0);
     for _ in 0..reps {

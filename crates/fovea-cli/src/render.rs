@@ -333,19 +333,6 @@ pub fn run(args: RenderArgs) -> Result<()> {
     Ok(())
 }
 
-/// The world point the gaze fixates: the first surface on the ray through the gaze pixel of
-/// `camera` (10 m along it where nothing is hit).
-pub fn fixation_point(
-    world: &fovea_render::world::World,
-    camera: &fovea_render::camera::EyeCamera,
-    gaze: &fovea_core::display::Gaze,
-) -> glam::Vec3 {
-    let ray = camera.ray(gaze.point);
-    let g = fovea_render::trace::trace_sample(world, &ray, 0.0);
-    let t = if g.t.is_finite() { g.t } else { 10.0 };
-    ray.origin + ray.dir * t
-}
-
 /// `--eyes both`: each eye's gaze at the fixated point, the binocular frame, one side-by-side
 /// image.
 /// With `--lod on` the level of detail is chosen for the cyclopean gaze and shared by both
@@ -360,25 +347,13 @@ fn run_stereo(
     tone: ToneCurve,
     lod_stats: Option<fovea_render::lod::LodStats>,
 ) -> Result<()> {
-    use fovea_render::camera::Eye;
-    use fovea_render::stereo::render_stereo;
+    use fovea_render::stereo::{fixating_eyes, render_stereo};
     let display = &prepared.camera.display;
-    let centre = prepared.rig.eye(Eye::Centre, display)?;
-    let target = fixation_point(world, &centre, &settings.gaze);
-    let eye_settings = |eye: Eye| -> Result<(fovea_render::camera::EyeCamera, FrameSettings)> {
-        let cam = prepared.rig.eye(eye, display)?;
-        let q = cam
-            .screen_point_of(target - cam.position)
-            .ok_or_else(|| anyhow::anyhow!("the fixated point is behind the {eye:?} eye"))?;
-        let w = display.width_px as f64;
-        let h = display.height_px as f64;
-        let g = display.gaze(q.x_px.clamp(0.0, w), q.y_px.clamp(0.0, h))?;
-        let mut s = settings.clone();
-        s.gaze = g;
-        Ok((cam, s))
-    };
-    let (lc, ls) = eye_settings(Eye::Left)?;
-    let (rc, rs) = eye_settings(Eye::Right)?;
+    let (target, [(lc, lg), (rc, rg)]) =
+        fixating_eyes(world, &prepared.rig, display, &settings.gaze)?;
+    let (mut ls, mut rs) = (settings.clone(), settings.clone());
+    ls.gaze = lg;
+    rs.gaze = rg;
     let pb = progress_bar(args.quiet, mode.name());
     let frame = render_stereo(world, &lc, &rc, &ls, &rs, mode, &|done, total| {
         pb.set_length(total);

@@ -24,7 +24,7 @@ use fovea_core::Image;
 use fovea_post::grid::Grid;
 use fovea_post::Rgb;
 
-use crate::camera::EyeCamera;
+use crate::camera::{Eye, EyeCamera, HmdRig};
 use crate::error::{RenderError, Result};
 use crate::pipeline::{render_frame, render_frame_prefilled, Frame, FrameSettings, Prefill};
 use crate::world::World;
@@ -89,6 +89,48 @@ pub struct StereoFrame {
     pub right: Frame,
     /// Counts.
     pub stats: StereoStats,
+}
+
+/// The world point the gaze fixates: the first surface on the ray through `gaze` of `camera`
+/// (10 m along it where nothing is hit).
+pub fn fixation_point(
+    world: &World,
+    camera: &EyeCamera,
+    gaze: &fovea_core::display::Gaze,
+) -> glam::Vec3 {
+    let ray = camera.ray(gaze.point);
+    let g = crate::trace::trace_sample(world, &ray, 0.0);
+    let t = if g.t.is_finite() { g.t } else { 10.0 };
+    ray.origin + ray.dir * t
+}
+
+/// Both eyes of `rig` on `display` fixating the cyclopean eye's `gaze` (through
+/// [`fixation_point`]): the point and `[(left camera, left gaze), (right camera, right
+/// gaze)]`, each gaze clamped onto the screen.
+pub fn fixating_eyes(
+    world: &World,
+    rig: &HmdRig,
+    display: &fovea_core::display::DisplayProfile,
+    gaze: &fovea_core::display::Gaze,
+) -> Result<(glam::Vec3, [(EyeCamera, fovea_core::display::Gaze); 2])> {
+    let centre = rig.eye(Eye::Centre, display)?;
+    let target = fixation_point(world, &centre, gaze);
+    let one = |eye: Eye| -> Result<(EyeCamera, fovea_core::display::Gaze)> {
+        let cam = rig.eye(eye, display)?;
+        let q = cam.screen_point_of(target - cam.position).ok_or_else(|| {
+            RenderError::invalid(
+                "gaze",
+                format!("{target}"),
+                format!("a fixated point in front of the {eye:?} eye"),
+            )
+        })?;
+        let g = display.gaze(
+            q.x_px.clamp(0.0, display.width_px as f64),
+            q.y_px.clamp(0.0, display.height_px as f64),
+        )?;
+        Ok((cam, g))
+    };
+    Ok((target, [one(Eye::Left)?, one(Eye::Right)?]))
 }
 
 /// Renders both eyes. `left` and `right` carry each eye's gaze; everything else (method,

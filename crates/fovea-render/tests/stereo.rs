@@ -140,16 +140,11 @@ fn rep_on_a_real_scene() {
     let rig = HmdRig::new(head, forward, Vec3::Y, 0.063).unwrap();
     let centre = rig.eye(Eye::Centre, &d).unwrap();
     world.lights = fovea_render::lights::view_lights(&world, &centre, 4).unwrap();
-    let (lc, rc) = (
-        rig.eye(Eye::Left, &d).unwrap(),
-        rig.eye(Eye::Right, &d).unwrap(),
-    );
     // Fixate the first surface at the screen centre of the cyclopean eye.
-    let ray = centre.ray(d.centre_gaze().point);
-    let hit = fovea_render::trace::trace_sample(&world, &ray, 0.0);
-    let target = ray.origin + ray.dir * hit.t.min(10.0);
-    let ls = FrameSettings::new(Method::Vafr, gaze_at(&lc, target));
-    let rs = FrameSettings::new(Method::Vafr, gaze_at(&rc, target));
+    let (_, [(lc, lg), (rc, rg)]) =
+        fovea_render::stereo::fixating_eyes(&world, &rig, &d, &d.centre_gaze()).unwrap();
+    let ls = FrameSettings::new(Method::Vafr, lg);
+    let rs = FrameSettings::new(Method::Vafr, rg);
     let dup = render_stereo(&world, &lc, &rc, &ls, &rs, StereoMode::Dup, &|_, _| {}).unwrap();
     let rep = render_stereo(&world, &lc, &rc, &ls, &rs, StereoMode::Rep, &|_, _| {}).unwrap();
     let ratio = rep.stats.rays_primary as f64 / dup.stats.rays_primary as f64;
