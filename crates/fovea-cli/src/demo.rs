@@ -23,7 +23,7 @@ use fovea_render::pipeline::{render_frame, FrameSettings};
 use fovea_render::scene::builtin;
 use fovea_render::world::World;
 
-use crate::output::write_rgb;
+use crate::output::{side_by_side, write_rgb};
 use crate::sequence::gaze_trajectory;
 
 /// Options of `fovea demo`.
@@ -123,13 +123,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
         ToneCurve::Reinhard,
     )?;
     let (w, h) = (display.width_px, display.height_px);
-    let mut both = Image::new(2 * w, h, [0.0f32; 3])?;
-    for y in 0..h {
-        for x in 0..w {
-            *both.get_mut(x, y) = *fov.color.get(x, y);
-            *both.get_mut(w + x, y) = *reference.color.get(x, y);
-        }
-    }
+    let both = side_by_side(&fov.color, &reference.color)?;
     write_rgb(
         &dir.join("side-by-side.png"),
         &both,

@@ -8,6 +8,24 @@ use fovea_core::Image;
 use fovea_post::tonemap::{to_srgb8, ToneCurve};
 use fovea_post::Rgb;
 
+/// `left` and `right` (the same size) next to each other.
+pub fn side_by_side(left: &Image<Rgb>, right: &Image<Rgb>) -> Result<Image<Rgb>> {
+    let (w, h) = (left.width(), left.height());
+    if (right.width(), right.height()) != (w, h) {
+        bail!(
+            "side by side: {w}x{h} and {}x{} differ",
+            right.width(),
+            right.height()
+        );
+    }
+    let mut data = Vec::with_capacity(2 * w as usize * h as usize);
+    for y in 0..h {
+        data.extend_from_slice(left.row(y));
+        data.extend_from_slice(right.row(y));
+    }
+    Ok(Image::from_vec(2 * w, h, data)?)
+}
+
 fn ensure_parent(path: &Path) -> Result<()> {
     if let Some(dir) = path.parent() {
         if !dir.as_os_str().is_empty() {

@@ -361,13 +361,7 @@ fn run_stereo(
     })?;
     pb.finish_and_clear();
     let (w, h) = (display.width_px, display.height_px);
-    let mut both = fovea_core::Image::new(2 * w, h, [0.0f32; 3])?;
-    for y in 0..h {
-        for x in 0..w {
-            *both.get_mut(x, y) = *frame.left.color.get(x, y);
-            *both.get_mut(w + x, y) = *frame.right.color.get(x, y);
-        }
-    }
+    let both = crate::output::side_by_side(&frame.left.color, &frame.right.color)?;
     write_rgb(&args.out, &both, args.exposure, tone)?;
     let stats_path = args
         .stats

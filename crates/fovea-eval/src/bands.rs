@@ -20,6 +20,41 @@ use crate::ssim::ssim_map;
 /// The bands of the report (issue 7): 0–5°, 5–15°, 15–30°, beyond 30°.
 pub const REPORT_BANDS_DEG: [f64; 4] = [0.0, 5.0, 15.0, 30.0];
 
+/// Checks band edges: ascending, finite, starting at 0.
+pub fn check_edges(edges: &[f64]) -> Result<()> {
+    if edges.is_empty()
+        || edges[0] != 0.0
+        || edges.windows(2).any(|p| p[1] <= p[0])
+        || edges.iter().any(|e| !e.is_finite())
+    {
+        return Err(FoveaError::invalid(
+            "bands",
+            format!("{edges:?}"),
+            "ascending finite eccentricities starting at 0",
+        ));
+    }
+    Ok(())
+}
+
+/// Eccentricity of every pixel centre (row-major), degrees.
+pub fn pixel_eccentricities(display: &DisplayProfile, gaze: &Gaze) -> Vec<f64> {
+    let (w, h) = (display.width_px, display.height_px);
+    (0..h)
+        .flat_map(|j| (0..w).map(move |i| (i, j)))
+        .map(|(i, j)| {
+            display
+                .eccentricity(ScreenPoint::new(i as f64 + 0.5, j as f64 + 0.5), gaze)
+                .0
+        })
+        .collect()
+}
+
+/// Index of the band of `edges` holding eccentricity `e`.
+#[inline]
+pub fn band_index(edges: &[f64], e: f64) -> usize {
+    edges.partition_point(|&lo| lo <= e).saturating_sub(1)
+}
+
 /// One band.
 #[derive(Clone, Debug, Serialize)]
 pub struct BandQuality {
@@ -66,17 +101,7 @@ pub fn band_quality(
             format!("the display's {w}×{h}"),
         ));
     }
-    if edges.is_empty()
-        || edges[0] != 0.0
-        || edges.windows(2).any(|p| p[1] <= p[0])
-        || edges.iter().any(|e| !e.is_finite())
-    {
-        return Err(FoveaError::invalid(
-            "bands",
-            format!("{edges:?}"),
-            "ascending finite eccentricities starting at 0",
-        ));
-    }
+    check_edges(edges)?;
     let whole = Region::full(w, h);
     let metric_error = || FoveaError::Unsupported("metrics of an empty frame".into());
     let ssim = ssim_map(reference, test, whole).ok_or_else(metric_error)?;
@@ -85,20 +110,14 @@ pub fn band_quality(
     let nb = edges.len();
     // Per band: pixels, squared luma error, SSIM, FLIP, density.
     let mut acc = vec![[0.0f64; 5]; nb];
-    for j in 0..h {
-        for i in 0..w {
-            let k = (j * w + i) as usize;
-            let e = display
-                .eccentricity(ScreenPoint::new(i as f64 + 0.5, j as f64 + 0.5), gaze)
-                .0;
-            let b = edges.partition_point(|&lo| lo <= e).saturating_sub(1);
-            let d = ya[k] - yb[k];
-            acc[b][0] += 1.0;
-            acc[b][1] += d * d;
-            acc[b][2] += ssim.data()[k] as f64;
-            acc[b][3] += flip.data()[k] as f64;
-            acc[b][4] += density.map_or(0.0, |dd| dd.data()[k] as f64);
-        }
+    for (k, e) in pixel_eccentricities(display, gaze).into_iter().enumerate() {
+        let b = band_index(edges, e);
+        let d = ya[k] - yb[k];
+        acc[b][0] += 1.0;
+        acc[b][1] += d * d;
+        acc[b][2] += ssim.data()[k] as f64;
+        acc[b][3] += flip.data()[k] as f64;
+        acc[b][4] += density.map_or(0.0, |dd| dd.data()[k] as f64);
     }
     Ok((0..nb)
         .map(|b| {

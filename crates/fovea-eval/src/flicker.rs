@@ -19,10 +19,10 @@
 use serde::Serialize;
 
 use fovea_core::display::{DisplayProfile, Gaze};
-use fovea_core::units::ScreenPoint;
 use fovea_core::{FoveaError, Image, Result};
 use fovea_post::Rgb;
 
+use crate::bands::{band_index, check_edges, pixel_eccentricities};
 use crate::metrics::encoded_luma;
 
 /// Default band edges, degrees (the last band is open).
@@ -92,17 +92,7 @@ impl FlickerMeter {
     /// A meter for `display` with band edges `edges` (ascending, starting at 0).
     pub fn new(display: &DisplayProfile, edges: &[f64], periphery_deg: f64) -> Result<Self> {
         display.validate()?;
-        if edges.is_empty()
-            || edges[0] != 0.0
-            || edges.windows(2).any(|w| w[1] <= w[0])
-            || edges.iter().any(|e| !e.is_finite())
-        {
-            return Err(FoveaError::invalid(
-                "bands",
-                format!("{edges:?}"),
-                "ascending finite eccentricities starting at 0",
-            ));
-        }
+        check_edges(edges)?;
         if !(periphery_deg.is_finite() && periphery_deg >= 0.0) {
             return Err(FoveaError::invalid(
                 "periphery",
@@ -148,26 +138,22 @@ impl FlickerMeter {
         let mut n = vec![0u64; nb];
         let mut pacc = [0.0f64; 3];
         let mut pn = 0u64;
-        for j in 0..h {
-            for i in 0..w {
-                let k = (j * w + i) as usize;
-                let e = self
-                    .display
-                    .eccentricity(ScreenPoint::new(i as f64 + 0.5, j as f64 + 0.5), gaze)
-                    .0;
-                let b = self.edges.partition_point(|&lo| lo <= e).saturating_sub(1);
-                let (dy, dr) = (y[k] - py[k], r[k] - pr[k]);
-                let v = [(dy - dr) * (dy - dr), dy * dy, dr * dr];
-                for (a, x) in acc[b].iter_mut().zip(v) {
+        for (k, e) in pixel_eccentricities(&self.display, gaze)
+            .into_iter()
+            .enumerate()
+        {
+            let b = band_index(&self.edges, e);
+            let (dy, dr) = (y[k] - py[k], r[k] - pr[k]);
+            let v = [(dy - dr) * (dy - dr), dy * dy, dr * dr];
+            for (a, x) in acc[b].iter_mut().zip(v) {
+                *a += x;
+            }
+            n[b] += 1;
+            if e >= self.periphery_deg {
+                for (a, x) in pacc.iter_mut().zip(v) {
                     *a += x;
                 }
-                n[b] += 1;
-                if e >= self.periphery_deg {
-                    for (a, x) in pacc.iter_mut().zip(v) {
-                        *a += x;
-                    }
-                    pn += 1;
-                }
+                pn += 1;
             }
         }
         let mut per_band = Vec::with_capacity(nb);
@@ -240,6 +226,7 @@ impl FlickerMeter {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use fovea_core::units::ScreenPoint;
 
     fn display() -> DisplayProfile {
         DisplayProfile::with_vertical_fov("t", 64, 48, fovea_core::units::Degrees(90.0)).unwrap()
