@@ -32,7 +32,9 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use fovea_core::display::{DisplayProfile, Gaze};
-use fovea_core::mapping::{build, FoveationMapping, MappingConfig, Method, SamplePoint};
+use fovea_core::mapping::{
+    build, BufferSize, FoveationMapping, MappingConfig, Method, SamplePoint,
+};
 use fovea_core::Image;
 use fovea_post::fxaa::{fxaa, FxaaParams};
 use fovea_post::gaussian_aa::gaussian_3x3;
@@ -247,6 +249,15 @@ pub fn memory_estimate(
     samples + if density { screen * 4 } else { 0 } + gbuf
 }
 
+/// Whether `images` are one per buffer of `sizes`, each of its size.
+fn sizes_match<T>(images: &[Image<T>], sizes: &[BufferSize]) -> bool {
+    images.len() == sizes.len()
+        && images
+            .iter()
+            .zip(sizes)
+            .all(|(i, b)| i.width() == b.width && i.height() == b.height)
+}
+
 /// Side of the square tiles in which samples are traced and shaded.
 const TRACE_TILE: usize = 16;
 
@@ -381,23 +392,9 @@ fn render(
     }
     let sizes = mapping.buffers();
     if let Some(p) = prefill {
-        let fits =
-            |w: u32, h: u32, k: usize| sizes.get(k).is_some_and(|b| b.width == w && b.height == h);
-        if p.color.len() != sizes.len()
-            || p.depth.len() != sizes.len()
-            || p.known.len() != sizes.len()
-            || p.color
-                .iter()
-                .enumerate()
-                .any(|(k, c)| !fits(c.width(), c.height(), k))
-            || p.depth
-                .iter()
-                .enumerate()
-                .any(|(k, c)| !fits(c.width(), c.height(), k))
-            || p.known
-                .iter()
-                .enumerate()
-                .any(|(k, c)| !fits(c.width(), c.height(), k))
+        if !(sizes_match(&p.color, &sizes)
+            && sizes_match(&p.depth, &sizes)
+            && sizes_match(&p.known, &sizes))
         {
             return Err(RenderError::invalid(
                 "prefill",
@@ -586,16 +583,29 @@ fn render(
         depths.push(depth);
     }
 
+    // The mapping's sample spacing by eccentricity, for accumulation and contrast.
+    let spacing = if accumulator.is_some() || settings.contrast.is_some() {
+        Some(SpacingLut::new(mapping.as_ref(), display, settings.gaze)?)
+    } else {
+        None
+    };
+
     // Temporal accumulation: the previous frame folded into the fresh samples.
     let mut temporal = None;
-    if let Some(acc) = accumulator.as_deref_mut() {
+    if let (Some(acc), Some(lut)) = (accumulator.as_deref_mut(), &spacing) {
         let t = Stopwatch::start();
         let mut buffers = SampleBuffers {
             color: colors,
             depth: depths,
         };
-        temporal =
-            Some(acc.accumulate(mapping.as_ref(), settings, camera, &mut buffers, jitter)?);
+        temporal = Some(acc.accumulate(
+            mapping.as_ref(),
+            settings,
+            camera,
+            &mut buffers,
+            jitter,
+            lut,
+        )?);
         colors = buffers.color;
         depths = buffers.depth;
         times.add("temporal", &t);
@@ -643,10 +653,9 @@ fn render(
         acc.finish(mapping.as_ref(), camera, &screen)?;
         times.add("temporal", &t);
     }
-    let screen = match &settings.contrast {
-        Some(c) => {
+    let screen = match (&settings.contrast, &spacing) {
+        (Some(c), Some(lut)) => {
             let t = Stopwatch::start();
-            let lut = SpacingLut::new(mapping.as_ref(), display, settings.gaze)?;
             let gaze = settings.gaze;
             let ecc = |x: u32, y: u32| {
                 let p = fovea_core::units::ScreenPoint::new(x as f64 + 0.5, y as f64 + 0.5);
@@ -659,7 +668,7 @@ fn render(
                 depth: screen.depth,
             }
         }
-        None => screen,
+        _ => screen,
     };
 
     // 6. Depth of field in screen space.

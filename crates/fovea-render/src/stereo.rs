@@ -133,6 +133,35 @@ pub fn fixating_eyes(
     Ok((target, [one(Eye::Left)?, one(Eye::Right)?]))
 }
 
+impl StereoFrame {
+    /// Both eyes with their counts.
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        mode: StereoMode,
+        left: Frame,
+        right: Frame,
+        warped: u64,
+        cracks_filled: u64,
+        holes_traced: u64,
+        t0: std::time::Instant,
+        warp_ms: f64,
+    ) -> Self {
+        let (l, r) = (left.stats.rays_primary, right.stats.rays_primary);
+        let stats = StereoStats {
+            mode,
+            rays_primary_left: l,
+            rays_primary_right: r,
+            rays_primary: l + r,
+            warped,
+            cracks_filled,
+            holes_traced,
+            total_ms: t0.elapsed().as_secs_f64() * 1e3,
+            warp_ms,
+        };
+        Self { left, right, stats }
+    }
+}
+
 /// Renders both eyes. `left` and `right` carry each eye's gaze; everything else (method,
 /// parameters, shading, DOF) should agree.
 pub fn render_stereo(
@@ -156,22 +185,7 @@ pub fn render_stereo(
         StereoMode::Dup => {
             let l = render_frame(world, left_camera, left, progress)?;
             let r = render_frame(world, right_camera, right, progress)?;
-            let stats = StereoStats {
-                mode,
-                rays_primary_left: l.stats.rays_primary,
-                rays_primary_right: r.stats.rays_primary,
-                rays_primary: l.stats.rays_primary + r.stats.rays_primary,
-                warped: 0,
-                cracks_filled: 0,
-                holes_traced: 0,
-                total_ms: t0.elapsed().as_secs_f64() * 1e3,
-                warp_ms: 0.0,
-            };
-            Ok(StereoFrame {
-                left: l,
-                right: r,
-                stats,
-            })
+            Ok(StereoFrame::new(mode, l, r, 0, 0, 0, t0, 0.0))
         }
         StereoMode::Rep => {
             let mut ls = left.clone();
@@ -200,22 +214,10 @@ pub fn render_stereo(
             let (prefill, cracks) = fill_cracks(rm.as_ref(), prefill);
             let warp_ms = tw.elapsed().as_secs_f64() * 1e3;
             let r = render_frame_prefilled(world, right_camera, right, &prefill, progress)?;
-            let stats = StereoStats {
-                mode,
-                rays_primary_left: l.stats.rays_primary,
-                rays_primary_right: r.stats.rays_primary,
-                rays_primary: l.stats.rays_primary + r.stats.rays_primary,
-                warped,
-                cracks_filled: cracks,
-                holes_traced: r.stats.rays_primary,
-                total_ms: t0.elapsed().as_secs_f64() * 1e3,
-                warp_ms,
-            };
-            Ok(StereoFrame {
-                left: l,
-                right: r,
-                stats,
-            })
+            let holes = r.stats.rays_primary;
+            Ok(StereoFrame::new(
+                mode, l, r, warped, cracks, holes, t0, warp_ms,
+            ))
         }
     }
 }

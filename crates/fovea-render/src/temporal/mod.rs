@@ -182,7 +182,7 @@ impl TemporalAccumulator {
 
     /// Blends the previous frame into this frame's freshly shaded samples (before AA).
     /// `settings` are the frame's (method, mapping parameters, gaze), from which the history
-    /// rebuilds this frame's mapping.
+    /// rebuilds this frame's mapping; `lut` is the mapping's sample spacing.
     pub(crate) fn accumulate(
         &mut self,
         mapping: &dyn FoveationMapping,
@@ -190,13 +190,13 @@ impl TemporalAccumulator {
         camera: &EyeCamera,
         buffers: &mut SampleBuffers,
         jitter: [f64; 2],
+        lut: &SpacingLut,
     ) -> Result<TemporalStats> {
         let method = mapping.method();
         if self.method != Some(method) {
             self.history = None;
         }
         let mut stats = if method == Method::Weier {
-            let lut = SpacingLut::new(mapping, &camera.display, settings.gaze)?;
             let (stats, ages) = match &self.history {
                 Some(History::Pyramid(h)) => weier_taa::blend(
                     h,
@@ -204,15 +204,14 @@ impl TemporalAccumulator {
                     mapping,
                     camera,
                     settings.gaze,
-                    &lut,
+                    lut,
                     buffers,
                 )?,
                 _ => weier_taa::first_frame(mapping, buffers)?,
             };
-            self.weier_ages = Some((ages, lut, settings.gaze));
+            self.weier_ages = Some((ages, lut.clone(), settings.gaze));
             stats
         } else {
-            let lut = SpacingLut::new(mapping, &camera.display, settings.gaze)?;
             let (stats, ages) = match &self.history {
                 Some(History::Samples(h)) => sample_space::blend(
                     h,
@@ -220,7 +219,7 @@ impl TemporalAccumulator {
                     mapping,
                     camera,
                     settings.gaze,
-                    &lut,
+                    lut,
                     buffers,
                 )?,
                 _ => sample_space::first_frame(mapping, buffers)?,
@@ -230,7 +229,7 @@ impl TemporalAccumulator {
                 rebuilt,
                 camera.clone(),
                 settings.gaze,
-                lut,
+                lut.clone(),
                 buffers,
                 ages,
             )));
@@ -343,6 +342,7 @@ pub(crate) fn running_estimate(c: Rgb, h: Rgb, v: f32, n: u16, alpha_min: f32) -
 /// Sample spacing in screen pixels as a function of eccentricity: the full-resolution
 /// shading rate over the mapping's (`1` where the mapping samples at least as densely as the
 /// screen), tabulated every 0.1°.
+#[derive(Clone, Debug)]
 pub struct SpacingLut {
     step_deg: f64,
     values: Vec<f32>,
