@@ -242,6 +242,7 @@ pub fn run(args: FlickerArgs) -> Result<()> {
         pb
     };
     let full_region = Region::full(display.width_px, display.height_px);
+    let r10 = display.radius_px(fovea_core::units::Degrees(10.0));
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create directory {}", args.out.display()))?;
     let save = |dir: &str, i: usize, img: &fovea_core::Image<fovea_post::Rgb>| -> Result<()> {
@@ -299,7 +300,6 @@ pub fn run(args: FlickerArgs) -> Result<()> {
             );
             save(&dir, i, &frame.color)?;
             v.meter.push(&frame.color, &reference.color, &gaze)?;
-            let r10 = display.radius_px(fovea_core::units::Degrees(10.0));
             let central = Region::around(
                 gaze.point.x_px,
                 gaze.point.y_px,
