@@ -17,7 +17,7 @@ use fovea_render::pipeline::{render_frame, FrameSettings, FrameStats};
 use crate::common::{display_of, thousands, MethodOptions};
 use crate::dof_args::EyeArgs;
 use crate::render::{memory_limit, progress_bar, shading};
-use crate::scene_args::{load, SceneArgs};
+use crate::scene_args::{load, Loaded, SceneArgs};
 use fovea_core::units::Metres;
 use fovea_post::dof::coc::coc_map;
 use fovea_post::dof::{DofInput, FilterKind};
@@ -128,7 +128,20 @@ fn steal_fraction(a: Option<(u64, u64)>, b: Option<(u64, u64)>) -> Option<f64> {
     (t1 > t0).then(|| (s1 - s0) as f64 / (t1 - t0) as f64)
 }
 
-pub fn run(args: BenchArgs) -> Result<()> {
+/// The validated options of one benchmark.
+pub struct Plan {
+    displays: Vec<DisplayProfile>,
+    methods: Vec<Method>,
+    config: fovea_core::mapping::MappingConfig,
+    shading_mode: fovea_render::shade::ShadingMode,
+    memory_limit: u64,
+    dof_filters: Vec<FilterKind>,
+    dof_settings: fovea_render::dof::DofSettings,
+    stereo: bool,
+}
+
+/// Checks every option before anything is loaded or rendered.
+pub fn plan(args: &BenchArgs) -> Result<Plan> {
     let displays: Vec<DisplayProfile> = args
         .res
         .split(',')
@@ -159,7 +172,6 @@ pub fn run(args: BenchArgs) -> Result<()> {
         );
     }
     let dof_settings = args.eye.settings(None)?;
-    let mut dof_report = Vec::new();
     let stereo = match args.eyes.trim().to_ascii_lowercase().as_str() {
         "one" | "1" => false,
         "both" | "2" => true,
@@ -171,10 +183,52 @@ pub fn run(args: BenchArgs) -> Result<()> {
             args.stereo_reps
         );
     }
-    let mut stereo_report = Vec::new();
+    Ok(Plan {
+        displays,
+        methods,
+        config,
+        shading_mode,
+        memory_limit,
+        dof_filters,
+        dof_settings,
+        stereo,
+    })
+}
 
-    // Loaded and built once; the camera and generated lights follow each display.
+pub fn run(args: BenchArgs) -> Result<()> {
+    let plan = plan(&args)?;
     let mut loaded = load(&args.scene)?;
+    let json = measure(&args, &plan, &mut loaded, !args.json)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&json)?);
+    } else {
+        print_summary(&json);
+    }
+    Ok(())
+}
+
+/// Runs the benchmark on `loaded`; prints each run as it ends when `print`. Returns the JSON
+/// of `fovea bench --json`.
+pub fn measure(
+    args: &BenchArgs,
+    plan: &Plan,
+    loaded: &mut Loaded,
+    print: bool,
+) -> Result<serde_json::Value> {
+    let Plan {
+        displays,
+        methods,
+        config,
+        shading_mode,
+        memory_limit,
+        dof_filters,
+        dof_settings,
+        stereo,
+    } = plan;
+    let (shading_mode, memory_limit, stereo) = (*shading_mode, *memory_limit, *stereo);
+    let mut dof_report = Vec::new();
+    let mut stereo_report = Vec::new();
+    // Loaded and built once; the camera and generated lights follow each display.
     let backend_name = loaded.world.caster.backend().name();
     let mut runs: Vec<Run> = Vec::new();
     let mut bvh_report = Vec::new();
@@ -203,7 +257,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         }
         let gaze = display.centre_gaze();
         let mut full: Option<(f64, f64)> = None;
-        for &m in &methods {
+        for &m in methods {
             let mut s = FrameSettings::new(m, gaze);
             s.mapping = config.clone();
             s.shading = shading_mode;
@@ -223,13 +277,13 @@ pub fn run(args: BenchArgs) -> Result<()> {
                     world,
                     &camera,
                     &gaze,
-                    &dof_settings,
+                    dof_settings,
                     &frame.color,
                     &frame.depth,
-                    &dof_filters,
+                    dof_filters,
                     args.dof_reps,
                 )?;
-                if !args.json {
+                if print {
                     print_dof(&display.name, &rows);
                 }
                 dof_report.push(serde_json::json!({
@@ -251,7 +305,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 steal,
                 stats,
             };
-            if !args.json {
+            if print {
                 print_run(&run);
             }
             runs.push(run);
@@ -263,12 +317,12 @@ pub fn run(args: BenchArgs) -> Result<()> {
                     loaded.rig(),
                     display,
                     m,
-                    &config,
+                    config,
                     shading_mode,
                     memory_limit,
                     args.stereo_reps,
                 )?;
-                if !args.json {
+                if print {
                     println!(
                         "{} {}x{} {m} binocular: dup {:.0} ms, {} primary rays | rep {:.0} ms, {} primary rays ({} holes) | rep/dup time {:.2}, rays {:.2}",
                         display.name,
@@ -325,36 +379,39 @@ pub fn run(args: BenchArgs) -> Result<()> {
             })
         }).collect::<Vec<_>>(),
     });
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&json)?);
-    } else {
-        println!(
-            "scene {scene_name}: {} triangles, {n_lights} lights, BVH {backend_name}, {} threads",
-            thousands(triangles as u64),
-            rayon::current_num_threads()
-        );
-        for b in &bvh_report {
-            if b["available"].as_bool() == Some(true) {
-                println!(
-                    "BVH {:>6}: {:.2} Mrays/s primary, build {:.0} ms{}",
-                    b["backend"].as_str().unwrap_or(""),
-                    b["primary_mrays_per_s"].as_f64().unwrap_or(0.0),
-                    b["build_ms"].as_f64().unwrap_or(0.0),
-                    if b["chosen"].as_bool() == Some(true) {
-                        " (chosen)"
-                    } else {
-                        ""
-                    }
-                );
-            } else {
-                println!(
-                    "BVH {:>6}: not in this build",
-                    b["backend"].as_str().unwrap_or("")
-                );
-            }
+    Ok(json)
+}
+
+/// The closing lines of `fovea bench`: the scene and the BVH backends.
+fn print_summary(json: &serde_json::Value) {
+    println!(
+        "scene {}: {} triangles, {} lights, BVH {}, {} threads",
+        json["scene"].as_str().unwrap_or(""),
+        thousands(json["triangles"].as_u64().unwrap_or(0)),
+        json["lights"].as_u64().unwrap_or(0),
+        json["bvh"].as_str().unwrap_or(""),
+        json["threads"].as_u64().unwrap_or(0),
+    );
+    for b in json["bvh_throughput"].as_array().into_iter().flatten() {
+        if b["available"].as_bool() == Some(true) {
+            println!(
+                "BVH {:>6}: {:.2} Mrays/s primary, build {:.0} ms{}",
+                b["backend"].as_str().unwrap_or(""),
+                b["primary_mrays_per_s"].as_f64().unwrap_or(0.0),
+                b["build_ms"].as_f64().unwrap_or(0.0),
+                if b["chosen"].as_bool() == Some(true) {
+                    " (chosen)"
+                } else {
+                    ""
+                }
+            );
+        } else {
+            println!(
+                "BVH {:>6}: not in this build",
+                b["backend"].as_str().unwrap_or("")
+            );
         }
     }
-    Ok(())
 }
 
 /// Binocular frame of `method` on `display`, Dup and Rep alternately `reps` times, both eyes

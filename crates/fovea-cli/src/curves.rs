@@ -1,7 +1,7 @@
 //! `fovea curves`: shading rate against eccentricity for every mapping, as PNG and CSV.
 
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -34,13 +34,13 @@ pub struct CurvesArgs {
     #[arg(long)]
     pivots: Option<String>,
     /// Largest eccentricity plotted, degrees.
-    #[arg(long, default_value_t = 60.0)]
+    #[arg(long, default_value_t = PlotRange::DEFAULT.emax)]
     emax: f64,
     /// Top of the rate axis, cycles per degree.
-    #[arg(long, default_value_t = 45.0)]
+    #[arg(long, default_value_t = PlotRange::DEFAULT.ymax)]
     ymax: f64,
     /// Eccentricities sampled per curve.
-    #[arg(long, default_value_t = 600)]
+    #[arg(long, default_value_t = PlotRange::DEFAULT.samples)]
     samples: usize,
     /// Output folder.
     #[arg(long, default_value = "fovea-out/curves")]
@@ -204,18 +204,12 @@ pub fn run(a: CurvesArgs) -> Result<()> {
         None => {
             let d = a.display.display("2k")?;
             let g = parse_gaze(&d, a.gaze.as_deref())?;
-            let mut specs = Vec::new();
-            for m in &a.methods {
-                let mut e =
-                    entry_with_delta(Method::parse(m)?, &acuity, a.options.delta.unwrap_or(1.8));
-                a.options.apply(&mut e.config)?;
-                specs.push(Spec {
-                    label: e.label.clone(),
-                    display: d.clone(),
-                    gaze: g,
-                    entry: e,
-                });
-            }
+            let methods = a
+                .methods
+                .iter()
+                .map(|m| Method::parse(m))
+                .collect::<Result<Vec<_>, _>>()?;
+            let specs = method_specs(&d, g, &methods, &acuity, &a.options)?;
             if specs.is_empty() {
                 bail!("invalid parameter `methods`: name at least one method");
             }
@@ -229,8 +223,100 @@ pub fn run(a: CurvesArgs) -> Result<()> {
             )
         }
     };
-    std::fs::create_dir_all(&a.out)
-        .with_context(|| format!("creating output folder {}", a.out.display()))?;
+    let plot = PlotRange {
+        emax: a.emax,
+        ymax: a.ymax,
+        samples: a.samples,
+    };
+    for p in write_curves(&title, &specs, &stem, &acuity, plot, &a.out)? {
+        println!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+/// The axes and sampling of a plot.
+#[derive(Clone, Copy)]
+struct PlotRange {
+    emax: f64,
+    ymax: f64,
+    samples: usize,
+}
+
+impl PlotRange {
+    /// The defaults of `fovea curves`: 0–60°, rates up to 45 cpd, 600 samples.
+    const DEFAULT: PlotRange = PlotRange {
+        emax: 60.0,
+        ymax: 45.0,
+        samples: 600,
+    };
+}
+
+/// VaFR figure `n` (5, 8, 9, 10 or 21) with the default acuity curve and axes in `out`:
+/// the radial and tangential plots (PNG) and the CSV, in that order.
+pub fn write_figure(n: u32, out: &Path) -> Result<Vec<PathBuf>> {
+    let acuity = AcuityModel::vafr_default();
+    let (title, specs) = figure_specs(n, &acuity)?;
+    write_curves(
+        &title,
+        &specs,
+        &format!("fig{n}"),
+        &acuity,
+        PlotRange::DEFAULT,
+        out,
+    )
+}
+
+/// One curve per method on `display` with the gaze at `gaze`.
+fn method_specs(
+    display: &DisplayProfile,
+    gaze: Gaze,
+    methods: &[Method],
+    acuity: &AcuityModel,
+    options: &MethodOptions,
+) -> Result<Vec<Spec>> {
+    let mut specs = Vec::new();
+    for &m in methods {
+        let mut e = entry_with_delta(m, acuity, options.delta.unwrap_or(1.8));
+        options.apply(&mut e.config)?;
+        specs.push(Spec {
+            label: e.label.clone(),
+            display: display.clone(),
+            gaze,
+            entry: e,
+        });
+    }
+    Ok(specs)
+}
+
+/// Every method's curves on `display` with the gaze at `gaze` (default parameters), named
+/// `stem`: the radial and tangential plots (PNG) and the CSV.
+pub fn write_display_curves(
+    display: &DisplayProfile,
+    gaze: Gaze,
+    methods: &[Method],
+    stem: &str,
+    out: &Path,
+) -> Result<Vec<PathBuf>> {
+    let acuity = AcuityModel::vafr_default();
+    let specs = method_specs(display, gaze, methods, &acuity, &MethodOptions::default())?;
+    let title = format!(
+        "{} {}×{}, gaze ({:.0}, {:.0})",
+        display.name, display.width_px, display.height_px, gaze.point.x_px, gaze.point.y_px
+    );
+    write_curves(&title, &specs, stem, &acuity, PlotRange::DEFAULT, out)
+}
+
+/// Radial and tangential plots and the CSV of `specs`.
+fn write_curves(
+    title: &str,
+    specs: &[Spec],
+    stem: &str,
+    acuity: &AcuityModel,
+    a: PlotRange,
+    out: &Path,
+) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("creating output folder {}", out.display()))?;
     let mut columns: Vec<(String, Vec<f64>)> = Vec::new();
     let (mut radial, mut tangential) = (Vec::new(), Vec::new());
     let mut es = Vec::new();
@@ -239,7 +325,7 @@ pub fn run(a: CurvesArgs) -> Result<()> {
             &s.display,
             s.gaze,
             std::slice::from_ref(&s.entry),
-            &acuity,
+            acuity,
             Degrees(a.emax),
             a.samples,
         )?;
@@ -292,9 +378,9 @@ pub fn run(a: CurvesArgs) -> Result<()> {
             curve.tangential_cpd.clone(),
         ));
     }
-    let radial_png = a.out.join(format!("{stem}-radial.png"));
-    let tangential_png = a.out.join(format!("{stem}-tangential.png"));
-    let csv = a.out.join(format!("{stem}.csv"));
+    let radial_png = out.join(format!("{stem}-radial.png"));
+    let tangential_png = out.join(format!("{stem}-tangential.png"));
+    let csv = out.join(format!("{stem}.csv"));
     let x_desc = "Eccentricity (degrees)";
     line_plot(
         &radial_png,
@@ -330,8 +416,5 @@ pub fn run(a: CurvesArgs) -> Result<()> {
         writeln!(f)?;
     }
     f.flush()?;
-    println!("wrote {}", radial_png.display());
-    println!("wrote {}", tangential_png.display());
-    println!("wrote {}", csv.display());
-    Ok(())
+    Ok(vec![radial_png, tangential_png, csv])
 }

@@ -15,6 +15,7 @@ use crate::common::DisplayArgs;
 use crate::dof_args::EyeArgs;
 use crate::render::shading;
 use crate::scene_args::{gaze, prepare, SceneArgs};
+use fovea_core::display::DisplayProfile;
 
 /// Options of `fovea dof-compare`.
 #[derive(Args, Debug)]
@@ -91,6 +92,57 @@ fn parse_window(text: &str, w: u32, h: u32) -> Result<[u32; 2]> {
 
 pub fn run(args: DofCompareArgs) -> Result<()> {
     let display = args.display.display("vive-pro-eye")?;
+    let params = params(&args, &display)?;
+    let prepared = prepare(&args.scene, &display)?;
+    let g = gaze(
+        &display,
+        &prepared.camera,
+        args.gaze.as_deref(),
+        args.gaze_at.as_deref(),
+    )?;
+    let quiet = args.quiet || args.json;
+    let t0 = std::time::Instant::now();
+    let result = run_dof_compare(&prepared.world, &prepared.camera, &g, &params, &|stage| {
+        if !quiet {
+            eprintln!("[{:>6.1} s] {stage}", t0.elapsed().as_secs_f64());
+        }
+    })?;
+    let written = write_outputs(
+        &result,
+        &prepared.world.scene.name,
+        &display.name,
+        &args.out,
+    )?;
+    if args.json {
+        print!("{}", written.json_text);
+    } else {
+        print!("{}", written.markdown);
+        println!(
+            "wrote {}, {} and {}",
+            written.markdown_path.display(),
+            written.json_path.display(),
+            written.sheet_path.display()
+        );
+    }
+    Ok(())
+}
+
+/// What [`write_outputs`] wrote.
+pub struct Written {
+    /// `dof-compare.json`'s text.
+    pub json_text: String,
+    /// The JSON.
+    pub json: serde_json::Value,
+    /// `dof-compare.md`'s text.
+    pub markdown: String,
+    /// Paths of the Markdown, the JSON and the contact sheet.
+    pub markdown_path: PathBuf,
+    pub json_path: PathBuf,
+    pub sheet_path: PathBuf,
+}
+
+/// The comparison's settings from the options, checked.
+pub fn params(args: &DofCompareArgs, display: &DisplayProfile) -> Result<DofCompareParams> {
     let window = parse_window(&args.window, display.width_px, display.height_px)?;
     if !(1..=MAX_LENS_SAMPLES).contains(&args.lens_samples) {
         bail!(
@@ -147,7 +199,7 @@ pub fn run(args: DofCompareArgs) -> Result<()> {
             args.cull_hidden_coc
         );
     }
-    let params = DofCompareParams {
+    Ok(DofCompareParams {
         culling,
         cull_hidden_coc_px: args.cull_hidden_coc,
         window,
@@ -160,46 +212,36 @@ pub fn run(args: DofCompareArgs) -> Result<()> {
         max_coc_px: args.eye.settings(None)?.max_coc_px,
         filters,
         focus,
-    };
-    let prepared = prepare(&args.scene, &display)?;
-    let g = gaze(
-        &display,
-        &prepared.camera,
-        args.gaze.as_deref(),
-        args.gaze_at.as_deref(),
-    )?;
-    let quiet = args.quiet || args.json;
-    let t0 = std::time::Instant::now();
-    let result = run_dof_compare(&prepared.world, &prepared.camera, &g, &params, &|stage| {
-        if !quiet {
-            eprintln!("[{:>6.1} s] {stage}", t0.elapsed().as_secs_f64());
-        }
-    })?;
+    })
+}
 
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create directory {}", args.out.display()))?;
-    let json = to_json(&result, &prepared.world.scene.name, &display.name);
+/// Writes `dof-compare.json`, `dof-compare.md` and `contact-sheet.png` into `out`.
+pub fn write_outputs(
+    result: &DofComparison,
+    scene: &str,
+    display: &str,
+    out: &std::path::Path,
+) -> Result<Written> {
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("cannot create directory {}", out.display()))?;
+    let json = to_json(result, scene, display);
     let json_text = serde_json::to_string_pretty(&json)? + "\n";
-    let json_path = args.out.join("dof-compare.json");
+    let json_path = out.join("dof-compare.json");
     std::fs::write(&json_path, &json_text)
         .with_context(|| format!("cannot write {}", json_path.display()))?;
-    let md = markdown(&result, &prepared.world.scene.name, &display.name);
-    let md_path = args.out.join("dof-compare.md");
+    let md = markdown(result, scene, display);
+    let md_path = out.join("dof-compare.md");
     std::fs::write(&md_path, &md).with_context(|| format!("cannot write {}", md_path.display()))?;
-    let sheet_path = args.out.join("contact-sheet.png");
-    contact_sheet(&result, &sheet_path)?;
-    if args.json {
-        print!("{json_text}");
-    } else {
-        print!("{md}");
-        println!(
-            "wrote {}, {} and {}",
-            md_path.display(),
-            json_path.display(),
-            sheet_path.display()
-        );
-    }
-    Ok(())
+    let sheet_path = out.join("contact-sheet.png");
+    contact_sheet(result, &sheet_path)?;
+    Ok(Written {
+        json_text,
+        json,
+        markdown: md,
+        markdown_path: md_path,
+        json_path,
+        sheet_path,
+    })
 }
 
 /// `{"filters": [mean over cases], "cases": [...], ...}`.

@@ -101,18 +101,22 @@ pub struct FlickerArgs {
 
 /// One method × accumulation mode.
 #[derive(Serialize)]
-struct VariantReport {
-    method: String,
-    temporal: bool,
-    flicker: FlickerReport,
+pub struct VariantReport {
+    /// The method's name.
+    pub method: String,
+    /// Whether temporal accumulation was on.
+    pub temporal: bool,
+    /// Flicker by band and in the periphery.
+    pub flicker: FlickerReport,
     /// Mean luma PSNR against the reference over the frames, whole screen, dB.
-    mean_psnr_db: f64,
+    pub mean_psnr_db: f64,
     /// The same within 10° of the gaze (a square of that radius), dB.
-    mean_central_psnr_db: f64,
+    pub mean_central_psnr_db: f64,
     /// Mean over frames 1… of the reused fraction of samples (accumulation on).
-    mean_reused: Option<f64>,
+    pub mean_reused: Option<f64>,
+    /// Per-frame luma PSNR, dB.
     #[serde(skip)]
-    psnr: Vec<f64>,
+    pub psnr: Vec<f64>,
 }
 
 struct Variant {
@@ -127,7 +131,46 @@ struct Variant {
     reused_sum: f64,
 }
 
+/// The checked options of one flicker measurement.
+pub struct Plan {
+    display: fovea_core::display::DisplayProfile,
+    methods: Vec<Method>,
+    modes: Vec<bool>,
+    temporal: fovea_render::temporal::TemporalSettings,
+    contrast: Option<fovea_post::contrast::PeripheralContrast>,
+    edges: Vec<f64>,
+    config: fovea_core::mapping::MappingConfig,
+    memory_limit: u64,
+    gazes: Vec<fovea_core::gaze::GazeSample>,
+}
+
 pub fn run(args: FlickerArgs) -> Result<()> {
+    let plan = plan(&args)?;
+    let prepared = prepare(&args.scene, &plan.display)?;
+    let outcome = measure(&args, &plan, &prepared.world, &prepared.camera)?;
+    if args.json {
+        print!("{}", outcome.json_text);
+    } else {
+        print!("{}", outcome.markdown);
+        println!("wrote {}", args.out.display());
+    }
+    Ok(())
+}
+
+/// What [`measure`] found and wrote.
+pub struct Outcome {
+    /// Per method and accumulation mode.
+    pub reports: Vec<VariantReport>,
+    /// `flicker.json`.
+    pub json: serde_json::Value,
+    /// Its text.
+    pub json_text: String,
+    /// `flicker.md`.
+    pub markdown: String,
+}
+
+/// Checks every option and builds the gaze trajectory, before the scene is loaded.
+pub fn plan(args: &FlickerArgs) -> Result<Plan> {
     if !(2..=10_000).contains(&args.frames) {
         bail!(
             "invalid parameter `frames` = {}: expected 2 to 10000",
@@ -182,16 +225,47 @@ pub fn run(args: FlickerArgs) -> Result<()> {
         duration_s,
     )?
     .resample(args.fps, args.frames as usize)?;
-    let prepared = prepare(&args.scene, &display)?;
-    let world = &prepared.world;
-    let base = &prepared.camera;
+    Ok(Plan {
+        display,
+        methods,
+        modes,
+        temporal,
+        contrast,
+        edges,
+        config,
+        memory_limit,
+        gazes,
+    })
+}
+
+/// Renders the sequence on `world` from `base` (the camera at the first frame), every variant
+/// beside the reference; writes `flicker.json`, `flicker-frames.csv` and `flicker.md` into
+/// `args.out`.
+pub fn measure(
+    args: &FlickerArgs,
+    plan: &Plan,
+    world: &fovea_render::world::World,
+    base: &EyeCamera,
+) -> Result<Outcome> {
+    let Plan {
+        display,
+        methods,
+        modes,
+        temporal,
+        contrast,
+        edges,
+        config,
+        memory_limit,
+        gazes,
+    } = plan;
+    let (temporal, contrast, memory_limit) = (*temporal, *contrast, *memory_limit);
     let cameras: Vec<EyeCamera> = match &args.camera_path {
         Some(p) => {
             let (path, _) = read_camera_path(p)?;
             (0..args.frames as usize)
                 .map(|i| {
                     let (pos, look, up) = path.at(i as f64 / args.fps);
-                    Ok(EyeCamera::new(pos, look - pos, up, &display)?)
+                    Ok(EyeCamera::new(pos, look - pos, up, display)?)
                 })
                 .collect::<Result<_>>()?
         }
@@ -203,15 +277,15 @@ pub fn run(args: FlickerArgs) -> Result<()> {
                     let f = i as f32 / last;
                     let pos =
                         base.position + f * (m.x * base.right + m.y * base.up - m.z * base.forward);
-                    Ok(EyeCamera::new(pos, base.forward, base.up, &display)?)
+                    Ok(EyeCamera::new(pos, base.forward, base.up, display)?)
                 })
                 .collect::<Result<_>>()?
         }
     };
 
     let mut variants = Vec::new();
-    for &method in &methods {
-        for &on in &modes {
+    for &method in methods {
+        for &on in modes {
             variants.push(Variant {
                 method,
                 psnr: Vec::new(),
@@ -220,7 +294,7 @@ pub fn run(args: FlickerArgs) -> Result<()> {
                 } else {
                     None
                 },
-                meter: FlickerMeter::new(&display, &edges, args.periphery)?,
+                meter: FlickerMeter::new(display, edges, args.periphery)?,
                 psnr_sum: 0.0,
                 psnr_n: 0,
                 central_sum: 0.0,
@@ -376,20 +450,19 @@ pub fn run(args: FlickerArgs) -> Result<()> {
         .with_context(|| format!("cannot write {}", args.out.display()))?;
     let md = table(
         &reports,
-        &edges,
+        edges,
         args.periphery,
         &display.name,
         &world.scene.name,
     );
     std::fs::write(args.out.join("flicker.md"), &md)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
-    if args.json {
-        print!("{text}");
-    } else {
-        print!("{md}");
-        println!("wrote {}", args.out.display());
-    }
-    Ok(())
+    Ok(Outcome {
+        reports,
+        json,
+        json_text: text,
+        markdown: md,
+    })
 }
 
 fn table(

@@ -11,7 +11,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use serde::Serialize;
 
-use fovea_core::display::DisplayProfile;
+use fovea_core::display::{DisplayProfile, Gaze};
 use fovea_core::Image;
 use fovea_eval::gradient_intensity::{gradient_areas, GradientReport, DEFAULT_BAND_PX};
 use fovea_post::inset_smoothing::{composite, GaussianKernel, Rect, Smoothing};
@@ -95,8 +95,64 @@ fn methods() -> Vec<(&'static str, Smoothing)> {
 
 pub fn run(args: InsetAnalysisArgs) -> Result<()> {
     let display = args.display.display("vive-pro-eye")?;
+    check_options(&display, args.periphery_factor, args.band)?;
+    let prepared = prepare(&args.scene, &display)?;
+    let g = gaze(
+        &display,
+        &prepared.camera,
+        args.gaze.as_deref(),
+        args.gaze_at.as_deref(),
+    )?;
+    let rect = inset_rect(&display, &g, args.inset_size.as_deref(), args.band)?;
+    let (rows, json) = analyse(
+        &prepared.world,
+        &prepared.camera,
+        &display,
+        rect,
+        args.periphery_factor,
+        args.band,
+        &args.out,
+    )?;
+    if args.json {
+        print!("{}", serde_json::to_string_pretty(&json)? + "\n");
+        return Ok(());
+    }
+    let (w, h, f) = (display.width_px, display.height_px, args.periphery_factor);
+    println!(
+        "{}, {} {w}x{h}, inset {}x{} at ({}, {}), periphery {}x{}, bands of {} px; gradient ×100 of grey",
+        prepared.world.scene.name, display.name, rect.w, rect.h, rect.x0, rect.y0, w / f, h / f, args.band
+    );
+    println!("| method | Area1 x / y | Area2 x / y | Area3 x / y | Area4 x / y | slope 2→3 x / y | Area2/Area3 x / y | high/low x / y |");
+    println!("|---|---|---|---|---|---|---|---|");
+    for r in &rows {
+        let a = &r.report.areas;
+        let ratio = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.2}"));
+        println!(
+            "| {} | {:.2} / {:.2} | {:.2} / {:.2} | {:.2} / {:.2} | {:.2} / {:.2} | {:.2} / {:.2} | {:.2} / {:.2} | {} / {} |",
+            r.method,
+            a[0].mean_x,
+            a[0].mean_y,
+            a[1].mean_x,
+            a[1].mean_y,
+            a[2].mean_x,
+            a[2].mean_y,
+            a[3].mean_x,
+            a[3].mean_y,
+            r.report.slope_23_x,
+            r.report.slope_23_y,
+            r.area2_over_area3[0],
+            r.area2_over_area3[1],
+            ratio(r.report.ratio_x),
+            ratio(r.report.ratio_y)
+        );
+    }
+    println!("wrote {}", args.out.display());
+    Ok(())
+}
+
+/// Checks the periphery factor and the band width against the display.
+pub fn check_options(display: &DisplayProfile, f: u32, band: u32) -> Result<()> {
     let (w, h) = (display.width_px, display.height_px);
-    let f = args.periphery_factor;
     if f != 2 && f != 4 {
         bail!("invalid parameter `periphery-factor` = {f}: expected 2 or 4");
     }
@@ -105,20 +161,21 @@ pub fn run(args: InsetAnalysisArgs) -> Result<()> {
             "invalid parameter `display` = {w}x{h}: expected sides of at least 32 px divisible by the periphery factor {f}"
         );
     }
-    if !(1..=256).contains(&args.band) {
-        bail!(
-            "invalid parameter `band` = {}: expected 1 to 256",
-            args.band
-        );
+    if !(1..=256).contains(&band) {
+        bail!("invalid parameter `band` = {}: expected 1 to 256", band);
     }
-    let prepared = prepare(&args.scene, &display)?;
-    let g = gaze(
-        &display,
-        &prepared.camera,
-        args.gaze.as_deref(),
-        args.gaze_at.as_deref(),
-    )?;
-    let (iw, ih) = match args.inset_size.as_deref() {
+    Ok(())
+}
+
+/// The inset rectangle around the gaze: `size` WxH, default 1/4 of each side.
+pub fn inset_rect(
+    display: &DisplayProfile,
+    g: &Gaze,
+    size: Option<&str>,
+    band: u32,
+) -> Result<Rect> {
+    let (w, h) = (display.width_px, display.height_px);
+    let (iw, ih) = match size {
         None => (w / 4, h / 4),
         Some(t) => {
             let v: Vec<u32> = t
@@ -127,7 +184,7 @@ pub fn run(args: InsetAnalysisArgs) -> Result<()> {
                 .collect::<Option<_>>()
                 .unwrap_or_default();
             match v.as_slice() {
-                [a, b] if *a >= 4 * args.band && *b >= 4 * args.band && *a < w && *b < h => {
+                [a, b] if *a >= 4 * band && *b >= 4 * band && *a < w && *b < h => {
                     (*a, *b)
                 }
                 _ => bail!(
@@ -143,8 +200,21 @@ pub fn run(args: InsetAnalysisArgs) -> Result<()> {
         w: win.width,
         h: win.height,
     };
-    let camera = &prepared.camera;
-    let world = &prepared.world;
+    Ok(rect)
+}
+
+/// Renders the full frame and the periphery, composites them with every smoothing, writes one
+/// PNG per composite and `inset-analysis.json` into `out`; the rows and the JSON.
+pub fn analyse(
+    world: &fovea_render::world::World,
+    camera: &EyeCamera,
+    display: &DisplayProfile,
+    rect: Rect,
+    f: u32,
+    band: u32,
+    out: &std::path::Path,
+) -> Result<(Vec<Row>, serde_json::Value)> {
+    let (w, h) = (display.width_px, display.height_px);
     let shading = ShadingMode::Direct;
     // The reference, and the periphery on a display of 1/f of the pixels per side with the
     // same field of view.
@@ -188,12 +258,12 @@ pub fn run(args: InsetAnalysisArgs) -> Result<()> {
         &|_, _| {},
     )?;
 
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create directory {}", args.out.display()))?;
-    let reference = gradient_areas(&full.color, rect, args.band)?;
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("cannot create directory {}", out.display()))?;
+    let reference = gradient_areas(&full.color, rect, band)?;
     let mut rows = vec![row("full", reference.clone(), &reference)];
     write_rgb(
-        &args.out.join("full.png"),
+        &out.join("full.png"),
         &full.color,
         0.0,
         fovea_post::tonemap::ToneCurve::Reinhard,
@@ -201,62 +271,25 @@ pub fn run(args: InsetAnalysisArgs) -> Result<()> {
     for (name, m) in methods() {
         let img: Image<Rgb> = composite(&inset, rect, &low.color, w, h, m)?;
         write_rgb(
-            &args.out.join(format!("{name}.png")),
+            &out.join(format!("{name}.png")),
             &img,
             0.0,
             fovea_post::tonemap::ToneCurve::Reinhard,
         )?;
-        rows.push(row(
-            name,
-            gradient_areas(&img, rect, args.band)?,
-            &reference,
-        ));
+        rows.push(row(name, gradient_areas(&img, rect, band)?, &reference));
     }
     let json = serde_json::json!({
         "scene": world.scene.name,
         "display": display.name,
         "inset": rect,
-        "band_px": args.band,
+        "band_px": band,
         "periphery_factor": f,
         "rows": rows,
     });
     let text = serde_json::to_string_pretty(&json)? + "\n";
-    std::fs::write(args.out.join("inset-analysis.json"), &text)
-        .with_context(|| format!("cannot write {}", args.out.display()))?;
-    if args.json {
-        print!("{text}");
-        return Ok(());
-    }
-    println!(
-        "{}, {} {w}x{h}, inset {}x{} at ({}, {}), periphery {}x{}, bands of {} px; gradient ×100 of grey",
-        world.scene.name, display.name, rect.w, rect.h, rect.x0, rect.y0, w / f, h / f, args.band
-    );
-    println!("| method | Area1 x / y | Area2 x / y | Area3 x / y | Area4 x / y | slope 2→3 x / y | Area2/Area3 x / y | high/low x / y |");
-    println!("|---|---|---|---|---|---|---|---|");
-    for r in &rows {
-        let a = &r.report.areas;
-        let ratio = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.2}"));
-        println!(
-            "| {} | {:.2} / {:.2} | {:.2} / {:.2} | {:.2} / {:.2} | {:.2} / {:.2} | {:.2} / {:.2} | {:.2} / {:.2} | {} / {} |",
-            r.method,
-            a[0].mean_x,
-            a[0].mean_y,
-            a[1].mean_x,
-            a[1].mean_y,
-            a[2].mean_x,
-            a[2].mean_y,
-            a[3].mean_x,
-            a[3].mean_y,
-            r.report.slope_23_x,
-            r.report.slope_23_y,
-            r.area2_over_area3[0],
-            r.area2_over_area3[1],
-            ratio(r.report.ratio_x),
-            ratio(r.report.ratio_y)
-        );
-    }
-    println!("wrote {}", args.out.display());
-    Ok(())
+    std::fs::write(out.join("inset-analysis.json"), &text)
+        .with_context(|| format!("cannot write {}", out.display()))?;
+    Ok((rows, json))
 }
 
 fn row(method: &str, report: GradientReport, full: &GradientReport) -> Row {

@@ -16,6 +16,7 @@ mod optics;
 mod output;
 mod plot;
 mod render;
+mod report;
 mod scene_args;
 mod sequence;
 mod table;
@@ -61,6 +62,10 @@ enum Command {
     /// Peripheral flicker of foveation methods over a sequence with saccades, pursuit and a
     /// moving camera, with and without temporal accumulation, against full resolution.
     Flicker(Box<flicker::FlickerArgs>),
+    /// One page (HTML, Markdown, JSON) reproducing the papers' tables and figures for a scene:
+    /// VaFR Table 1 and shading-rate figures, speed per stage, DOF filters, inset gradients,
+    /// flicker, and every method's quality against full resolution by eccentricity band.
+    Report(Box<report::ReportArgs>),
 }
 
 /// Ends quietly, as other command-line tools do, when stdout is a pipe whose reader has gone
@@ -106,6 +111,7 @@ fn main() -> ExitCode {
         Command::Sequence(a) => sequence::run(*a),
         Command::InsetAnalysis(a) => inset_analysis::run(*a),
         Command::Flicker(a) => flicker::run(*a),
+        Command::Report(a) => report::run(*a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
