@@ -90,7 +90,7 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         "Contact sheet: per focus case, the thin-lens reference, then each filter with its PSNR",
     );
     sec.text(format!(
-        "Reproduce: fovea dof-compare {} {} --gaze {:.0},{:.0} --window {} --lens-samples {} --pixel-samples {}.",
+        "Reproduce: fovea dof-compare {}{} --gaze {:.0},{:.0} --window {} --lens-samples {} --pixel-samples {}.",
         super::scene_flags(&args.scene),
         super::display_flags(&args.display),
         ctx.gaze.point.x_px,

@@ -100,7 +100,7 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         }
     }
     sec.text(format!(
-        "Reproduce: fovea flicker {} {} --frames {} --camera-move={} --methods {} --seed {}; per-frame values in {}.",
+        "Reproduce: fovea flicker {}{} --frames {} --camera-move={} --methods {} --seed {}; per-frame values in {}.",
         super::scene_flags(&args.scene),
         super::display_flags(&args.display),
         f.frames,

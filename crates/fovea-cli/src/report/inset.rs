@@ -105,7 +105,7 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         );
     }
     sec.text(format!(
-        "Reproduce: fovea inset-analysis {} {} --gaze {:.0},{:.0}.",
+        "Reproduce: fovea inset-analysis {}{} --gaze {:.0},{:.0}.",
         super::scene_flags(&ctx.args.scene),
         super::display_flags(&ctx.args.display),
         ctx.gaze.point.x_px,

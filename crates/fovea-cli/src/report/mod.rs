@@ -157,11 +157,12 @@ pub fn scene_flags(s: &SceneArgs) -> String {
     f
 }
 
-/// The display options as they would be typed.
+/// The display options as they would be typed, with a leading space (empty for the default
+/// headset).
 pub fn display_flags(d: &DisplayArgs) -> String {
     match (&d.res, &d.headset) {
-        (Some(r), _) => format!("--res {r} --vfov {}", d.vfov),
-        (None, Some(h)) => format!("--headset {h}"),
+        (Some(r), _) => format!(" --res {r} --vfov {}", d.vfov),
+        (None, Some(h)) => format!(" --headset {h}"),
         (None, None) => String::new(),
     }
 }

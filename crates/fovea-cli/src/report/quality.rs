@@ -147,7 +147,7 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         gaze.point.x_px, gaze.point.y_px
     ));
     sec.text(format!(
-        "Reproduce one row's frames: fovea render {} {} --gaze {:.0},{:.0} --method METHOD --density-out density.png (and --method full for the reference).",
+        "Reproduce one row's frames: fovea render {}{} --gaze {:.0},{:.0} --method METHOD --density-out density.png (and --method full for the reference).",
         super::scene_flags(&ctx.args.scene),
         super::display_flags(&ctx.args.display),
         gaze.point.x_px,
