@@ -14,7 +14,7 @@ use fovea_render::thin_lens::MAX_LENS_SAMPLES;
 use crate::common::DisplayArgs;
 use crate::dof_args::EyeArgs;
 use crate::render::shading;
-use crate::scene_args::{gaze, prepare, SceneArgs};
+use crate::scene_args::{prepare, GazeArgs, SceneArgs};
 use fovea_core::display::DisplayProfile;
 
 /// Options of `fovea dof-compare`.
@@ -25,13 +25,8 @@ pub struct DofCompareArgs {
     pub scene: SceneArgs,
     #[command(flatten)]
     pub display: DisplayArgs,
-    /// Gaze point X,Y in screen pixels (default: the screen centre); the window is centred on
-    /// it.
-    #[arg(long, conflicts_with = "gaze_at")]
-    pub gaze: Option<String>,
-    /// Gaze at a world point X,Y,Z (metres).
-    #[arg(long)]
-    pub gaze_at: Option<String>,
+    #[command(flatten)]
+    pub gaze: GazeArgs,
     /// Focus cases, comma-separated: near and far (10th / 90th percentile of the window's
     /// depths, Konrad's protocol), auto, or metres.
     #[arg(long, default_value = "near,far")]
@@ -94,12 +89,7 @@ pub fn run(args: DofCompareArgs) -> Result<()> {
     let display = args.display.display("vive-pro-eye")?;
     let params = params(&args, &display)?;
     let prepared = prepare(&args.scene, &display)?;
-    let g = gaze(
-        &display,
-        &prepared.camera,
-        args.gaze.as_deref(),
-        args.gaze_at.as_deref(),
-    )?;
+    let g = args.gaze.resolve(&display, &prepared.camera)?;
     let quiet = args.quiet || args.json;
     let t0 = std::time::Instant::now();
     let result = run_dof_compare(&prepared.world, &prepared.camera, &g, &params, &|stage| {
@@ -268,6 +258,15 @@ fn fmt_db(v: f64) -> String {
     }
 }
 
+/// A focus distance as printed: metres with three decimals, or ∞.
+pub fn focus_label(focus_m: f64) -> String {
+    if focus_m >= 1e308 {
+        "∞".to_string()
+    } else {
+        format!("{focus_m:.3} m")
+    }
+}
+
 /// The comparison as Markdown: one table per focus case and the means.
 pub fn markdown(r: &DofComparison, scene: &str, display: &str) -> String {
     let mut s = format!(
@@ -299,11 +298,7 @@ pub fn markdown(r: &DofComparison, scene: &str, display: &str) -> String {
         t
     };
     for c in &r.cases {
-        let focus = if c.focus_m >= 1e308 {
-            "∞".to_string()
-        } else {
-            format!("{:.3} m", c.focus_m)
-        };
+        let focus = focus_label(c.focus_m);
         s += &format!(
             "\n## Focus {} ({focus}), largest CoC {:.1} px, reference noise floor {} dB\n",
             c.focus,

@@ -515,7 +515,21 @@ fn table(
                 .map_or("—".to_string(), |f| format!("{:.0} %", 100.0 * f))
         );
     }
-    // Accumulation's factor per method, where both modes ran.
+    let lines: Vec<String> = accumulation_lines(reports)
+        .into_iter()
+        .map(|l| format!("- {l}"))
+        .collect();
+    if !lines.is_empty() {
+        s += "\n";
+        s += &lines.join("\n");
+        s += "\n";
+    }
+    s
+}
+
+/// One sentence per method measured both ways: what accumulation did to its peripheral
+/// flicker, temporal energy and PSNR.
+pub fn accumulation_lines(reports: &[VariantReport]) -> Vec<String> {
     let mut lines = Vec::new();
     for r in reports.iter().filter(|r| !r.temporal) {
         if let Some(on) = reports.iter().find(|o| o.temporal && o.method == r.method) {
@@ -528,7 +542,7 @@ fn table(
                 on.flicker.periphery.temporal_energy,
             );
             lines.push(format!(
-                "- {}: accumulation changes peripheral flicker RMS {a:.3} → {b:.3} % (×{:.2} lower), peripheral temporal energy ×{:.2} lower, PSNR ≤ 10° {:.2} → {:.2} dB, whole frame {:.2} → {:.2} dB",
+                "{}: accumulation changes peripheral flicker RMS {a:.3} → {b:.3} % (×{:.2} lower), peripheral temporal energy ×{:.2} lower, PSNR ≤ 10° {:.2} → {:.2} dB, whole frame {:.2} → {:.2} dB",
                 r.method,
                 a / b,
                 ea / eb,
@@ -539,10 +553,5 @@ fn table(
             ));
         }
     }
-    if !lines.is_empty() {
-        s += "\n";
-        s += &lines.join("\n");
-        s += "\n";
-    }
-    s
+    lines
 }

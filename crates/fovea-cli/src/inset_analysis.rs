@@ -22,7 +22,7 @@ use fovea_render::thin_lens::{render_window, Window};
 
 use crate::common::DisplayArgs;
 use crate::output::write_rgb;
-use crate::scene_args::{gaze, prepare, SceneArgs};
+use crate::scene_args::{prepare, GazeArgs, SceneArgs};
 
 /// Options of `fovea inset-analysis`.
 #[derive(Args, Debug)]
@@ -32,12 +32,8 @@ pub struct InsetAnalysisArgs {
     pub scene: SceneArgs,
     #[command(flatten)]
     pub display: DisplayArgs,
-    /// Gaze point X,Y in screen pixels (the inset's centre; default: the screen centre).
-    #[arg(long, conflicts_with = "gaze_at")]
-    pub gaze: Option<String>,
-    /// Gaze at a world point X,Y,Z (metres).
-    #[arg(long)]
-    pub gaze_at: Option<String>,
+    #[command(flatten)]
+    pub gaze: GazeArgs,
     /// Inset size WxH in pixels (default: 1/4 of each side, the paper's "1/4 × 1/4 the size
     /// of the entire frame").
     #[arg(long)]
@@ -97,12 +93,7 @@ pub fn run(args: InsetAnalysisArgs) -> Result<()> {
     let display = args.display.display("vive-pro-eye")?;
     check_options(&display, args.periphery_factor, args.band)?;
     let prepared = prepare(&args.scene, &display)?;
-    let g = gaze(
-        &display,
-        &prepared.camera,
-        args.gaze.as_deref(),
-        args.gaze_at.as_deref(),
-    )?;
+    let g = args.gaze.resolve(&display, &prepared.camera)?;
     let rect = inset_rect(&display, &g, args.inset_size.as_deref(), args.band)?;
     let (rows, json) = analyse(
         &prepared.world,

@@ -14,7 +14,7 @@ use fovea_render::shade::ShadingMode;
 use crate::common::{thousands, DisplayArgs, MethodOptions};
 use crate::dof_args::DofArgs;
 use crate::output::{check_image_path, write_rgb, write_scalar};
-use crate::scene_args::{gaze, prepare, SceneArgs};
+use crate::scene_args::{prepare, GazeArgs, SceneArgs};
 
 /// Options of `fovea render`.
 #[derive(Args, Debug)]
@@ -37,12 +37,8 @@ pub struct RenderArgs {
     pub coc_out: Option<PathBuf>,
     #[command(flatten)]
     pub options: MethodOptions,
-    /// Gaze point X,Y in screen pixels (default: the screen centre).
-    #[arg(long, conflicts_with = "gaze_at")]
-    pub gaze: Option<String>,
-    /// Gaze at a world point X,Y,Z (metres) instead of a screen point.
-    #[arg(long)]
-    pub gaze_at: Option<String>,
+    #[command(flatten)]
+    pub gaze: GazeArgs,
     /// Sample-space anti-aliasing: auto (the method's own), none, fxaa, gaussian.
     #[arg(long, default_value = "auto")]
     pub aa: String,
@@ -211,12 +207,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     let memory_limit = memory_limit(args.max_memory.as_deref())?;
     let prepared = prepare(&args.scene, &display)?;
-    let gaze = gaze(
-        &display,
-        &prepared.camera,
-        args.gaze.as_deref(),
-        args.gaze_at.as_deref(),
-    )?;
+    let gaze = args.gaze.resolve(&display, &prepared.camera)?;
     let mut settings = FrameSettings::new(method, gaze);
     settings.mapping = config;
     settings.shading = shading_mode;

@@ -205,19 +205,28 @@ pub fn prepare(args: &SceneArgs, display: &DisplayProfile) -> Result<Prepared> {
     })
 }
 
-/// Gaze from `--gaze X,Y` (pixels) or `--gaze-at X,Y,Z` (a world point), default the centre.
-pub fn gaze(
-    display: &DisplayProfile,
-    camera: &EyeCamera,
-    gaze_px: Option<&str>,
-    gaze_at: Option<&str>,
-) -> Result<Gaze> {
-    if let Some(t) = gaze_at {
-        let p = parse_vec3("gaze-at", t)?;
-        let s = camera.screen_point_of(p - camera.position).ok_or_else(|| {
-            anyhow!("invalid parameter `gaze-at` = {t}: the point is behind the eye")
-        })?;
-        return Ok(display.gaze(s.x_px, s.y_px)?);
+/// Where the eye looks: a screen point or a world point.
+#[derive(Args, Debug, Clone, Default)]
+pub struct GazeArgs {
+    /// Gaze point X,Y in screen pixels (default: the screen centre).
+    #[arg(long, conflicts_with = "gaze_at")]
+    pub gaze: Option<String>,
+    /// Gaze at a world point X,Y,Z (metres) instead of a screen point.
+    #[arg(long)]
+    pub gaze_at: Option<String>,
+}
+
+impl GazeArgs {
+    /// The gaze on `display` seen from `camera`: `--gaze-at` projected, else `--gaze`, else
+    /// the screen centre.
+    pub fn resolve(&self, display: &DisplayProfile, camera: &EyeCamera) -> Result<Gaze> {
+        if let Some(t) = &self.gaze_at {
+            let p = parse_vec3("gaze-at", t)?;
+            let s = camera.screen_point_of(p - camera.position).ok_or_else(|| {
+                anyhow!("invalid parameter `gaze-at` = {t}: the point is behind the eye")
+            })?;
+            return Ok(display.gaze(s.x_px, s.y_px)?);
+        }
+        crate::common::parse_gaze(display, self.gaze.as_deref())
     }
-    crate::common::parse_gaze(display, gaze_px)
 }

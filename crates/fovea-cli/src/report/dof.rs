@@ -6,7 +6,7 @@ use anyhow::Result;
 use fovea_eval::dof_compare::{run_dof_compare, FilterScore};
 
 use crate::common::defaults;
-use crate::dof_compare::{params, write_outputs, DofCompareArgs};
+use crate::dof_compare::{focus_label, params, write_outputs, DofCompareArgs};
 
 use super::doc::{Cell, Section, Table};
 use super::Ctx;
@@ -71,11 +71,7 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         &result.mean_scores(),
     ));
     for c in &result.cases {
-        let focus = if c.focus_m >= 1e308 {
-            "∞".to_string()
-        } else {
-            format!("{:.3} m", c.focus_m)
-        };
+        let focus = focus_label(c.focus_m);
         sec.table(table(
             format!("dof-{}", c.focus),
             format!(

@@ -82,22 +82,8 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         t.row(cells);
     }
     sec.table(t);
-    for off in outcome.reports.iter().filter(|r| !r.temporal) {
-        if let Some(on) = outcome
-            .reports
-            .iter()
-            .find(|o| o.temporal && o.method == off.method)
-        {
-            let (a, b) = (
-                off.flicker.periphery.flicker_rms_pct,
-                on.flicker.periphery.flicker_rms_pct,
-            );
-            sec.text(format!(
-                "{}: accumulation changes peripheral flicker {a:.3} → {b:.3} % (off / on = {:.2}).",
-                off.method,
-                a / b
-            ));
-        }
+    for line in crate::flicker::accumulation_lines(&outcome.reports) {
+        sec.text(line);
     }
     sec.text(format!(
         "Reproduce: fovea flicker {}{} --frames {} --camera-move={} --methods {} --seed {}; per-frame values in {}.",

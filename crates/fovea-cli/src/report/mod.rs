@@ -27,7 +27,7 @@ use fovea_core::display::{DisplayProfile, Gaze};
 use fovea_render::camera::EyeCamera;
 
 use crate::common::DisplayArgs;
-use crate::scene_args::{load, Loaded, SceneArgs};
+use crate::scene_args::{load, GazeArgs, Loaded, SceneArgs};
 use doc::{Report, Section};
 
 /// Options of `fovea report`.
@@ -38,13 +38,8 @@ pub struct ReportArgs {
     pub scene: SceneArgs,
     #[command(flatten)]
     pub display: DisplayArgs,
-    /// Gaze point X,Y in screen pixels for the quality, DOF and inset sections (default: the
-    /// screen centre).
-    #[arg(long, conflicts_with = "gaze_at")]
-    pub gaze: Option<String>,
-    /// Gaze at a world point X,Y,Z (metres).
-    #[arg(long)]
-    pub gaze_at: Option<String>,
+    #[command(flatten)]
+    pub gaze: GazeArgs,
     /// The small version (what CI runs, a few minutes on 2 cores): the speed table at the
     /// headset's resolution only, a 128×128 DOF window with fewer lens samples, 6 flicker
     /// frames of VaFR and Weier.
@@ -227,12 +222,7 @@ pub fn run(args: ReportArgs) -> Result<()> {
     say(&format!("loading {}", args.scene.scene));
     let mut loaded = load(&args.scene)?;
     let camera = loaded.view(&args.scene, &display)?;
-    let gaze = crate::scene_args::gaze(
-        &display,
-        &camera,
-        args.gaze.as_deref(),
-        args.gaze_at.as_deref(),
-    )?;
+    let gaze = args.gaze.resolve(&display, &camera)?;
     let mut ctx = Ctx {
         args: &args,
         display,
