@@ -333,6 +333,8 @@ pub fn measure(
             fovea_post::tonemap::ToneCurve::Reinhard,
         )
     };
+    let log_progress = !std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let started = std::time::Instant::now();
     for (i, (g, camera)) in gazes.iter().zip(&cameras).enumerate() {
         let gaze = display.gaze(g.x_px, g.y_px)?;
         let settings_for = |method: Method| {
@@ -395,6 +397,16 @@ pub fn measure(
                 }
             }
             pb.inc(1);
+        }
+        // The bar is hidden when stderr is a log file; a line per tenth of the run instead.
+        let step = (gazes.len() / 10).max(1);
+        if !args.quiet && log_progress && ((i + 1) % step == 0 || i + 1 == gazes.len()) {
+            eprintln!(
+                "flicker: frame {}/{} after {:.0} s",
+                i + 1,
+                gazes.len(),
+                started.elapsed().as_secs_f64()
+            );
         }
     }
     pb.finish_and_clear();
