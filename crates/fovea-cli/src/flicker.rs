@@ -121,14 +121,24 @@ pub struct VariantReport {
 
 struct Variant {
     method: Method,
+    /// `METHOD-on` or `METHOD-off`: the folder of its frames.
+    dir: String,
     psnr: Vec<f64>,
     accumulator: Option<TemporalAccumulator>,
     meter: FlickerMeter,
-    psnr_sum: f64,
-    psnr_n: u64,
     central_sum: f64,
     central_n: u64,
     reused_sum: f64,
+}
+
+/// Mean of the finite values (frames identical to the reference have an infinite PSNR and are
+/// left out); 0 when there are none.
+fn finite_mean(v: &[f64]) -> f64 {
+    let (sum, n) = v
+        .iter()
+        .filter(|p| p.is_finite())
+        .fold((0.0, 0u64), |(s, n), p| (s + p, n + 1));
+    sum / n.max(1) as f64
 }
 
 /// The checked options of one flicker measurement.
@@ -288,6 +298,7 @@ pub fn measure(
         for &on in modes {
             variants.push(Variant {
                 method,
+                dir: format!("{}-{}", method.name(), if on { "on" } else { "off" }),
                 psnr: Vec::new(),
                 accumulator: if on {
                     Some(TemporalAccumulator::new(temporal)?)
@@ -295,8 +306,6 @@ pub fn measure(
                     None
                 },
                 meter: FlickerMeter::new(display, edges, args.periphery)?,
-                psnr_sum: 0.0,
-                psnr_n: 0,
                 central_sum: 0.0,
                 central_n: 0,
                 reused_sum: 0.0,
@@ -319,15 +328,20 @@ pub fn measure(
     let r10 = display.radius_px(fovea_core::units::Degrees(10.0));
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create directory {}", args.out.display()))?;
+    if args.save_frames {
+        let dirs = std::iter::once("reference").chain(variants.iter().map(|v| v.dir.as_str()));
+        for dir in dirs {
+            let d = args.out.join("frames").join(dir);
+            std::fs::create_dir_all(&d)
+                .with_context(|| format!("cannot create directory {}", d.display()))?;
+        }
+    }
     let save = |dir: &str, i: usize, img: &fovea_core::Image<fovea_post::Rgb>| -> Result<()> {
         if !args.save_frames {
             return Ok(());
         }
-        let d = args.out.join("frames").join(dir);
-        std::fs::create_dir_all(&d)
-            .with_context(|| format!("cannot create directory {}", d.display()))?;
         write_rgb(
-            &d.join(format!("frame_{i:05}.png")),
+            &args.out.join("frames").join(dir).join(format!("frame_{i:05}.png")),
             img,
             0.0,
             fovea_post::tonemap::ToneCurve::Reinhard,
@@ -355,6 +369,13 @@ pub fn measure(
         .with_context(|| format!("frame {i}, full resolution"))?;
         save("reference", i, &reference.color)?;
         pb.inc(1);
+        let central = Region::around(
+            gaze.point.x_px,
+            gaze.point.y_px,
+            r10,
+            display.width_px,
+            display.height_px,
+        );
         for v in variants.iter_mut() {
             let mut s = settings_for(v.method);
             s.contrast = contrast;
@@ -369,20 +390,8 @@ pub fn measure(
                 }
                 None => render_frame(world, camera, &s, &|_, _| {})?,
             };
-            let dir = format!(
-                "{}-{}",
-                v.method.name(),
-                if v.accumulator.is_some() { "on" } else { "off" }
-            );
-            save(&dir, i, &frame.color)?;
+            save(&v.dir, i, &frame.color)?;
             v.meter.push(&frame.color, &reference.color, &gaze)?;
-            let central = Region::around(
-                gaze.point.x_px,
-                gaze.point.y_px,
-                r10,
-                display.width_px,
-                display.height_px,
-            );
             if let Some(p) = luma_psnr(&reference.color, &frame.color, central) {
                 if p.is_finite() {
                     v.central_sum += p;
@@ -391,10 +400,6 @@ pub fn measure(
             }
             if let Some(p) = luma_psnr(&reference.color, &frame.color, full_region) {
                 v.psnr.push(p);
-                if p.is_finite() {
-                    v.psnr_sum += p;
-                    v.psnr_n += 1;
-                }
             }
             pb.inc(1);
         }
@@ -412,22 +417,20 @@ pub fn measure(
     pb.finish_and_clear();
 
     let reports: Vec<VariantReport> = variants
-        .iter()
+        .into_iter()
         .map(|v| VariantReport {
             method: v.method.name().to_string(),
             temporal: v.accumulator.is_some(),
             flicker: v.meter.report(),
-            mean_psnr_db: v.psnr_sum / v.psnr_n.max(1) as f64,
+            mean_psnr_db: finite_mean(&v.psnr),
             mean_central_psnr_db: v.central_sum / v.central_n.max(1) as f64,
             mean_reused: v
                 .accumulator
                 .as_ref()
                 .map(|_| v.reused_sum / (args.frames - 1) as f64),
-            psnr: v.psnr.clone(),
+            psnr: v.psnr,
         })
         .collect();
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create directory {}", args.out.display()))?;
     let json = serde_json::json!({
         "scene": world.scene.name,
         "display": display,
