@@ -341,7 +341,11 @@ pub fn measure(
             return Ok(());
         }
         write_rgb(
-            &args.out.join("frames").join(dir).join(format!("frame_{i:05}.png")),
+            &args
+                .out
+                .join("frames")
+                .join(dir)
+                .join(format!("frame_{i:05}.png")),
             img,
             0.0,
             fovea_post::tonemap::ToneCurve::Reinhard,

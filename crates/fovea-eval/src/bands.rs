@@ -142,6 +142,38 @@ pub fn band_quality(
         .collect())
 }
 
+/// The whole frame from its bands (one pass over the frame gives both): pixel-weighted means of
+/// SSIM, ꟻLIP and samples per pixel, and the PSNR of the pooled squared error. `None` when the
+/// bands hold no pixel.
+pub fn whole_frame(bands: &[BandQuality]) -> Option<BandQuality> {
+    let n: u64 = bands.iter().map(|b| b.pixels).sum();
+    if n == 0 {
+        return None;
+    }
+    let filled = || bands.iter().filter(|b| b.pixels > 0);
+    let mean = |f: &dyn Fn(&BandQuality) -> Option<f64>| -> Option<f64> {
+        filled()
+            .map(|b| f(b).map(|v| v * b.pixels as f64))
+            .sum::<Option<f64>>()
+            .map(|s| s / n as f64)
+    };
+    // PSNR = 10·log10(1/MSE) per band; an infinite one is a band with no error.
+    let mse = mean(&|b| b.psnr_db.map(|p| 10f64.powf(-p / 10.0)))?;
+    Some(BandQuality {
+        lo_deg: bands.first()?.lo_deg,
+        hi_deg: None,
+        pixels: n,
+        psnr_db: Some(if mse == 0.0 {
+            f64::INFINITY
+        } else {
+            10.0 * (1.0 / mse).log10()
+        }),
+        ssim: mean(&|b| b.ssim),
+        flip: mean(&|b| b.flip),
+        samples_per_pixel: mean(&|b| b.samples_per_pixel),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -200,6 +232,46 @@ mod tests {
         assert!((q[3].psnr_db.unwrap() - 10.0 * (1.0 / d2).log10()).abs() < 1e-9);
         assert!(q[3].flip.unwrap() > q[0].flip.unwrap());
         assert!((q[2].samples_per_pixel.unwrap() - 0.25).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_whole_frame_from_the_bands_equals_one_band_over_everything() {
+        let d = display();
+        let g = d.gaze(30.0, 20.0).unwrap();
+        let reference = Image::from_vec(
+            96,
+            64,
+            (0..96 * 64).map(|k| [(k % 11) as f32 / 11.0; 3]).collect(),
+        )
+        .unwrap();
+        let test = Image::from_vec(
+            96,
+            64,
+            (0..96 * 64)
+                .map(|k| [((k * 7) % 13) as f32 / 13.0; 3])
+                .collect(),
+        )
+        .unwrap();
+        let density =
+            Image::from_vec(96, 64, (0..96 * 64).map(|k| (k % 5) as f32).collect()).unwrap();
+        let bands =
+            band_quality(&reference, &test, Some(&density), &d, &g, &REPORT_BANDS_DEG).unwrap();
+        let one = band_quality(&reference, &test, Some(&density), &d, &g, &[0.0]).unwrap();
+        let w = whole_frame(&bands).unwrap();
+        assert_eq!(w.pixels, one[0].pixels);
+        for (a, b) in [
+            (w.psnr_db, one[0].psnr_db),
+            (w.ssim, one[0].ssim),
+            (w.flip, one[0].flip),
+            (w.samples_per_pixel, one[0].samples_per_pixel),
+        ] {
+            assert!((a.unwrap() - b.unwrap()).abs() < 1e-9, "{a:?} {b:?}");
+        }
+        let same = band_quality(&reference, &reference, None, &d, &g, &REPORT_BANDS_DEG).unwrap();
+        let w = whole_frame(&same).unwrap();
+        assert_eq!(w.psnr_db, Some(f64::INFINITY));
+        assert!(w.samples_per_pixel.is_none());
+        assert!(whole_frame(&[]).is_none());
     }
 
     #[test]

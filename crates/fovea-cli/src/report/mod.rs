@@ -115,7 +115,7 @@ impl Ctx<'_> {
     }
 
     /// Sets the world's lights back to the report's display after a section viewed the scene
-    /// on another one.
+    /// on other displays (the speed table).
     fn restore_view(&mut self) -> Result<()> {
         self.camera = self.loaded.view(&self.args.scene, &self.display)?;
         Ok(())
@@ -241,18 +241,14 @@ pub fn run(args: ReportArgs) -> Result<()> {
         ));
         let mut sec = Section::new(id, title_of(id));
         let start = Instant::now();
-        let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            let r = match *id {
-                "samples" => samples::run(&mut ctx, &mut sec),
-                "speed" => speed::run(&mut ctx, &mut sec),
-                "dof" => dof::run(&mut ctx, &mut sec),
-                "inset" => inset::run(&mut ctx, &mut sec),
-                "flicker" => flicker::run(&mut ctx, &mut sec),
-                "quality" => quality::run(&mut ctx, &mut sec),
-                _ => Ok(()),
-            };
-            // Whatever a section did to the lights, the next sees the report's view.
-            r.and(ctx.restore_view())
+        let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match *id {
+            "samples" => samples::run(&mut ctx, &mut sec),
+            "speed" => speed::run(&mut ctx, &mut sec),
+            "dof" => dof::run(&mut ctx, &mut sec),
+            "inset" => inset::run(&mut ctx, &mut sec),
+            "flicker" => flicker::run(&mut ctx, &mut sec),
+            "quality" => quality::run(&mut ctx, &mut sec),
+            _ => Ok(()),
         }));
         sec.error = match outcome {
             Ok(Ok(())) => None,

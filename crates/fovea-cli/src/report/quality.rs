@@ -6,7 +6,7 @@
 use anyhow::Result;
 
 use fovea_core::mapping::Method;
-use fovea_eval::bands::{band_quality, BandQuality, REPORT_BANDS_DEG};
+use fovea_eval::bands::{band_quality, whole_frame, BandQuality, REPORT_BANDS_DEG};
 use fovea_render::pipeline::{render_frame, FrameSettings};
 
 use crate::output::{side_by_side, write_rgb, write_scalar};
@@ -83,14 +83,6 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         let mut s = FrameSettings::new(m, gaze);
         s.density_view = true;
         let frame = render_frame(world, camera, &s, &|_, _| {})?;
-        let all = band_quality(
-            &full.color,
-            &frame.color,
-            frame.density.as_ref(),
-            display,
-            &gaze,
-            &[0.0],
-        )?;
         let per = band_quality(
             &full.color,
             &frame.color,
@@ -99,7 +91,7 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
             &gaze,
             &REPORT_BANDS_DEG,
         )?;
-        let w = &all[0];
+        let w = &whole_frame(&per).ok_or_else(|| anyhow::anyhow!("the frame has no pixels"))?;
         whole.row(vec![
             Cell::text(m.name()),
             Cell::Int(frame.stats.samples),

@@ -35,7 +35,11 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
     b.bvh_rays = if args.quick { 200_000 } else { 2_000_000 };
     b.quiet = args.quiet;
     let plan = plan(&b)?;
-    let json = measure(&b, &plan, &mut ctx.loaded, false)?;
+    // `measure` sets the lights for each resolution; the next section sees the report's view
+    // again, whether or not the benchmark finished.
+    let measured = measure(&b, &plan, &mut ctx.loaded, false);
+    ctx.restore_view()?;
+    let json = measured?;
 
     let runs = json["runs"].as_array().cloned().unwrap_or_default();
     let mut stages: Vec<String> = STAGE_ORDER.iter().map(|s| s.to_string()).collect();
