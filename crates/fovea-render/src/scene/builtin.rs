@@ -16,6 +16,7 @@
 
 use glam::{Vec2, Vec3, Vec4};
 
+use super::primitives::{self, Poles, UvLayout};
 use super::{CameraDesc, Light, Material, Mesh, Scene, Texture};
 use crate::error::{RenderError, Result};
 
@@ -42,90 +43,29 @@ pub fn by_name(name: &str) -> Result<Scene> {
 
 /// An axis-aligned quad from `origin` spanning `du`, `dv`, with UVs `[0, uv_scale]`.
 fn quad(name: &str, origin: Vec3, du: Vec3, dv: Vec3, uv_scale: Vec2, material: u32) -> Mesh {
-    let n = du.cross(dv).normalize();
-    Mesh {
-        name: name.into(),
-        positions: vec![origin, origin + du, origin + du + dv, origin + dv],
-        normals: vec![n; 4],
-        uvs: vec![
-            Vec2::new(0.0, uv_scale.y),
-            Vec2::new(uv_scale.x, uv_scale.y),
-            Vec2::new(uv_scale.x, 0.0),
-            Vec2::ZERO,
-        ],
-        tangents: vec![],
-        indices: vec![[0, 1, 2], [0, 2, 3]],
-        material,
-    }
+    let mut m = primitives::quad(origin, du, dv, uv_scale, UvLayout::VAgainstAxis);
+    m.name = name.into();
+    m.material = material;
+    m
 }
 
 /// An axis-aligned box centred at `c` with half extents `h`; each face maps the full texture.
 fn cuboid(name: &str, c: Vec3, h: Vec3, material: u32) -> Mesh {
-    let mut m = Mesh {
-        name: name.into(),
-        material,
-        ..Mesh::default()
-    };
-    // (normal axis, u axis, v axis) for the six faces, counter-clockwise seen from outside.
-    let faces = [
-        (Vec3::Z, Vec3::X, Vec3::Y),
-        (-Vec3::Z, -Vec3::X, Vec3::Y),
-        (Vec3::X, -Vec3::Z, Vec3::Y),
-        (-Vec3::X, Vec3::Z, Vec3::Y),
-        (Vec3::Y, Vec3::X, -Vec3::Z),
-        (-Vec3::Y, Vec3::X, Vec3::Z),
-    ];
-    for (n, u, v) in faces {
-        let base = m.positions.len() as u32;
-        let centre = c + n * h;
-        let (hu, hv) = (u * h, v * h);
-        for (su, sv) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-            m.positions.push(centre + su * hu + sv * hv);
-            m.normals.push(n);
-            m.uvs.push(Vec2::new(0.5 + 0.5 * su, 0.5 - 0.5 * sv));
-        }
-        m.indices.push([base, base + 1, base + 2]);
-        m.indices.push([base, base + 2, base + 3]);
-    }
+    let faces = primitives::box_faces_upright();
+    let mut m = primitives::cuboid(c, h, faces, UvLayout::VAgainstAxis);
+    m.name = name.into();
+    m.material = material;
     m
 }
 
-/// A UV sphere.
+/// A UV sphere of 64 segments × 32 rings, poles on ±Y, centred at `c` with radius `r`.
 fn sphere(name: &str, c: Vec3, r: f32, material: u32) -> Mesh {
-    let (nu, nv) = (64u32, 32u32);
-    let mut m = Mesh {
-        name: name.into(),
-        material,
-        ..Mesh::default()
-    };
-    for j in 0..=nv {
-        let theta = std::f32::consts::PI * j as f32 / nv as f32;
-        for i in 0..=nu {
-            let phi = std::f32::consts::TAU * i as f32 / nu as f32;
-            let n = Vec3::new(
-                theta.sin() * phi.cos(),
-                theta.cos(),
-                theta.sin() * phi.sin(),
-            );
-            m.positions.push(c + r * n);
-            m.normals.push(n);
-            m.uvs
-                .push(Vec2::new(i as f32 / nu as f32, j as f32 / nv as f32));
-        }
+    let mut m = primitives::uv_sphere(64, 32, Poles::Y);
+    for p in &mut m.positions {
+        *p = c + r * *p;
     }
-    for j in 0..nv {
-        for i in 0..nu {
-            let a = j * (nu + 1) + i;
-            let b = a + nu + 1;
-            // The first and last rings meet at the poles: one triangle per quad there.
-            if j > 0 {
-                m.indices.push([a, a + 1, b]);
-            }
-            if j + 1 < nv {
-                m.indices.push([a + 1, b + 1, b]);
-            }
-        }
-    }
+    m.name = name.into();
+    m.material = material;
     m
 }
 

@@ -27,6 +27,7 @@ pub mod gltf;
 pub mod mitsuba;
 pub mod obj;
 pub mod ply;
+mod primitives;
 pub mod texture;
 
 pub use texture::{Texture, TextureId};
