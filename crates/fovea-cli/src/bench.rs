@@ -4,7 +4,7 @@
 
 use std::time::Instant;
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use clap::Args;
 use rayon::prelude::*;
 
@@ -12,7 +12,12 @@ use fovea_core::display::DisplayProfile;
 use fovea_core::mapping::Method;
 use fovea_render::bvh::{self, Backend, Ray};
 use fovea_render::camera::EyeCamera;
-use fovea_render::pipeline::{render_frame, FrameSettings, FrameStats};
+use fovea_render::eye::EyeState;
+use fovea_render::pipeline::{
+    render_planned, FrameContext, FrameInputs, FrameSettings, FrameStats, Stage, StageMs,
+    StageTimes, Stopwatch,
+};
+use fovea_render::plan::FramePlan;
 
 use crate::common::{display_of, thousands, MethodOptions};
 use crate::dof_args::EyeArgs;
@@ -64,6 +69,14 @@ pub struct BenchArgs {
     /// Timed repetitions of each DOF filter (the median is reported).
     #[arg(long, default_value_t = 3)]
     pub dof_reps: u32,
+    /// Untimed frames per method before the timed ones (they allocate the buffers the timed
+    /// frames reuse).
+    #[arg(long, default_value_t = 1)]
+    pub warmup: u32,
+    /// Timed frames per method, rendered with the same buffers; the median frame is
+    /// reported.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub frames: u32,
     /// Eyes: one, or both (also times binocular frames of every foveated method as
     /// VaFR_Dup and VaFR_Rep, side by side).
     #[arg(long, default_value = "one")]
@@ -258,19 +271,48 @@ pub fn measure(
         let gaze = display.centre_gaze();
         let mut full: Option<(f64, f64)> = None;
         for &m in methods {
-            let mut s = FrameSettings::new(m, gaze);
+            let mut s = FrameSettings::new(m);
             s.mapping = config.clone();
             s.shading = shading_mode;
             s.memory_limit_bytes = memory_limit;
             let pb = progress_bar(args.quiet || args.json, &format!("{} {}", display.name, m));
             let jiffies = machine_jiffies();
-            let frame = render_frame(world, &camera, &s, &|d, t| {
-                pb.set_length(t);
-                pb.set_position(d);
-            })?;
-            // Only the statistics are kept; the images are freed at once, except the full
-            // frame's when DOF filters are timed on it.
-            let stats = frame.stats.clone();
+            // Warm-up frames (untimed: they allocate the context's buffers), then the timed
+            // frames with the same context; the median frame's statistics are kept.
+            let eye = EyeState::looking_at(gaze);
+            let mut ctx = FrameContext::new();
+            let mut timed: Vec<FrameStats> = Vec::new();
+            let mut allocations_after_warmup = 0;
+            for k in 0..args.warmup + args.frames {
+                if k == args.warmup {
+                    allocations_after_warmup = ctx.screen_allocations();
+                }
+                let mut times = StageTimes::default();
+                let t = Stopwatch::start();
+                let plan = FramePlan::new(world, &camera, &s, &eye, [0.0, 0.0])?;
+                times.add(Stage::Plan, &t);
+                let frame = render_planned(
+                    &mut ctx,
+                    world,
+                    &camera,
+                    &plan,
+                    FrameInputs::default(),
+                    times,
+                    &|d, t| {
+                        pb.set_length(t);
+                        pb.set_position(d);
+                    },
+                )?;
+                if k >= args.warmup {
+                    timed.push(frame.stats.clone());
+                }
+            }
+            let screen_allocations = ctx.screen_allocations() - allocations_after_warmup;
+            timed.sort_by(|a, b| a.total_ms.total_cmp(&b.total_ms));
+            let stats = timed.swap_remove(timed.len() / 2);
+            let frame = ctx.frame().context("no frame rendered")?;
+            // The images are freed with the context, except the full frame's while DOF
+            // filters are timed on it.
             if m == Method::Full && !dof_filters.is_empty() {
                 pb.finish_and_clear();
                 let rows = time_dof_filters(
@@ -293,7 +335,7 @@ pub fn measure(
                     "filters": rows,
                 }));
             }
-            drop(frame);
+            drop(ctx);
             let steal = steal_fraction(jiffies, machine_jiffies());
             pb.finish_and_clear();
             if m == Method::Full {
@@ -302,6 +344,9 @@ pub fn measure(
             let run = Run {
                 speedup: full.map_or(1.0, |f| f.0 / stats.total_ms),
                 speedup_cpu: full.map_or(1.0, |f| f.1 / stats.total_cpu_ms),
+                cpu_share: stats.total_cpu_ms
+                    / (stats.total_ms * rayon::current_num_threads() as f64),
+                screen_allocations,
                 steal,
                 stats,
             };
@@ -355,9 +400,7 @@ pub fn measure(
         "binocular": stereo_report,
         "runs": runs.iter().map(|r| {
             let s = &r.stats;
-            let post = |st: &std::collections::BTreeMap<String, f64>| {
-                st.get("aa").copied().unwrap_or(0.0) + st.get("reconstruct").copied().unwrap_or(0.0)
-            };
+            let post = |st: &StageMs| st.sum(&[Stage::Aa, Stage::Reconstruct]);
             serde_json::json!({
                 "method": s.method,
                 "width": s.width,
@@ -376,6 +419,8 @@ pub fn measure(
                 "speedup_vs_full": r.speedup,
                 "speedup_vs_full_cpu": r.speedup_cpu,
                 "machine_steal_fraction": r.steal,
+                "cpu_share": r.cpu_share,
+                "screen_allocations_after_warmup": r.screen_allocations,
             })
         }).collect::<Vec<_>>(),
     });
@@ -429,21 +474,34 @@ fn time_stereo(
 ) -> Result<serde_json::Value> {
     use fovea_render::stereo::{fixating_eyes, render_stereo, StereoMode};
     let (_, [(lc, lg), (rc, rg)]) = fixating_eyes(world, rig, display, &display.centre_gaze())?;
-    let settings = |g| {
-        let mut s = FrameSettings::new(method, g);
-        s.mapping = config.clone();
-        s.shading = shading_mode;
-        s.memory_limit_bytes = memory_limit;
-        s
-    };
-    let (ls, rs) = (settings(lg), settings(rg));
+    let mut settings = FrameSettings::new(method);
+    settings.mapping = config.clone();
+    settings.shading = shading_mode;
+    settings.memory_limit_bytes = memory_limit;
+    let eyes = [EyeState::looking_at(lg), EyeState::looking_at(rg)];
     let (mut dup_ms, mut rep_ms) = (Vec::new(), Vec::new());
     let (mut dup_rays, mut rep_rays, mut holes) = (0, 0, 0);
     for _ in 0..reps {
-        let d = render_stereo(world, &lc, &rc, &ls, &rs, StereoMode::Dup, &|_, _| {})?;
+        let d = render_stereo(
+            world,
+            &lc,
+            &rc,
+            &settings,
+            eyes,
+            StereoMode::Dup,
+            &|_, _| {},
+        )?;
         dup_ms.push(d.stats.total_ms);
         dup_rays = d.stats.rays_primary;
-        let r = render_stereo(world, &lc, &rc, &ls, &rs, StereoMode::Rep, &|_, _| {})?;
+        let r = render_stereo(
+            world,
+            &lc,
+            &rc,
+            &settings,
+            eyes,
+            StereoMode::Rep,
+            &|_, _| {},
+        )?;
         rep_ms.push(r.stats.total_ms);
         rep_rays = r.stats.rays_primary;
         holes = r.stats.holes_traced;
@@ -554,23 +612,29 @@ struct Run {
     speedup_cpu: f64,
     /// Share of the machine's time stolen by the hypervisor during the frame.
     steal: Option<f64>,
+    /// The process's CPU time over wall time × threads: the share of its cores it got.
+    cpu_share: f64,
+    /// Screen buffers allocated during the timed frames (0: reused from the warm-up).
+    screen_allocations: u64,
 }
 
 fn print_run(r: &Run) {
     let s = &r.stats;
-    let st = |k: &str| s.stages_ms.get(k).copied().unwrap_or(0.0);
+    let st = |k: Stage| s.stages_ms.get(k);
     println!(
-        "{:>5}x{:<5} {:>6} rays {:>13} | trace {:>8.0} shade {:>8.0} aa {:>6.0} reconstruct {:>6.0} | wall {:>8.0} ms, cpu {:>8.0} ms{} | speedup {:>6.2}x wall, {:>6.2}x cpu",
+        "{:>5}x{:<5} {:>6} rays {:>13} | trace {:>8.0} shade {:>8.0} aa {:>6.0} reconstruct {:>6.0} | wall {:>8.0} ms, cpu {:>8.0} ms ({:.0}% of {} cores){} | speedup {:>6.2}x wall, {:>6.2}x cpu",
         s.width,
         s.height,
         s.method,
         thousands(s.rays),
-        st("trace"),
-        st("shade"),
-        st("aa"),
-        st("reconstruct"),
+        st(Stage::Trace),
+        st(Stage::Shade),
+        st(Stage::Aa),
+        st(Stage::Reconstruct),
         s.total_ms,
         s.total_cpu_ms,
+        r.cpu_share * 100.0,
+        rayon::current_num_threads(),
         r.steal
             .map_or(String::new(), |f| format!(" ({:.0}% stolen)", f * 100.0)),
         r.speedup,

@@ -11,16 +11,18 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use fovea_core::mapping::Method;
-use fovea_core::optics::{AccommodationFilter, AccommodationParams};
+use fovea_core::optics::AccommodationParams;
 use fovea_core::Image;
 use fovea_post::dof::FilterKind;
 use fovea_post::tonemap::ToneCurve;
 use fovea_post::Rgb;
 use fovea_render::bvh::Backend;
 use fovea_render::camera::EyeCamera;
-use fovea_render::dof::{auto_focus_with_prior_m, DofSettings, FocusMode};
-use fovea_render::pipeline::{render_frame, FrameSettings};
+use fovea_render::dof::{DofSettings, FocusMode};
+use fovea_render::pipeline::{density_view, render_for_eye, FrameSettings};
+use fovea_render::plan::FramePlan;
 use fovea_render::scene::builtin;
+use fovea_render::sequence::{Sequence, SequenceDriver, Track};
 use fovea_render::world::World;
 
 use crate::output::{side_by_side, write_rgb};
@@ -80,40 +82,54 @@ pub fn run(args: DemoArgs) -> Result<()> {
         pb.set_message("demo");
         pb
     };
-    let mut accommodation = AccommodationFilter::new(AccommodationParams::default())?;
+    // The eye state of every frame: auto focus at the gaze through the accommodation filter.
+    let mut settings = FrameSettings::new(Method::Vafr);
+    settings.dof = Some(DofSettings::new(Some(FilterKind::Gather), FocusMode::Auto));
+    let cameras = vec![camera.clone(); gazes.len()];
+    let seq = Sequence::plan(
+        &world,
+        cameras,
+        gazes,
+        settings.dof.as_ref(),
+        fps,
+        AccommodationParams::default(),
+        None,
+    )?;
     let middle = args.frames as usize / 2;
+    let track = Track::new("vafr", settings.clone(), None)?;
+    let mut driver = SequenceDriver::new(&world, &seq, vec![track])?;
     let mut kept = None;
     let mut samples = 0;
-    for (i, g) in gazes.iter().enumerate() {
-        let gaze = display.gaze(g.x_px, g.y_px)?;
-        let prior = accommodation.current_m().unwrap_or(f64::NAN);
-        let target = auto_focus_with_prior_m(&world, &camera, &gaze, prior)?;
-        let focus = accommodation.update(target, 1.0 / fps)?;
-        let mut s = FrameSettings::new(Method::Vafr, gaze);
-        s.dof = Some(DofSettings::new(
-            Some(FilterKind::Gather),
-            FocusMode::Fixed(focus),
-        ));
-        s.density_view = i == middle;
-        let f = render_frame(&world, &camera, &s, &|_, _| {})?;
-        samples = f.stats.samples;
-        write_rgb(
-            &dir.join(format!("frame_{i:05}.png")),
-            &f.color,
-            0.0,
-            ToneCurve::Reinhard,
-        )?;
-        if i == middle {
-            kept = Some((f, s, focus));
-        }
-        pb.inc(1);
-    }
-    let (fov, settings, focus) = kept.context("no frame rendered")?;
-    // The reference: the same frame at full resolution, with the same depth of field.
+    driver.run(
+        &|_| false,
+        &mut |e| {
+            let f = e.frames[0];
+            samples = f.stats.samples;
+            write_rgb(
+                &dir.join(format!("frame_{:05}.png", e.index)),
+                &f.color,
+                0.0,
+                ToneCurve::Reinhard,
+            )?;
+            if e.index == middle {
+                kept = Some(f.clone());
+            }
+            Ok::<(), anyhow::Error>(())
+        },
+        &mut |_| pb.inc(1),
+    )?;
+    let fov = kept.context("no frame rendered")?;
+    let eye = seq.eyes[middle];
+    let focus = eye.focus.map_or(f64::INFINITY, |f| f.metres());
+    // Where the middle frame's samples went.
+    let density = {
+        let plan = FramePlan::new(&world, &camera, &settings, &eye, [0.0, 0.0])?;
+        density_view(plan.mapping(), &display, &eye.gaze)?
+    };
+    // The reference: the same frame at full resolution, with the same eye and depth of field.
     let mut rs = settings.clone();
     rs.method = Method::Full;
-    rs.density_view = false;
-    let reference = render_frame(&world, &camera, &rs, &|_, _| {})?;
+    let reference = render_for_eye(&world, &camera, &rs, &eye, &|_, _| {})?;
     pb.inc(1);
     pb.finish_and_clear();
     write_rgb(
@@ -130,7 +146,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
         0.0,
         ToneCurve::Reinhard,
     )?;
-    let overlay = density_overlay(&fov.color, fov.density.as_ref())?;
+    let overlay = density_overlay(&fov.color, Some(&density))?;
     write_rgb(
         &dir.join("density-overlay.png"),
         &overlay,

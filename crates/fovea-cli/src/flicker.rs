@@ -16,12 +16,13 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
 use fovea_core::mapping::Method;
+use fovea_core::optics::AccommodationParams;
 use fovea_eval::flicker::{FlickerMeter, FlickerReport, PERIPHERY_DEG};
 use fovea_eval::metrics::{luma_psnr, Region};
 use fovea_render::camera::EyeCamera;
-use fovea_render::pipeline::{render_frame, render_frame_temporal, FrameSettings};
+use fovea_render::pipeline::FrameSettings;
+use fovea_render::sequence::{Sequence, SequenceDriver, Track};
 use fovea_render::shade::ShadingMode;
-use fovea_render::temporal::TemporalAccumulator;
 use fovea_render::thin_lens::{render_window, Window};
 
 use crate::common::{DisplayArgs, MethodOptions};
@@ -121,10 +122,11 @@ pub struct VariantReport {
 
 struct Variant {
     method: Method,
+    /// With temporal accumulation.
+    temporal: bool,
     /// `METHOD-on` or `METHOD-off`: the folder of its frames.
     dir: String,
     psnr: Vec<f64>,
-    accumulator: Option<TemporalAccumulator>,
     meter: FlickerMeter,
     central_sum: f64,
     central_n: u64,
@@ -293,18 +295,23 @@ pub fn measure(
         }
     };
 
+    // One track per method and accumulation mode, each with its own history and buffers;
+    // the metrics of each track beside it.
+    let mut tracks = Vec::new();
     let mut variants = Vec::new();
     for &method in methods {
         for &on in modes {
+            let mut s = FrameSettings::new(method);
+            s.mapping = config.clone();
+            s.memory_limit_bytes = memory_limit;
+            s.contrast = contrast;
+            let dir = format!("{}-{}", method.name(), if on { "on" } else { "off" });
+            tracks.push(Track::new(dir.clone(), s, on.then_some(temporal))?);
             variants.push(Variant {
                 method,
-                dir: format!("{}-{}", method.name(), if on { "on" } else { "off" }),
+                temporal: on,
+                dir,
                 psnr: Vec::new(),
-                accumulator: if on {
-                    Some(TemporalAccumulator::new(temporal)?)
-                } else {
-                    None
-                },
                 meter: FlickerMeter::new(display, edges, args.periphery)?,
                 central_sum: 0.0,
                 central_n: 0,
@@ -312,6 +319,15 @@ pub fn measure(
             });
         }
     }
+    let seq = Sequence::plan(
+        world,
+        cameras,
+        gazes.clone(),
+        None,
+        args.fps,
+        AccommodationParams::default(),
+        None,
+    )?;
     let pb = if args.quiet {
         ProgressBar::hidden()
     } else {
@@ -353,85 +369,75 @@ pub fn measure(
     };
     let log_progress = !std::io::IsTerminal::is_terminal(&std::io::stderr());
     let started = std::time::Instant::now();
-    for (i, (g, camera)) in gazes.iter().zip(&cameras).enumerate() {
-        let gaze = display.gaze(g.x_px, g.y_px)?;
-        let settings_for = |method: Method| {
-            let mut s = FrameSettings::new(method, gaze);
-            s.mapping = config.clone();
-            s.memory_limit_bytes = memory_limit;
-            s
-        };
-        let reference = render_window(
-            world,
-            camera,
-            Window::full(display.width_px, display.height_px),
-            None,
-            args.reference_spp,
-            ShadingMode::Direct,
-            &|_, _| {},
-        )
-        .with_context(|| format!("frame {i}, full resolution"))?;
-        save("reference", i, &reference.color)?;
-        pb.inc(1);
-        let central = Region::around(
-            gaze.point.x_px,
-            gaze.point.y_px,
-            r10,
-            display.width_px,
-            display.height_px,
-        );
-        for v in variants.iter_mut() {
-            let mut s = settings_for(v.method);
-            s.contrast = contrast;
-            let frame = match v.accumulator.as_mut() {
-                Some(acc) => {
-                    let f = render_frame_temporal(world, camera, &s, acc, &|_, _| {})?;
-                    let t = acc.last_stats();
-                    if i > 0 {
-                        v.reused_sum += t.reused as f64 / (t.reused + t.fresh).max(1) as f64;
-                    }
-                    f
-                }
-                None => render_frame(world, camera, &s, &|_, _| {})?,
-            };
-            save(&v.dir, i, &frame.color)?;
-            v.meter.push(&frame.color, &reference.color, &gaze)?;
-            if let Some(p) = luma_psnr(&reference.color, &frame.color, central) {
-                if p.is_finite() {
-                    v.central_sum += p;
-                    v.central_n += 1;
-                }
-            }
-            if let Some(p) = luma_psnr(&reference.color, &frame.color, full_region) {
-                v.psnr.push(p);
-            }
+    let n_frames = seq.len();
+    let mut driver = SequenceDriver::new(world, &seq, tracks)?;
+    driver.run(
+        &|_| false,
+        &mut |e| {
+            let i = e.index;
+            let gaze = e.eye.gaze;
+            let reference = render_window(
+                world,
+                e.camera,
+                Window::full(display.width_px, display.height_px),
+                None,
+                args.reference_spp,
+                ShadingMode::Direct,
+                &|_, _| {},
+            )
+            .with_context(|| format!("frame {i}, full resolution"))?;
+            save("reference", i, &reference.color)?;
             pb.inc(1);
-        }
-        // The bar is hidden when stderr is a log file; a line per tenth of the run instead.
-        let step = (gazes.len() / 10).max(1);
-        if !args.quiet && log_progress && ((i + 1) % step == 0 || i + 1 == gazes.len()) {
-            eprintln!(
-                "flicker: frame {}/{} after {:.0} s",
-                i + 1,
-                gazes.len(),
-                started.elapsed().as_secs_f64()
+            let central = Region::around(
+                gaze.point.x_px,
+                gaze.point.y_px,
+                r10,
+                display.width_px,
+                display.height_px,
             );
-        }
-    }
+            for ((v, frame), track) in variants.iter_mut().zip(&e.frames).zip(e.tracks) {
+                if let (Some(acc), true) = (track.accumulator(), i > 0) {
+                    let t = acc.last_stats();
+                    v.reused_sum += t.reused as f64 / (t.reused + t.fresh).max(1) as f64;
+                }
+                save(&v.dir, i, &frame.color)?;
+                v.meter.push(&frame.color, &reference.color, &gaze)?;
+                if let Some(p) = luma_psnr(&reference.color, &frame.color, central) {
+                    if p.is_finite() {
+                        v.central_sum += p;
+                        v.central_n += 1;
+                    }
+                }
+                if let Some(p) = luma_psnr(&reference.color, &frame.color, full_region) {
+                    v.psnr.push(p);
+                }
+                pb.inc(1);
+            }
+            // The bar is hidden when stderr is a log file; a line per tenth of the run instead.
+            let step = (n_frames / 10).max(1);
+            if !args.quiet && log_progress && ((i + 1) % step == 0 || i + 1 == n_frames) {
+                eprintln!(
+                    "flicker: frame {}/{} after {:.0} s",
+                    i + 1,
+                    n_frames,
+                    started.elapsed().as_secs_f64()
+                );
+            }
+            Ok::<(), anyhow::Error>(())
+        },
+        &mut |_| {},
+    )?;
     pb.finish_and_clear();
 
     let reports: Vec<VariantReport> = variants
         .into_iter()
         .map(|v| VariantReport {
             method: v.method.name().to_string(),
-            temporal: v.accumulator.is_some(),
+            temporal: v.temporal,
             flicker: v.meter.report(),
             mean_psnr_db: finite_mean(&v.psnr),
             mean_central_psnr_db: v.central_sum / v.central_n.max(1) as f64,
-            mean_reused: v
-                .accumulator
-                .as_ref()
-                .map(|_| v.reused_sum / (args.frames - 1) as f64),
+            mean_reused: v.temporal.then(|| v.reused_sum / (args.frames - 1) as f64),
             psnr: v.psnr,
         })
         .collect();

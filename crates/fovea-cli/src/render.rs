@@ -8,7 +8,12 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use fovea_core::mapping::Method;
 use fovea_post::tonemap::ToneCurve;
-use fovea_render::pipeline::{default_memory_limit, render_frame, AaMode, FrameSettings};
+use fovea_render::eye::{EyeState, FocusDistance};
+use fovea_render::pipeline::{
+    default_memory_limit, render_planned, AaMode, FrameContext, FrameInputs, FrameSettings, Stage,
+    StageTimes, Stopwatch,
+};
+use fovea_render::plan::FramePlan;
 use fovea_render::shade::ShadingMode;
 
 use crate::common::{thousands, DisplayArgs, MethodOptions};
@@ -66,6 +71,10 @@ pub struct RenderArgs {
     /// Statistics JSON (default: the output path with .json).
     #[arg(long)]
     pub stats: Option<PathBuf>,
+    /// Also write the frame plan as JSON (the eye state, the mapping's buffers, footprint and
+    /// spacing tables, AA, culling limits, tiles, memory): what the frame was decided to be.
+    #[arg(long)]
+    pub plan_out: Option<PathBuf>,
     /// Exposure in stops for PNG output.
     #[arg(long, default_value_t = 0.0)]
     pub exposure: f32,
@@ -208,37 +217,74 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let memory_limit = memory_limit(args.max_memory.as_deref())?;
     let prepared = prepare(&args.scene, &display)?;
     let gaze = args.gaze.resolve(&display, &prepared.camera)?;
-    let mut settings = FrameSettings::new(method, gaze);
+    let mut settings = FrameSettings::new(method);
     settings.mapping = config;
     settings.shading = shading_mode;
     settings.aa = aa;
     settings.density_view = args.density_out.is_some();
     settings.memory_limit_bytes = memory_limit;
     settings.dof = dof;
+    settings.validate()?;
 
-    let (lod_world, lod_stats) = if lod_on {
-        let (w, st) = lod_world(&prepared, &settings, args.lod_keep)?;
-        (Some(w), Some(st))
-    } else {
-        (None, None)
-    };
-    let world = lod_world.as_ref().unwrap_or(&prepared.world);
     if both_eyes {
+        let (lod_world, lod_stats) = if lod_on {
+            let eye = EyeState::fixating(&prepared.world, &prepared.camera, gaze, None)?;
+            let (w, st) = lod_world(&prepared, &settings, &eye, args.lod_keep)?;
+            (Some(w), Some(st))
+        } else {
+            (None, None)
+        };
+        let world = lod_world.as_ref().unwrap_or(&prepared.world);
         return run_stereo(
             &args,
             &prepared,
             world,
             settings,
+            gaze,
             stereo_mode,
             tone,
             lod_stats,
         );
     }
+    // The eye state (focus estimated once, on the full scene) and the frame plan.
+    let mut times = StageTimes::default();
+    let t = Stopwatch::start();
+    let eye = EyeState::fixating(
+        &prepared.world,
+        &prepared.camera,
+        gaze,
+        settings.dof.as_ref(),
+    )?;
+    times.add(Stage::Plan, &t);
+    let (lod_world, lod_stats) = if lod_on {
+        let (w, st) = lod_world(&prepared, &settings, &eye, args.lod_keep)?;
+        (Some(w), Some(st))
+    } else {
+        (None, None)
+    };
+    let world = lod_world.as_ref().unwrap_or(&prepared.world);
+    let t = Stopwatch::start();
+    let plan = FramePlan::new(world, &prepared.camera, &settings, &eye, [0.0, 0.0])?;
+    times.add(Stage::Plan, &t);
+    if let Some(p) = &args.plan_out {
+        std::fs::write(p, plan.to_json()? + "\n")
+            .with_context(|| format!("cannot write {}", p.display()))?;
+    }
     let pb = progress_bar(args.quiet, method.name());
-    let frame = render_frame(world, &prepared.camera, &settings, &|done, total| {
-        pb.set_length(total);
-        pb.set_position(done);
-    })?;
+    let mut ctx = FrameContext::new();
+    render_planned(
+        &mut ctx,
+        world,
+        &prepared.camera,
+        &plan,
+        FrameInputs::default(),
+        times,
+        &|done, total| {
+            pb.set_length(total);
+            pb.set_position(done);
+        },
+    )?;
+    let frame = ctx.take_frame().context("no frame rendered")?;
     pb.finish_and_clear();
 
     write_rgb(&args.out, &frame.color, args.exposure, tone)?;
@@ -287,10 +333,16 @@ pub fn run(args: RenderArgs) -> Result<()> {
         thousands(s.rays_bounce),
         s.total_ms
     );
-    let stages: Vec<String> = ["plan", "trace", "shade", "aa", "reconstruct"]
-        .iter()
-        .map(|k| format!("{k} {:.1}", s.stages_ms.get(*k).copied().unwrap_or(0.0)))
-        .collect();
+    let stages: Vec<String> = [
+        Stage::Plan,
+        Stage::Trace,
+        Stage::Shade,
+        Stage::Aa,
+        Stage::Reconstruct,
+    ]
+    .iter()
+    .map(|&k| format!("{k} {:.1}", s.stages_ms.get(k)))
+    .collect();
     println!("stages (ms): {}", stages.join(", "));
     if let Some(l) = &lod_stats {
         println!(
@@ -303,7 +355,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         );
     }
     if let Some(d) = &settings.dof {
-        let focus = s.focus_m.unwrap_or(f64::NAN);
+        let focus = s.eye.focus;
         let saved = if s.samples_shaded + s.samples_culled > 0 {
             100.0 * s.samples_culled as f64 / (s.samples_shaded + s.samples_culled) as f64
         } else {
@@ -312,12 +364,16 @@ pub fn run(args: RenderArgs) -> Result<()> {
         println!(
             "dof: {} | focus {} | pupil {:.2} mm | {} | culled {} of {} surface samples ({saved:.1} %) | dof {:.1} ms",
             d.filter.map_or("none", |k| k.name()),
-            if focus >= 1e308 { "inf".to_string() } else { format!("{focus:.3} m") },
+            match focus {
+                Some(FocusDistance::Metres(m)) => format!("{m:.3} m"),
+                Some(FocusDistance::Infinity) => "inf".to_string(),
+                None => "none".to_string(),
+            },
             d.eye.pupil.0,
             d.coc_model.name(),
             thousands(s.samples_culled),
             thousands(s.samples_shaded + s.samples_culled),
-            s.stages_ms.get("dof").copied().unwrap_or(0.0),
+            s.stages_ms.get(Stage::Dof),
         );
     }
     println!("wrote {} and {}", args.out.display(), stats_path.display());
@@ -334,19 +390,21 @@ fn run_stereo(
     prepared: &crate::scene_args::Prepared,
     world: &fovea_render::world::World,
     settings: FrameSettings,
+    gaze: fovea_core::display::Gaze,
     mode: fovea_render::stereo::StereoMode,
     tone: ToneCurve,
     lod_stats: Option<fovea_render::lod::LodStats>,
 ) -> Result<()> {
     use fovea_render::stereo::{fixating_eyes, render_stereo};
     let display = &prepared.camera.display;
-    let (target, [(lc, lg), (rc, rg)]) =
-        fixating_eyes(world, &prepared.rig, display, &settings.gaze)?;
-    let (mut ls, mut rs) = (settings.clone(), settings.clone());
-    ls.gaze = lg;
-    rs.gaze = rg;
+    let (target, [(lc, lg), (rc, rg)]) = fixating_eyes(world, &prepared.rig, display, &gaze)?;
+    let dof = settings.dof.as_ref();
+    let eyes = [
+        EyeState::fixating(world, &lc, lg, dof)?,
+        EyeState::fixating(world, &rc, rg, dof)?,
+    ];
     let pb = progress_bar(args.quiet, mode.name());
-    let frame = render_stereo(world, &lc, &rc, &ls, &rs, mode, &|done, total| {
+    let frame = render_stereo(world, &lc, &rc, &settings, eyes, mode, &|done, total| {
         pb.set_length(total);
         pb.set_position(done);
     })?;
@@ -363,8 +421,8 @@ fn run_stereo(
         "display": display.name,
         "ipd_m": prepared.rig.ipd_m,
         "fixation": [target.x, target.y, target.z],
-        "gaze_left": [ls.gaze.point.x_px, ls.gaze.point.y_px],
-        "gaze_right": [rs.gaze.point.x_px, rs.gaze.point.y_px],
+        "gaze_left": [lg.point.x_px, lg.point.y_px],
+        "gaze_right": [rg.point.x_px, rg.point.y_px],
         "stereo": frame.stats,
         "lod": lod_stats,
         "left": frame.left.stats,
@@ -389,14 +447,16 @@ fn run_stereo(
     Ok(())
 }
 
-/// The frame's world with gaze-contingent level of detail: focus from the DOF settings (auto:
-/// the depth around the gaze), Eq. 14 per object, simplified meshes elsewhere.
+/// The frame's world with gaze-contingent level of detail: the eye state's gaze and focus (the
+/// depth around the gaze where the frame has no depth of field), Eq. 14 per object,
+/// simplified meshes elsewhere.
 fn lod_world(
     prepared: &crate::scene_args::Prepared,
     settings: &FrameSettings,
+    eye_state: &EyeState,
     keep: f32,
 ) -> Result<(fovea_render::world::World, fovea_render::lod::LodStats)> {
-    use fovea_render::dof::{auto_focus_m, FocusMode};
+    use fovea_render::dof::auto_focus_m;
     use fovea_render::lod::{LodParams, LodScene};
     let world = &prepared.world;
     let camera = &prepared.camera;
@@ -405,20 +465,16 @@ fn lod_world(
         ..Default::default()
     };
     let lod = LodScene::new(world.scene.clone(), params)?;
-    let (eye, focus) = match &settings.dof {
-        Some(d) => (
-            d.eye,
-            match d.focus {
-                FocusMode::Fixed(f) => f,
-                FocusMode::Auto => auto_focus_m(world, camera, &settings.gaze)?,
-            },
-        ),
-        None => (
-            fovea_core::optics::EyeModel::default(),
-            auto_focus_m(world, camera, &settings.gaze)?,
-        ),
+    let gaze = eye_state.gaze;
+    let focus = match eye_state.focus {
+        Some(f) => f.metres(),
+        None => auto_focus_m(world, camera, &gaze)?,
     };
-    let gaze_dir = camera.ray(settings.gaze.point).dir;
+    let eye = settings
+        .dof
+        .as_ref()
+        .map_or(fovea_core::optics::EyeModel::default(), |d| d.eye);
+    let gaze_dir = camera.ray(gaze.point).dir;
     let (mut w, st) = lod.frame_world(camera, gaze_dir, &eye, focus, world.caster.backend())?;
     w.lights = world.lights.clone();
     Ok((w, st))

@@ -14,7 +14,7 @@ use fovea_render::scene::{builtin, CameraDesc, Light, Scene};
 use fovea_render::world::World;
 
 /// Where the scene and the viewer come from.
-#[derive(Args, Debug, Clone)]
+#[derive(Args, Debug, Clone, serde::Serialize)]
 pub struct SceneArgs {
     /// Scene file (.gltf, .glb, .obj, .xml Mitsuba, .ply) or a built-in scene name
     /// (depth-range).

@@ -12,18 +12,21 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 
+use serde::Serialize;
+
 use fovea_core::display::DisplayProfile;
 use fovea_core::gaze::csv::{parse_csv, CsvOptions};
 use fovea_core::gaze::synth::{RandomWalkParams, Scenario, SynthDisplay};
-use fovea_core::gaze::{GazeSample, GazeTrajectory};
+use fovea_core::gaze::GazeTrajectory;
 use fovea_core::mapping::Method;
-use fovea_core::optics::{AccommodationFilter, AccommodationParams};
+use fovea_core::optics::AccommodationParams;
 use fovea_post::tonemap::ToneCurve;
-use fovea_render::camera::EyeCamera;
+use fovea_render::camera::{Eye, EyeCamera, HmdRig};
 use fovea_render::camera_path::CameraPath;
-use fovea_render::dof::{auto_focus_with_prior_m, FocusMode};
-use fovea_render::pipeline::{render_frame, render_frame_temporal, FrameSettings};
-use fovea_render::temporal::TemporalAccumulator;
+use fovea_render::eye::FocusDistance;
+use fovea_render::pipeline::FrameSettings;
+use fovea_render::sequence::{Sequence, SequenceDriver, Track};
+use fovea_render::temporal::TemporalSettings;
 
 use crate::common::{DisplayArgs, MethodOptions};
 use crate::dof_args::DofArgs;
@@ -33,9 +36,6 @@ use crate::temporal_args::TemporalArgs;
 
 /// Most frames of one sequence.
 const MAX_FRAMES: u32 = 100_000;
-
-/// Frames re-rendered (not written) before the first missing frame of a resumed temporal run.
-const WARMUP_FRAMES: usize = 32;
 
 /// Options of `fovea sequence`.
 #[derive(Args, Debug)]
@@ -174,12 +174,6 @@ pub fn gaze_trajectory(
     }
 }
 
-/// One frame's eye state.
-struct EyeState {
-    gaze: GazeSample,
-    focus_m: Option<f64>,
-}
-
 pub fn run(args: SequenceArgs) -> Result<()> {
     if !(1..=MAX_FRAMES).contains(&args.frames) {
         bail!(
@@ -238,25 +232,32 @@ pub fn run(args: SequenceArgs) -> Result<()> {
         )),
         None => None,
     };
+    let mut settings = FrameSettings::new(method);
+    settings.mapping = config;
+    settings.memory_limit_bytes = memory_limit;
+    settings.contrast = contrast;
+    settings.dof = dof;
+    settings.validate()?;
 
     // The settings the frames depend on: a folder rendered with others is not resumed.
-    let manifest = serde_json::json!({
-        "scene": args.scene.scene,
-        "scene_args": format!("{:?}", args.scene),
-        "display": display,
-        "method": args.method,
-        "options": format!("{:?}", args.options),
-        "dof": dof,
-        "temporal": temporal,
-        "peripheral_contrast": contrast,
-        "frames": args.frames,
-        "fps": args.fps,
-        "gaze_csv": args.gaze_csv,
-        "gaze_csv_fnv1a": gaze_csv_hash,
-        "scenario": if args.gaze_csv.is_some() { None } else { Some(&args.scenario) },
-        "seed": args.seed,
-        "camera_path": camera_path_text,
-    });
+    let manifest = Manifest {
+        scene: &args.scene,
+        display: &display,
+        method: &args.method,
+        settings: &settings,
+        temporal,
+        frames: args.frames,
+        fps: args.fps,
+        gaze_csv: args.gaze_csv.as_deref(),
+        gaze_csv_fnv1a: gaze_csv_hash,
+        scenario: if args.gaze_csv.is_some() {
+            None
+        } else {
+            Some(&args.scenario)
+        },
+        seed: args.seed,
+        camera_path: &camera_path_text,
+    };
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create directory {}", args.out.display()))?;
     let manifest_path = args.out.join("sequence.json");
@@ -276,47 +277,48 @@ pub fn run(args: SequenceArgs) -> Result<()> {
 
     let prepared = prepare(&args.scene, &display)?;
     let world = &prepared.world;
-    // The camera of each frame: the scene's, or the path's pose at the frame's time.
-    let cameras: Vec<EyeCamera> = (0..args.frames as usize)
+    // The head pose of each frame: the scene's, or the path's at the frame's time.
+    let rigs: Vec<HmdRig> = (0..args.frames as usize)
         .map(|i| match &camera_path {
             Some(p) => {
                 let (pos, look, up) = p.at(i as f64 / args.fps);
-                Ok(EyeCamera::new(pos, look - pos, up, &display)?)
+                Ok(HmdRig::new(pos, look - pos, up, args.scene.ipd)?)
             }
-            None => Ok(prepared.camera.clone()),
+            None => Ok(prepared.rig.clone()),
         })
         .collect::<Result<_>>()?;
+    let cameras: Vec<EyeCamera> = match &camera_path {
+        Some(p) => (0..args.frames as usize)
+            .map(|i| {
+                let (pos, look, up) = p.at(i as f64 / args.fps);
+                Ok(EyeCamera::new(pos, look - pos, up, &display)?)
+            })
+            .collect::<Result<_>>()?,
+        None => vec![prepared.camera.clone(); args.frames as usize],
+    };
+    // Both eyes' cameras, for the vergence of a tracker's binocular gaze.
+    let pairs: Option<Vec<(EyeCamera, EyeCamera)>> = if gazes.iter().any(|g| g.right.is_some()) {
+        Some(
+            rigs.iter()
+                .map(|r| Ok((r.eye(Eye::Left, &display)?, r.eye(Eye::Right, &display)?)))
+                .collect::<Result<_>>()?,
+        )
+    } else {
+        None
+    };
 
     // Plan the eye state of every frame: gaze, and the focus through the accommodation
-    // filter (auto focus uses the filter's current focus as the estimator's prior).
-    let dt = 1.0 / args.fps;
-    let mut accommodation = AccommodationFilter::new(AccommodationParams::default())?;
-    let mut states = Vec::with_capacity(gazes.len());
-    for (g, camera) in gazes.iter().zip(&cameras) {
-        let gaze = display.gaze(g.x_px, g.y_px)?;
-        let focus_m = match dof.as_ref().map(|d| d.focus) {
-            Some(FocusMode::Fixed(f)) => Some(f),
-            Some(FocusMode::Auto) => {
-                let prior = accommodation.current_m().unwrap_or(f64::NAN);
-                let target = auto_focus_with_prior_m(world, camera, &gaze, prior)?;
-                Some(accommodation.update(target, dt)?)
-            }
-            None => None,
-        };
-        states.push(EyeState { gaze: *g, focus_m });
-    }
-    let mut eye_csv = String::from("frame,t_s,gaze_x_px,gaze_y_px,gaze_valid,focus_m\n");
-    for (i, s) in states.iter().enumerate() {
-        eye_csv += &format!(
-            "{i},{:.6},{:.3},{:.3},{},{}\n",
-            s.gaze.t_s,
-            s.gaze.x_px,
-            s.gaze.y_px,
-            s.gaze.valid,
-            s.focus_m.map_or(String::new(), |f| format!("{f:.5}"))
-        );
-    }
-    write_atomic(&args.out.join("frames.csv"), eye_csv.as_bytes())?;
+    // filter (auto focus from the tracker's vergence, else the depth around the gaze).
+    let seq = Sequence::plan(
+        world,
+        cameras,
+        gazes,
+        settings.dof.as_ref(),
+        args.fps,
+        AccommodationParams::default(),
+        pairs.as_deref(),
+    )?;
+    write_atomic(&args.out.join("frames.csv"), eye_csv(&seq).as_bytes())?;
 
     let pb = if args.quiet {
         ProgressBar::hidden()
@@ -330,67 +332,79 @@ pub fn run(args: SequenceArgs) -> Result<()> {
         pb.set_message("sequence");
         pb
     };
-    let (mut rendered, mut skipped) = (0u32, 0u32);
-    let settings_of = |s: &EyeState| -> Result<FrameSettings> {
-        let gaze = display.gaze(s.gaze.x_px, s.gaze.y_px)?;
-        let mut settings = FrameSettings::new(method, gaze);
-        settings.mapping = config.clone();
-        settings.memory_limit_bytes = memory_limit;
-        settings.contrast = contrast;
-        settings.dof = dof.clone().map(|mut d| {
-            if let Some(f) = s.focus_m {
-                d.focus = FocusMode::Fixed(f);
-            }
-            d
-        });
-        Ok(settings)
-    };
-    // With accumulation: the accumulator and the last frame it has seen.
-    let mut history: Option<(TemporalAccumulator, Option<usize>)> = match temporal {
-        Some(t) => Some((TemporalAccumulator::new(t)?, None)),
-        None => None,
-    };
-    for (i, s) in states.iter().enumerate() {
-        let path = frame_path(&args.out, i);
-        if frame_is_complete(&path, &display) {
-            skipped += 1;
-            pb.inc(1);
-            continue;
-        }
-        let frame = match history.as_mut() {
-            Some((acc, last)) => {
-                if i > 0 && *last != Some(i - 1) {
-                    // Resumed: rebuild the history from the frames before this one.
-                    acc.reset();
-                    for k in i.saturating_sub(WARMUP_FRAMES)..i {
-                        render_frame_temporal(
-                            world,
-                            &cameras[k],
-                            &settings_of(&states[k])?,
-                            acc,
-                            &|_, _| {},
-                        )?;
-                    }
-                }
-                *last = Some(i);
-                render_frame_temporal(world, &cameras[i], &settings_of(s)?, acc, &|_, _| {})?
-            }
-            None => render_frame(world, &cameras[i], &settings_of(s)?, &|_, _| {})?,
-        };
-        let tmp = path.with_extension("png.tmp");
-        write_png(&tmp, &frame.color)?;
-        std::fs::rename(&tmp, &path).with_context(|| format!("cannot write {}", path.display()))?;
-        rendered += 1;
-        pb.inc(1);
-    }
+    let track = Track::new(method.name(), settings, temporal)?;
+    let mut driver = SequenceDriver::new(world, &seq, vec![track])?;
+    let out = &args.out;
+    let counts = driver.run(
+        &|i| frame_is_complete(&frame_path(out, i), &display),
+        &mut |e| {
+            let path = frame_path(out, e.index);
+            let tmp = path.with_extension("png.tmp");
+            write_png(&tmp, &e.frames[0].color)?;
+            std::fs::rename(&tmp, &path)
+                .with_context(|| format!("cannot write {}", path.display()))?;
+            Ok::<(), anyhow::Error>(())
+        },
+        &mut |_| pb.inc(1),
+    )?;
     pb.finish_and_clear();
     println!(
-        "{} frames in {}: {rendered} rendered, {skipped} already there",
+        "{} frames in {}: {} rendered, {} already there",
         args.frames,
-        args.out.display()
+        args.out.display(),
+        counts.rendered,
+        counts.skipped
     );
     make_video(&args.out, args.fps, video)?;
     Ok(())
+}
+
+/// What a sequence folder's frames depend on (`sequence.json`): rerunning with the same
+/// manifest resumes, with another needs `--overwrite`.
+#[derive(Serialize)]
+struct Manifest<'a> {
+    scene: &'a SceneArgs,
+    display: &'a DisplayProfile,
+    method: &'a str,
+    settings: &'a FrameSettings,
+    temporal: Option<TemporalSettings>,
+    frames: u32,
+    fps: f64,
+    gaze_csv: Option<&'a Path>,
+    gaze_csv_fnv1a: Option<String>,
+    scenario: Option<&'a String>,
+    seed: u64,
+    camera_path: &'a str,
+}
+
+/// `frames.csv`: the eye state of every frame.
+pub fn eye_csv(seq: &Sequence) -> String {
+    let mut csv =
+        String::from("frame,t_s,gaze_x_px,gaze_y_px,gaze_valid,focus_source,vergence_m,focus_m\n");
+    for (i, (g, e)) in seq.gazes.iter().zip(&seq.eyes).enumerate() {
+        let metres = |f: Option<FocusDistance>| {
+            f.map_or(String::new(), |f| match f {
+                FocusDistance::Metres(m) => format!("{m:.5}"),
+                FocusDistance::Infinity => "inf".to_string(),
+            })
+        };
+        let source = e.focus_source.map_or(String::new(), |s| {
+            serde_json::to_value(s)
+                .ok()
+                .and_then(|v| v.as_str().map(str::to_string))
+                .unwrap_or_default()
+        });
+        csv += &format!(
+            "{i},{:.6},{:.3},{:.3},{},{source},{},{}\n",
+            g.t_s,
+            g.x_px,
+            g.y_px,
+            g.valid,
+            metres(e.vergence),
+            metres(e.focus)
+        );
+    }
+    csv
 }
 
 /// A camera path CSV and its text.

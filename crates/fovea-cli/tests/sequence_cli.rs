@@ -276,3 +276,57 @@ fn flicker_runs_and_rejects_bad_input() {
         assert_eq!(err.trim().lines().count(), 1, "{bad:?}: {err}");
     }
 }
+
+#[test]
+fn a_gaze_csv_vergence_depth_drives_the_focus() {
+    let dir = tempfile::tempdir().unwrap();
+    // The same gaze, first without a depth column (focus from the depth buffer), then with a
+    // vergence depth of 0.45 m the scene has nowhere near the gaze.
+    let rows: String = (0..10).map(|k| format!("{},0.5,0.5\n", k * 100)).collect();
+    let plain = dir.path().join("plain.csv");
+    std::fs::write(&plain, format!("timestamp_ms,x_norm,y_norm\n{rows}")).unwrap();
+    let rows: String = (0..10)
+        .map(|k| format!("{},0.5,0.5,0.45\n", k * 100))
+        .collect();
+    let verged = dir.path().join("verged.csv");
+    std::fs::write(
+        &verged,
+        format!("timestamp_ms,x_norm,y_norm,depth_m\n{rows}"),
+    )
+    .unwrap();
+    let last_row = |out: &str, csv: &Path| -> (String, f64) {
+        let o = fovea()
+            .args([
+                "sequence", "--res", "120x90", "--lights", "1", "--frames", "10",
+            ])
+            .args([
+                "--fps", "10", "--dof", "gather", "--focus", "auto", "--video", "off",
+            ])
+            .args(["-q", "--gaze-csv", csv.to_str().unwrap(), "--out"])
+            .arg(dir.path().join(out))
+            .output()
+            .unwrap();
+        ok(&o);
+        let text = std::fs::read_to_string(dir.path().join(out).join("frames.csv")).unwrap();
+        let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+        let last: Vec<String> = text
+            .lines()
+            .last()
+            .unwrap()
+            .split(',')
+            .map(str::to_string)
+            .collect();
+        let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+        (
+            last[col("focus_source")].clone(),
+            last[col("focus_m")].parse().unwrap(),
+        )
+    };
+    let (source, buffer_m) = last_row("plain", &plain);
+    assert_eq!(source, "depth-buffer");
+    let (source, focus_m) = last_row("verged", &verged);
+    assert_eq!(source, "tracker-depth");
+    // The gaze is at the screen centre, so the depth along the view axis is the vergence.
+    assert!((focus_m - 0.45).abs() < 0.01, "{focus_m}");
+    assert!((buffer_m - 0.45).abs() > 0.2, "depth buffer {buffer_m} m");
+}

@@ -388,7 +388,7 @@ pub fn run_dof_compare(
                     filter.name()
                 ));
                 let frame = |cull: bool| {
-                    let mut s = FrameSettings::new(method, *gaze);
+                    let mut s = FrameSettings::new(method);
                     s.shading = params.shading;
                     let mut dof = DofSettings::new(Some(filter), FocusMode::Fixed(focus_m));
                     dof.eye = params.eye;
@@ -397,7 +397,7 @@ pub fn run_dof_compare(
                     dof.cull = cull;
                     dof.cull_hidden_coc_px = params.cull_hidden_coc_px;
                     s.dof = Some(dof);
-                    render_frame(world, camera, &s, &|_, _| {})
+                    render_frame(world, camera, &s, *gaze, &|_, _| {})
                 };
                 let (plain, culled) = (frame(false)?, frame(true)?);
                 let window_region = Region {

@@ -20,13 +20,14 @@ fn vafr_quality_falls_slower_than_its_samples() {
     let full = render_frame(
         &world,
         &cam,
-        &FrameSettings::new(Method::Full, gaze),
+        &FrameSettings::new(Method::Full),
+        gaze,
         &|_, _| {},
     )
     .unwrap();
-    let mut s = FrameSettings::new(Method::Vafr, gaze);
+    let mut s = FrameSettings::new(Method::Vafr);
     s.density_view = true;
-    let vafr = render_frame(&world, &cam, &s, &|_, _| {}).unwrap();
+    let vafr = render_frame(&world, &cam, &s, gaze, &|_, _| {}).unwrap();
     let bands = band_quality(
         &full.color,
         &vafr.color,

@@ -61,9 +61,10 @@ fn accumulation_lowers_vafr_peripheral_flicker() {
             &|_, _| {},
         )
         .unwrap();
-        let s = FrameSettings::new(Method::Vafr, gaze);
-        let plain = render_frame(&world, &cam, &s, &|_, _| {}).unwrap();
-        let accumulated = render_frame_temporal(&world, &cam, &s, &mut acc, &|_, _| {}).unwrap();
+        let s = FrameSettings::new(Method::Vafr);
+        let plain = render_frame(&world, &cam, &s, gaze, &|_, _| {}).unwrap();
+        let accumulated =
+            render_frame_temporal(&world, &cam, &s, gaze, &mut acc, &|_, _| {}).unwrap();
         off.push(&plain.color, &reference.color, &gaze).unwrap();
         on.push(&accumulated.color, &reference.color, &gaze)
             .unwrap();

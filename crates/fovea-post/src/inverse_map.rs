@@ -51,12 +51,41 @@ pub struct ScreenFrame {
     pub depth: Image<f32>,
 }
 
-/// Maps `buffers` back to the screen of `display` through `mapping`.
+/// Maps `buffers` back to the screen of `display` through `mapping`, into new images.
 pub fn reconstruct(
     mapping: &dyn FoveationMapping,
     display: &DisplayProfile,
     buffers: SampleBuffers,
 ) -> Result<ScreenFrame> {
+    let (w, h) = (display.width_px, display.height_px);
+    let n = w as usize * h as usize;
+    let mut buffers = buffers;
+    // Zeroed allocations: pages are faulted in where the reconstruction first writes them.
+    let mut out = ScreenFrame {
+        color: Image::from_vec(w, h, crate::alloc::zeroed::<[f32; 3]>(n))?,
+        depth: Image::from_vec(w, h, crate::alloc::zeroed::<f32>(n))?,
+    };
+    reconstruct_into(
+        mapping,
+        display,
+        &mut buffers,
+        &mut out.color,
+        &mut out.depth,
+    )?;
+    Ok(out)
+}
+
+/// Maps `buffers` back to the screen of `display` through `mapping`, writing every pixel of
+/// `color` and `depth` (both of the display's size), so a caller that keeps them from frame
+/// to frame allocates nothing. Full resolution swaps its one buffer with the output (the
+/// buffer is the screen); `buffers` then holds the old output, to be overwritten next frame.
+pub fn reconstruct_into(
+    mapping: &dyn FoveationMapping,
+    display: &DisplayProfile,
+    buffers: &mut SampleBuffers,
+    color: &mut Image<Rgb>,
+    depth: &mut Image<f32>,
+) -> Result<()> {
     let (w, h) = (display.width_px, display.height_px);
     let sizes = mapping.buffers();
     if sizes.len() != buffers.color.len()
@@ -72,24 +101,34 @@ pub fn reconstruct(
             format!("the mapping's {} buffer(s) {:?}", sizes.len(), sizes),
         ));
     }
+    for (name, (iw, ih)) in [
+        ("output colour", (color.width(), color.height())),
+        ("output depth", (depth.width(), depth.height())),
+    ] {
+        if (iw, ih) != (w, h) {
+            return Err(FoveaError::invalid(
+                name,
+                format!("{iw}x{ih}"),
+                format!("the display's {w}x{h}"),
+            ));
+        }
+    }
     let method = mapping.method();
     if method == Method::Full {
-        let mut b = buffers;
-        return Ok(ScreenFrame {
-            color: b.color.swap_remove(0),
-            depth: b.depth.swap_remove(0),
-        });
+        std::mem::swap(&mut buffers.color[0], color);
+        std::mem::swap(&mut buffers.depth[0], depth);
+        return Ok(());
     }
     if method == Method::Weier {
         let mask = mask_of(mapping, w, h);
-        let color = pull_push(&buffers.color[0], &mask)?;
-        let depth = nearest_fill_depth(&buffers.depth[0], &mask)?;
-        return Ok(ScreenFrame { color, depth });
+        *color = pull_push(&buffers.color[0], &mask)?;
+        *depth = nearest_fill_depth(&buffers.depth[0], &mask)?;
+        return Ok(());
     }
     if let Some(layout) = mapping.polar_layout() {
-        return polar(mapping, display, &layout, &buffers);
+        return polar(mapping, display, &layout, buffers, color, depth);
     }
-    layered(mapping, display, &buffers)
+    layered(mapping, display, buffers, color, depth)
 }
 
 /// Which screen pixels a sparse screen-space mapping shades.
@@ -107,7 +146,9 @@ fn polar(
     display: &DisplayProfile,
     layout: &fovea_core::mapping::PolarLayout,
     buffers: &SampleBuffers,
-) -> Result<ScreenFrame> {
+    out_color: &mut Image<Rgb>,
+    out_depth: &mut Image<f32>,
+) -> Result<()> {
     let (w, h) = (display.width_px, display.height_px);
     let c = layout.centre;
     let last = match layout.rows.iter().rposition(|&r| r > 0) {
@@ -146,14 +187,13 @@ fn polar(
     let inv_step = (1.0 / LUT_STEP_PX) as f32;
     let (cx, cy) = (c.x_px as f32, c.y_px as f32);
     let wu = w as usize;
-    let mut out_c = crate::alloc::zeroed::<[f32; 3]>(wu * h as usize);
-    let mut out_d = crate::alloc::zeroed::<f32>(wu * h as usize);
     let lastf = last as f32;
     let max_period = layout.period.iter().fold(1.0f64, |a, &b| a.max(b)) as f32;
     let turn_tolerance = COORD_TOLERANCE_TEXELS / max_period;
-    out_c
+    out_color
+        .data_mut()
         .par_chunks_mut(wu)
-        .zip(out_d.par_chunks_mut(wu))
+        .zip(out_depth.data_mut().par_chunks_mut(wu))
         .enumerate()
         .for_each_init(
             || (vec![0.0f32; wu], vec![0.0f32; wu]),
@@ -181,10 +221,7 @@ fn polar(
                 }
             },
         );
-    Ok(ScreenFrame {
-        color: Image::from_vec(w, h, out_c)?,
-        depth: Image::from_vec(w, h, out_d)?,
-    })
+    Ok(())
 }
 
 /// Largest error, in texels, that pass 1 of the polar reconstruction may make in a pixel's
@@ -391,16 +428,18 @@ fn layered(
     mapping: &dyn FoveationMapping,
     display: &DisplayProfile,
     buffers: &SampleBuffers,
-) -> Result<ScreenFrame> {
-    let (w, h) = (display.width_px, display.height_px);
+    out_c: &mut Image<Rgb>,
+    out_d: &mut Image<f32>,
+) -> Result<()> {
+    let w = display.width_px;
     let rects: Vec<_> = buffers
         .color
         .iter()
         .enumerate()
         .map(|(k, b)| shaded_rect(mapping, k as u32, b.width(), b.height()))
         .collect();
-    let mut out_c = Image::new(w, h, [0.0f32; 3])?;
-    let mut out_d = Image::new(w, h, f32::INFINITY)?;
+    out_c.data_mut().fill([0.0f32; 3]);
+    out_d.data_mut().fill(f32::INFINITY);
     out_c
         .data_mut()
         .par_chunks_mut(w as usize)
@@ -427,10 +466,7 @@ fn layered(
                 row_d[x] = *buffers.depth[k].get(nx.min(i1), ny.min(j1));
             }
         });
-    Ok(ScreenFrame {
-        color: out_c,
-        depth: out_d,
-    })
+    Ok(())
 }
 
 /// Fills unshaded depth pixels with the nearest shaded one found by a growing square search

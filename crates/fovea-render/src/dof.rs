@@ -100,6 +100,62 @@ impl DofSettings {
     }
 }
 
+impl DofSettings {
+    /// Checks the ranges: a fixed focus > 0 m (or ∞), the eye model's, a largest CoC of 0–256
+    /// pixels, a culling floor in [0, 1] and a hidden-CoC diameter of 0–256 pixels.
+    pub fn validate(&self) -> Result<()> {
+        use crate::error::RenderError;
+        if let FocusMode::Fixed(f) = self.focus {
+            if f.is_nan() || f <= 0.0 {
+                return Err(RenderError::invalid(
+                    "focus",
+                    f,
+                    "a distance in metres > 0, inf or auto",
+                ));
+            }
+        }
+        let e = &self.eye;
+        let pupil_ok = (0.0..=12.0).contains(&e.pupil.0);
+        if !(pupil_ok && e.focal_length.0 > 0.0 && e.focal_length.0 <= 100.0) {
+            return Err(RenderError::invalid(
+                "eye",
+                format!(
+                    "pupil {} mm, focal length {} mm",
+                    e.pupil.0, e.focal_length.0
+                ),
+                "a pupil of 0 to 12 mm and a focal length in (0, 100] mm",
+            ));
+        }
+        if !(e.coc_criterion.0 > 0.0 && e.coc_criterion.0 <= 1.0) {
+            return Err(RenderError::invalid(
+                "coc-criterion",
+                e.coc_criterion.0,
+                "(0, 1] mm",
+            ));
+        }
+        if !(self.max_coc_px.is_finite() && (0.0..=256.0).contains(&self.max_coc_px)) {
+            return Err(RenderError::invalid(
+                "max-coc",
+                self.max_coc_px,
+                "0 to 256 pixels",
+            ));
+        }
+        if !(0.0..=1.0).contains(&self.min_keep) {
+            return Err(RenderError::invalid("min-keep", self.min_keep, "0 to 1"));
+        }
+        if !(self.cull_hidden_coc_px.is_finite()
+            && (0.0..=256.0).contains(&self.cull_hidden_coc_px))
+        {
+            return Err(RenderError::invalid(
+                "cull-hidden-coc",
+                self.cull_hidden_coc_px,
+                "0 to 256 pixels",
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// `D_M` of Liu's Eq. 10: the distance from the eye to the farthest triangle vertex (at least
 /// 1 m beyond the focus), metres.
 pub fn scene_max_depth_m(world: &World, camera: &EyeCamera) -> f64 {
@@ -162,7 +218,7 @@ pub fn roulette_epsilon(noise: CullNoise, seed: u64, i: u32, j: u32, index: u64)
 }
 
 /// DOF-aware culling for one frame: Eq. 10's weight with our two floors, and the roulette.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Serialize)]
 pub struct Culling {
     /// DOF limits at the frame's focus.
     pub limits: DofLimits,

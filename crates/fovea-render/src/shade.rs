@@ -37,7 +37,8 @@ impl std::ops::AddAssign for RayCounts {
 }
 
 /// How samples are shaded.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum ShadingMode {
     /// Direct lighting with shadows + ambient + emission.
     Direct,
@@ -51,6 +52,23 @@ pub enum ShadingMode {
         /// Random seed.
         seed: u64,
     },
+}
+
+impl ShadingMode {
+    /// Checks the ranges: 1–16 bounces and 1–1024 paths per sample.
+    pub fn validate(&self) -> crate::error::Result<()> {
+        if let ShadingMode::Path { bounces, spp, .. } = *self {
+            if !(1..=16).contains(&bounces) {
+                return Err(crate::error::RenderError::invalid(
+                    "bounces", bounces, "1 to 16",
+                ));
+            }
+            if !(1..=1024).contains(&spp) {
+                return Err(crate::error::RenderError::invalid("spp", spp, "1 to 1024"));
+            }
+        }
+        Ok(())
+    }
 }
 
 #[inline]

@@ -19,14 +19,19 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
-use fovea_core::mapping::{build, FoveationMapping, SamplePoint};
+use fovea_core::mapping::{FoveationMapping, SamplePoint};
 use fovea_core::Image;
 use fovea_post::grid::Grid;
 use fovea_post::Rgb;
 
 use crate::camera::{Eye, EyeCamera, HmdRig};
 use crate::error::{RenderError, Result};
-use crate::pipeline::{render_frame, render_frame_prefilled, Frame, FrameSettings, Prefill};
+use crate::eye::EyeState;
+use crate::pipeline::{
+    render_planned, Frame, FrameContext, FrameInputs, FrameSettings, Prefill, Stage, StageTimes,
+    Stopwatch,
+};
+use crate::plan::FramePlan;
 use crate::world::World;
 
 /// How the second eye is produced.
@@ -162,58 +167,69 @@ impl StereoFrame {
     }
 }
 
-/// Renders both eyes. `left` and `right` carry each eye's gaze; everything else (method,
-/// parameters, shading, DOF) should agree.
+/// Renders both eyes of `settings`, each eye with its own camera and [`EyeState`] (gaze,
+/// focus): one frame plan per eye, built once and read by the warp.
 pub fn render_stereo(
     world: &World,
     left_camera: &EyeCamera,
     right_camera: &EyeCamera,
-    left: &FrameSettings,
-    right: &FrameSettings,
+    settings: &FrameSettings,
+    eyes: [EyeState; 2],
     mode: StereoMode,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<StereoFrame> {
-    if left.method != right.method {
-        return Err(RenderError::invalid(
-            "stereo",
-            format!("{} / {}", left.method, right.method),
-            "the same method for both eyes",
-        ));
-    }
     let t0 = std::time::Instant::now();
+    let plan_of =
+        |camera: &EyeCamera, eye: &EyeState, keep: bool| -> Result<(FramePlan, StageTimes)> {
+            let mut times = StageTimes::default();
+            let t = Stopwatch::start();
+            let mut s = settings.clone();
+            s.keep_samples |= keep;
+            let plan = FramePlan::new(world, camera, &s, eye, [0.0, 0.0])?;
+            times.add(Stage::Plan, &t);
+            Ok((plan, times))
+        };
+    let render = |camera: &EyeCamera,
+                  plan: &FramePlan,
+                  times: StageTimes,
+                  prefill: Option<&Prefill>|
+     -> Result<Frame> {
+        let mut ctx = FrameContext::new();
+        let inputs = FrameInputs {
+            accumulator: None,
+            prefill,
+        };
+        render_planned(&mut ctx, world, camera, plan, inputs, times, progress)?;
+        Ok(ctx.take_frame().expect("rendered above"))
+    };
     match mode {
         StereoMode::Dup => {
-            let l = render_frame(world, left_camera, left, progress)?;
-            let r = render_frame(world, right_camera, right, progress)?;
+            let (lp, lt) = plan_of(left_camera, &eyes[0], false)?;
+            let l = render(left_camera, &lp, lt, None)?;
+            let (rp, rt) = plan_of(right_camera, &eyes[1], false)?;
+            let r = render(right_camera, &rp, rt, None)?;
             Ok(StereoFrame::new(mode, l, r, 0, 0, 0, t0, 0.0))
         }
         StereoMode::Rep => {
-            let mut ls = left.clone();
-            ls.keep_samples = true;
-            let mut l = render_frame(world, left_camera, &ls, progress)?;
+            let (lp, lt) = plan_of(left_camera, &eyes[0], true)?;
+            let mut l = render(left_camera, &lp, lt, None)?;
             let samples = l
                 .samples
                 .take()
                 .ok_or_else(|| RenderError::Unsupported("the left eye kept no samples".into()))?;
+            let (rp, rt) = plan_of(right_camera, &eyes[1], false)?;
             let tw = std::time::Instant::now();
-            let lm = build(left.method, &left_camera.display, left.gaze, &left.mapping)?;
-            let rm = build(
-                right.method,
-                &right_camera.display,
-                right.gaze,
-                &right.mapping,
-            )?;
             let (prefill, warped) = warp(
-                lm.as_ref(),
+                lp.mapping(),
                 left_camera,
                 &samples.color,
                 &samples.depth,
-                rm.as_ref(),
+                rp.mapping(),
                 right_camera,
             )?;
-            let (prefill, cracks) = fill_cracks(rm.as_ref(), prefill);
+            let (prefill, cracks) = fill_cracks(rp.mapping(), prefill);
             let warp_ms = tw.elapsed().as_secs_f64() * 1e3;
-            let r = render_frame_prefilled(world, right_camera, right, &prefill, progress)?;
+            let r = render(right_camera, &rp, rt, Some(&prefill))?;
             let holes = r.stats.rays_primary;
             Ok(StereoFrame::new(
                 mode, l, r, warped, cracks, holes, t0, warp_ms,

@@ -32,6 +32,7 @@ use fovea_post::Rgb;
 use fovea_render::bvh::Backend;
 use fovea_render::camera::{Eye, EyeCamera, HmdRig};
 use fovea_render::dof::{DofSettings, FocusMode};
+use fovea_render::eye::EyeState;
 use fovea_render::pipeline::{render_frame, render_frame_temporal, FrameSettings};
 use fovea_render::scene::{builtin, Light};
 use fovea_render::shade::ShadingMode;
@@ -89,18 +90,18 @@ fn off_centre() -> Gaze {
     gaze(52.0, 64.0)
 }
 
-fn frame(s: &Setup, settings: &FrameSettings) -> Image<Rgb> {
-    render_frame(&s.world, &s.camera, settings, &|_, _| {})
+fn frame(s: &Setup, settings: &FrameSettings, gaze: Gaze) -> Image<Rgb> {
+    render_frame(&s.world, &s.camera, settings, gaze, &|_, _| {})
         .unwrap()
         .color
 }
 
 fn method(s: &Setup, m: Method, g: Gaze) -> Image<Rgb> {
-    frame(s, &FrameSettings::new(m, g))
+    frame(s, &FrameSettings::new(m), g)
 }
 
-fn with_dof(m: Method, g: Gaze, filter: FilterKind, focus: FocusMode) -> FrameSettings {
-    let mut f = FrameSettings::new(m, g);
+fn with_dof(m: Method, filter: FilterKind, focus: FocusMode) -> FrameSettings {
+    let mut f = FrameSettings::new(m);
     f.dof = Some(DofSettings::new(Some(filter), focus));
     f
 }
@@ -108,11 +109,11 @@ fn with_dof(m: Method, g: Gaze, filter: FilterKind, focus: FocusMode) -> FrameSe
 /// Liu et al.'s hybrid as `--method liu-hybrid`: visual-polar sampling, bokeh with LCA, DOF-
 /// aware culling, focus at the gaze.
 fn liu_hybrid(s: &Setup) -> Image<Rgb> {
-    let mut f = FrameSettings::new(Method::VisualPolar, off_centre());
+    let mut f = FrameSettings::new(Method::VisualPolar);
     let mut d = DofSettings::new(Some(FilterKind::BokehLca), FocusMode::Auto);
     d.cull = true;
     f.dof = Some(d);
-    frame(s, &f)
+    frame(s, &f, off_centre())
 }
 
 /// Both eyes fixating the off-centre gaze's surface point, the right eye reprojected from the
@@ -124,8 +125,8 @@ fn stereo_rep(s: &Setup, right: bool) -> Image<Rgb> {
         &s.world,
         &lc,
         &rc,
-        &FrameSettings::new(Method::Vafr, lg),
-        &FrameSettings::new(Method::Vafr, rg),
+        &FrameSettings::new(Method::Vafr),
+        [EyeState::looking_at(lg), EyeState::looking_at(rg)],
         StereoMode::Rep,
         &|_, _| {},
     )
@@ -147,7 +148,8 @@ fn temporal(s: &Setup, m: Method) -> Image<Rgb> {
         let f = render_frame_temporal(
             &s.world,
             &s.camera,
-            &FrameSettings::new(m, g),
+            &FrameSettings::new(m),
+            g,
             &mut acc,
             &|_, _| {},
         )
@@ -191,60 +193,44 @@ fn cases() -> Vec<Case> {
         case("inset", |s| method(s, Method::Inset, off_centre())),
         case("weier", |s| method(s, Method::Weier, off_centre())),
         case("vafr-no-aa", |s| {
-            let mut f = FrameSettings::new(Method::Vafr, off_centre());
+            let mut f = FrameSettings::new(Method::Vafr);
             f.aa = fovea_render::pipeline::AaMode::None;
-            frame(s, &f)
+            frame(s, &f, off_centre())
         }),
         case("dof-gather-full-1m", |s| {
-            let f = with_dof(
-                Method::Full,
-                off_centre(),
-                FilterKind::Gather,
-                FocusMode::Fixed(1.0),
-            );
-            frame(s, &f)
+            let f = with_dof(Method::Full, FilterKind::Gather, FocusMode::Fixed(1.0));
+            frame(s, &f, off_centre())
         }),
         case("dof-bokeh-lca-vafr-auto", |s| {
-            let f = with_dof(
-                Method::Vafr,
-                off_centre(),
-                FilterKind::BokehLca,
-                FocusMode::Auto,
-            );
-            frame(s, &f)
+            let f = with_dof(Method::Vafr, FilterKind::BokehLca, FocusMode::Auto);
+            frame(s, &f, off_centre())
         }),
         case("dof-recursive-full-5m", |s| {
-            let f = with_dof(
-                Method::Full,
-                off_centre(),
-                FilterKind::Recursive,
-                FocusMode::Fixed(5.0),
-            );
-            frame(s, &f)
+            let f = with_dof(Method::Full, FilterKind::Recursive, FocusMode::Fixed(5.0));
+            frame(s, &f, off_centre())
         }),
         case("dof-layered-weier-inf", |s| {
             let f = with_dof(
                 Method::Weier,
-                off_centre(),
                 FilterKind::Layered,
                 FocusMode::Fixed(f64::INFINITY),
             );
-            frame(s, &f)
+            frame(s, &f, off_centre())
         }),
         case("liu-hybrid", liu_hybrid),
         case("contrast-vafr", |s| {
-            let mut f = FrameSettings::new(Method::Vafr, off_centre());
+            let mut f = FrameSettings::new(Method::Vafr);
             f.contrast = Some(PeripheralContrast::default());
-            frame(s, &f)
+            frame(s, &f, off_centre())
         }),
         case("path-full", |s| {
-            let mut f = FrameSettings::new(Method::Full, off_centre());
+            let mut f = FrameSettings::new(Method::Full);
             f.shading = ShadingMode::Path {
                 bounces: 1,
                 spp: 2,
                 seed: 7,
             };
-            frame(s, &f)
+            frame(s, &f, off_centre())
         }),
         case("stereo-rep-left", |s| stereo_rep(s, false)),
         case("stereo-rep-right", |s| stereo_rep(s, true)),

@@ -96,9 +96,9 @@ fn lod_simplifies_outside_the_fovea_and_keeps_the_fixated_object() {
     // The fixated sphere renders exactly as at full detail.
     let mut world_full = World::new(scene, Backend::Obvhs).unwrap();
     world_full.lights = world_lod.lights.clone();
-    let s = FrameSettings::new(Method::Full, gaze);
-    let a = render_frame(&world_full, &cam, &s, &|_, _| {}).unwrap();
-    let b = render_frame(&world_lod, &cam, &s, &|_, _| {}).unwrap();
+    let s = FrameSettings::new(Method::Full);
+    let a = render_frame(&world_full, &cam, &s, gaze, &|_, _| {}).unwrap();
+    let b = render_frame(&world_lod, &cam, &s, gaze, &|_, _| {}).unwrap();
     let r = d.radius_px(Degrees(2.0));
     let centre = Region::around(q.x_px, q.y_px, r, d.width_px, d.height_px);
     let psnr = luma_psnr(&a.color, &b.color, centre).unwrap();

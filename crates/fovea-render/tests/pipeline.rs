@@ -20,8 +20,8 @@ fn setup(display: &DisplayProfile) -> (World, EyeCamera) {
 
 fn render(world: &World, cam: &EyeCamera, method: Method, gx: f64, gy: f64) -> Image<Rgb> {
     let gaze = cam.display.gaze(gx, gy).unwrap();
-    let s = FrameSettings::new(method, gaze);
-    let f = render_frame(world, cam, &s, &|_, _| {}).unwrap();
+    let s = FrameSettings::new(method);
+    let f = render_frame(world, cam, &s, gaze, &|_, _| {}).unwrap();
     // Count, independently of the pipeline, the shaded buffer pixels whose centre maps back
     // onto the screen: each must get exactly one primary ray.
     let mapping = build(method, &cam.display, gaze, &s.mapping).unwrap();
@@ -187,11 +187,13 @@ fn retinal_frames_fit_the_machine_and_oversized_requests_are_refused_first() {
 
     // A budget below the estimate is refused before anything is traced.
     let (world, cam) = setup(&d);
-    let mut s = FrameSettings::new(Method::Full, d.centre_gaze());
+    let mut s = FrameSettings::new(Method::Full);
     s.memory_limit_bytes = mf - 1;
     let t = std::time::Instant::now();
-    let err = render_frame(&world, &cam, &s, &|_, _| panic!("no sample may be traced"))
-        .expect_err("refused");
+    let err = render_frame(&world, &cam, &s, d.centre_gaze(), &|_, _| {
+        panic!("no sample may be traced")
+    })
+    .expect_err("refused");
     assert!(t.elapsed().as_secs_f64() < 5.0);
     let msg = err.to_string();
     assert!(msg.contains("GiB") && msg.contains("--max-memory"), "{msg}");

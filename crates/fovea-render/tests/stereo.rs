@@ -6,6 +6,7 @@ use fovea_core::units::Degrees;
 use fovea_eval::metrics::{flip_mean, luma_psnr, Region};
 use fovea_render::bvh::Backend;
 use fovea_render::camera::{Eye, EyeCamera, HmdRig};
+use fovea_render::eye::EyeState;
 use fovea_render::pipeline::FrameSettings;
 use fovea_render::scene::builtin;
 use fovea_render::stereo::{render_stereo, StereoMode};
@@ -31,10 +32,13 @@ fn rep_traces_at_most_60_percent_of_dup_and_matches_the_direct_right_eye() {
     );
     // Both eyes converge on a point 2 m ahead.
     let target = rig.head + 2.0 * rig.forward;
-    let ls = FrameSettings::new(Method::Vafr, gaze_at(&lc, target));
-    let rs = FrameSettings::new(Method::Vafr, gaze_at(&rc, target));
-    let dup = render_stereo(&world, &lc, &rc, &ls, &rs, StereoMode::Dup, &|_, _| {}).unwrap();
-    let rep = render_stereo(&world, &lc, &rc, &ls, &rs, StereoMode::Rep, &|_, _| {}).unwrap();
+    let s = FrameSettings::new(Method::Vafr);
+    let eyes = [
+        EyeState::looking_at(gaze_at(&lc, target)),
+        EyeState::looking_at(gaze_at(&rc, target)),
+    ];
+    let dup = render_stereo(&world, &lc, &rc, &s, eyes, StereoMode::Dup, &|_, _| {}).unwrap();
+    let rep = render_stereo(&world, &lc, &rc, &s, eyes, StereoMode::Rep, &|_, _| {}).unwrap();
     let ratio = rep.stats.rays_primary as f64 / dup.stats.rays_primary as f64;
     let whole = Region::full(d.width_px, d.height_px);
     let psnr = luma_psnr(&dup.right.color, &rep.right.color, whole).unwrap();
@@ -86,10 +90,13 @@ fn disocclusions_behind_a_thin_pole_are_traced_not_smeared() {
         rig.eye(Eye::Right, &d).unwrap(),
     );
     let target = rig.head + 0.6 * rig.forward;
-    let ls = FrameSettings::new(Method::Vafr, gaze_at(&lc, target));
-    let rs = FrameSettings::new(Method::Vafr, gaze_at(&rc, target));
-    let dup = render_stereo(&world, &lc, &rc, &ls, &rs, StereoMode::Dup, &|_, _| {}).unwrap();
-    let rep = render_stereo(&world, &lc, &rc, &ls, &rs, StereoMode::Rep, &|_, _| {}).unwrap();
+    let s = FrameSettings::new(Method::Vafr);
+    let eyes = [
+        EyeState::looking_at(gaze_at(&lc, target)),
+        EyeState::looking_at(gaze_at(&rc, target)),
+    ];
+    let dup = render_stereo(&world, &lc, &rc, &s, eyes, StereoMode::Dup, &|_, _| {}).unwrap();
+    let rep = render_stereo(&world, &lc, &rc, &s, eyes, StereoMode::Rep, &|_, _| {}).unwrap();
     let red_px = |c: &[f32; 3]| c[0] > 0.25 && c[1] < 0.6 * c[0] && c[2] < 0.6 * c[0];
     // Background pixels (direct depth beyond 1 m) within 24 px of the pole in the right eye.
     let (w, h) = (d.width_px as i64, d.height_px as i64);
@@ -143,10 +150,10 @@ fn rep_on_a_real_scene() {
     // Fixate the first surface at the screen centre of the cyclopean eye.
     let (_, [(lc, lg), (rc, rg)]) =
         fovea_render::stereo::fixating_eyes(&world, &rig, &d, &d.centre_gaze()).unwrap();
-    let ls = FrameSettings::new(Method::Vafr, lg);
-    let rs = FrameSettings::new(Method::Vafr, rg);
-    let dup = render_stereo(&world, &lc, &rc, &ls, &rs, StereoMode::Dup, &|_, _| {}).unwrap();
-    let rep = render_stereo(&world, &lc, &rc, &ls, &rs, StereoMode::Rep, &|_, _| {}).unwrap();
+    let s = FrameSettings::new(Method::Vafr);
+    let eyes = [EyeState::looking_at(lg), EyeState::looking_at(rg)];
+    let dup = render_stereo(&world, &lc, &rc, &s, eyes, StereoMode::Dup, &|_, _| {}).unwrap();
+    let rep = render_stereo(&world, &lc, &rc, &s, eyes, StereoMode::Rep, &|_, _| {}).unwrap();
     let ratio = rep.stats.rays_primary as f64 / dup.stats.rays_primary as f64;
     let whole = Region::full(d.width_px, d.height_px);
     let psnr = luma_psnr(&dup.right.color, &rep.right.color, whole).unwrap();

@@ -38,8 +38,9 @@ fn a_still_frame_is_a_fixed_point_of_the_accumulation() {
     // Weier's history is read at the footprint's mip level, a blur by design outside r₀; see
     // `weier_fovea_is_a_fixed_point`.
     for method in [Method::Vafr, Method::Kfr, Method::Inset, Method::Full] {
-        let s = FrameSettings::new(method, d.gaze(150.0, 110.0).unwrap());
-        let plain = render_frame(&world, &cam, &s, &|_, _| {}).unwrap();
+        let gaze = d.gaze(150.0, 110.0).unwrap();
+        let s = FrameSettings::new(method);
+        let plain = render_frame(&world, &cam, &s, gaze, &|_, _| {}).unwrap();
         let mut acc = TemporalAccumulator::new(TemporalSettings {
             jitter: false,
             ..Default::default()
@@ -47,7 +48,8 @@ fn a_still_frame_is_a_fixed_point_of_the_accumulation() {
         .unwrap();
         let mut last = None;
         for _ in 0..3 {
-            last = Some(render_frame_temporal(&world, &cam, &s, &mut acc, &|_, _| {}).unwrap());
+            last =
+                Some(render_frame_temporal(&world, &cam, &s, gaze, &mut acc, &|_, _| {}).unwrap());
         }
         let last = last.unwrap();
         let t = last.stats.temporal.unwrap();
@@ -67,7 +69,7 @@ fn a_still_frame_is_a_fixed_point_of_the_accumulation() {
         // number of rows are not exact.
         assert!(diff < 0.02 && differ < 20, "{method}: {diff}, {differ} px");
         // Every texel whose centre lies on the screen finds itself in the history.
-        let mapping = build(method, &d, s.gaze, &s.mapping).unwrap();
+        let mapping = build(method, &d, gaze, &s.mapping).unwrap();
         let mut on_screen = 0u64;
         for (layer, b) in mapping.buffers().iter().enumerate() {
             for j in 0..b.height {
@@ -105,20 +107,20 @@ fn reprojected_history_matches_a_fresh_render_on_a_moving_camera() {
     let d = display();
     let (world, cam) = setup(&d);
     let gaze = d.gaze(160.0, 120.0).unwrap();
-    let s = FrameSettings::new(Method::Full, gaze);
+    let s = FrameSettings::new(Method::Full);
     let mut acc = TemporalAccumulator::new(TemporalSettings {
         jitter: false,
         ..Default::default()
     })
     .unwrap();
-    render_frame_temporal(&world, &cam, &s, &mut acc, &|_, _| {}).unwrap();
+    render_frame_temporal(&world, &cam, &s, gaze, &mut acc, &|_, _| {}).unwrap();
     let next = moved(&cam, 10);
-    let fresh = render_frame(&world, &next, &s, &|_, _| {}).unwrap();
+    let fresh = render_frame(&world, &next, &s, gaze, &|_, _| {}).unwrap();
     let history = acc.sample_history().unwrap();
     let mapping = build(Method::Full, &d, gaze, &s.mapping).unwrap();
     let (mut n, mut accepted, mut err) = (0u64, 0u64, 0.0f64);
     let mut static_err = 0.0f64;
-    let first = render_frame(&world, &cam, &s, &|_, _| {}).unwrap();
+    let first = render_frame(&world, &cam, &s, gaze, &|_, _| {}).unwrap();
     for j in 0..d.height_px {
         for i in 0..d.width_px {
             n += 1;
@@ -160,12 +162,13 @@ fn weier_fovea_is_a_fixed_point() {
     let d = display();
     let (world, cam) = setup(&d);
     let (gx, gy) = (150.0, 110.0);
-    let s = FrameSettings::new(Method::Weier, d.gaze(gx, gy).unwrap());
-    let plain = render_frame(&world, &cam, &s, &|_, _| {}).unwrap();
+    let gaze = d.gaze(gx, gy).unwrap();
+    let s = FrameSettings::new(Method::Weier);
+    let plain = render_frame(&world, &cam, &s, gaze, &|_, _| {}).unwrap();
     let mut acc = TemporalAccumulator::new(TemporalSettings::default()).unwrap();
     let mut last = None;
     for _ in 0..3 {
-        last = Some(render_frame_temporal(&world, &cam, &s, &mut acc, &|_, _| {}).unwrap());
+        last = Some(render_frame_temporal(&world, &cam, &s, gaze, &mut acc, &|_, _| {}).unwrap());
     }
     let last = last.unwrap();
     // Within r₀ = 10° minus a margin for the pull-push and the footprint of the ring beyond.
@@ -228,12 +231,12 @@ fn accumulation_leaves_no_ghosts_on_a_moving_camera() {
         for k in 0..12 {
             let c = moved(&cam, k);
             let gaze = d.gaze(130.0 + 3.0 * k as f64, 112.0).unwrap();
-            let s = FrameSettings::new(method, gaze);
-            let f = render_frame_temporal(&world, &c, &s, &mut acc, &|_, _| {}).unwrap();
+            let s = FrameSettings::new(method);
+            let f = render_frame_temporal(&world, &c, &s, gaze, &mut acc, &|_, _| {}).unwrap();
             if k < 4 {
                 continue;
             }
-            let plain = render_frame(&world, &c, &s, &|_, _| {}).unwrap();
+            let plain = render_frame(&world, &c, &s, gaze, &|_, _| {}).unwrap();
             let ghosts = ghost_count(&f.color, &plain.color);
             worst_fraction = worst_fraction.max(ghosts as f64 / d.pixel_count() as f64);
         }
@@ -262,10 +265,10 @@ fn without_depth_rejection_the_test_sees_ghosts() {
     for k in 0..12 {
         let c = moved(&cam, 2 * k);
         let gaze = d.gaze(150.0, 112.0).unwrap();
-        let s = FrameSettings::new(Method::Vafr, gaze);
-        let f = render_frame_temporal(&world, &c, &s, &mut acc, &|_, _| {}).unwrap();
+        let s = FrameSettings::new(Method::Vafr);
+        let f = render_frame_temporal(&world, &c, &s, gaze, &mut acc, &|_, _| {}).unwrap();
         if k == 11 {
-            let plain = render_frame(&world, &c, &s, &|_, _| {}).unwrap();
+            let plain = render_frame(&world, &c, &s, gaze, &|_, _| {}).unwrap();
             ghosts = ghost_count(&f.color, &plain.color);
         }
     }

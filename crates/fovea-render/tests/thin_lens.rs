@@ -269,11 +269,11 @@ fn culling_on_vafr_saves_shading_at_half_a_db_at_most() {
     let (world, cam) = setup(&d);
     let gaze = d.centre_gaze();
     let frame = |cull: bool| {
-        let mut s = FrameSettings::new(Method::Vafr, gaze);
+        let mut s = FrameSettings::new(Method::Vafr);
         let mut dof = DofSettings::new(Some(FilterKind::Gather), FocusMode::Fixed(0.5));
         dof.cull = cull;
         s.dof = Some(dof);
-        render_frame(&world, &cam, &s, &|_, _| {}).unwrap()
+        render_frame(&world, &cam, &s, gaze, &|_, _| {}).unwrap()
     };
     let (plain, culled) = (frame(false), frame(true));
     assert_eq!(plain.stats.samples_culled, 0);

@@ -59,14 +59,16 @@ fn weier_frame_matches_full_resolution_in_the_central_10_degrees() {
     let full = render_frame(
         &world,
         &cam,
-        &FrameSettings::new(Method::Full, gaze),
+        &FrameSettings::new(Method::Full),
+        gaze,
         &|_, _| {},
     )
     .unwrap();
     let weier = render_frame(
         &world,
         &cam,
-        &FrameSettings::new(Method::Weier, gaze),
+        &FrameSettings::new(Method::Weier),
+        gaze,
         &|_, _| {},
     )
     .unwrap();
@@ -97,14 +99,15 @@ fn weier_frame_matches_full_resolution_in_the_central_10_degrees() {
             &d,
         )
         .unwrap();
-        let s = FrameSettings::new(Method::Weier, gaze);
-        last = Some(render_frame_temporal(&world, &cam_k, &s, &mut acc, &|_, _| {}).unwrap());
+        let s = FrameSettings::new(Method::Weier);
+        last = Some(render_frame_temporal(&world, &cam_k, &s, gaze, &mut acc, &|_, _| {}).unwrap());
     }
     let last = last.unwrap();
     let full_k = render_frame(
         &world,
         &cam_k,
-        &FrameSettings::new(Method::Full, gaze),
+        &FrameSettings::new(Method::Full),
+        gaze,
         &|_, _| {},
     )
     .unwrap();

@@ -41,7 +41,8 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
     let full = render_frame(
         world,
         camera,
-        &FrameSettings::new(Method::Full, gaze),
+        &FrameSettings::new(Method::Full),
+        gaze,
         &|_, _| {},
     )?;
     let dir = ctx.dir("quality")?;
@@ -80,9 +81,9 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
     let mut vafr_bands = None;
     for m in Method::ALL.into_iter().filter(|&m| m != Method::Full) {
         say(m.name());
-        let mut s = FrameSettings::new(m, gaze);
+        let mut s = FrameSettings::new(m);
         s.density_view = true;
-        let frame = render_frame(world, camera, &s, &|_, _| {})?;
+        let frame = render_frame(world, camera, &s, gaze, &|_, _| {})?;
         let per = band_quality(
             &full.color,
             &frame.color,

@@ -20,6 +20,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::units::ScreenPoint;
 
+pub mod footprint;
 pub mod full;
 pub mod guenter;
 pub mod inset;
@@ -261,6 +262,16 @@ pub struct MappingConfig {
     pub weier: WeierParams,
 }
 
+/// Mappings built by [`build`] in this process so far. A frame plan builds its mapping once
+/// and every stage reads it from the plan; tests read this counter to check that nothing
+/// rebuilds one.
+static BUILDS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+/// How many mappings [`build`] has built in this process.
+pub fn build_count() -> u64 {
+    BUILDS.load(std::sync::atomic::Ordering::Relaxed)
+}
+
 /// Builds the mapping of `method` for `display` and `gaze`.
 pub fn build(
     method: Method,
@@ -268,6 +279,7 @@ pub fn build(
     gaze: crate::display::Gaze,
     config: &MappingConfig,
 ) -> crate::Result<Box<dyn FoveationMapping>> {
+    BUILDS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     Ok(match method {
         Method::Full => Box::new(FullResolution::new(display)?),
         Method::Vafr => Box::new(Vafr::new(display, gaze, config.vafr.clone())?),

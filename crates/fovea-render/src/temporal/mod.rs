@@ -33,16 +33,20 @@ pub mod weier_taa;
 
 use serde::Serialize;
 
-use fovea_core::display::{DisplayProfile, Gaze};
-use fovea_core::mapping::{build, FoveationMapping, MappingConfig, Method};
+use fovea_core::display::Gaze;
+use fovea_core::mapping::{FoveationMapping, Method};
 use fovea_core::math::halton2;
 use fovea_core::units::ScreenPoint;
-use fovea_post::inverse_map::{SampleBuffers, ScreenFrame};
+use fovea_core::Image;
+use fovea_post::inverse_map::SampleBuffers;
 use fovea_post::Rgb;
 use glam::Vec3;
 
 use crate::camera::EyeCamera;
 use crate::error::{RenderError, Result};
+use crate::plan::FramePlan;
+
+pub use fovea_core::mapping::footprint::SpacingLut;
 
 /// Depth stored for misses where a finite value is needed (mip averages, comparisons).
 pub(crate) const SKY_DEPTH_M: f32 = 1.0e9;
@@ -180,78 +184,65 @@ impl TemporalAccumulator {
         [a - 0.5, b - 0.5]
     }
 
-    /// Blends the previous frame into this frame's freshly shaded samples (before AA).
-    /// `settings` are the frame's (method, mapping parameters, gaze), from which the history
-    /// rebuilds this frame's mapping; `lut` is the mapping's sample spacing.
+    /// Blends the previous frame into this frame's freshly shaded samples (before AA) of the
+    /// frame `plan` (its mapping, gaze, spacing table and jitter), seen by `camera`.
     pub(crate) fn accumulate(
         &mut self,
-        mapping: &dyn FoveationMapping,
-        settings: &crate::pipeline::FrameSettings,
+        plan: &FramePlan,
         camera: &EyeCamera,
         buffers: &mut SampleBuffers,
-        jitter: [f64; 2],
-        lut: &SpacingLut,
     ) -> Result<TemporalStats> {
+        let mapping = plan.mapping();
+        let (gaze, lut) = (plan.eye.gaze, &plan.spacing);
         let method = mapping.method();
         if self.method != Some(method) {
             self.history = None;
         }
         let mut stats = if method == Method::Weier {
             let (stats, ages) = match &self.history {
-                Some(History::Pyramid(h)) => weier_taa::blend(
-                    h,
-                    &self.settings,
-                    mapping,
-                    camera,
-                    settings.gaze,
-                    lut,
-                    buffers,
-                )?,
+                Some(History::Pyramid(h)) => {
+                    weier_taa::blend(h, &self.settings, mapping, camera, gaze, lut, buffers)?
+                }
                 _ => weier_taa::first_frame(mapping, buffers)?,
             };
-            self.weier_ages = Some((ages, lut.clone(), settings.gaze));
+            self.weier_ages = Some((ages, lut.clone(), gaze));
             stats
         } else {
             let (stats, ages) = match &self.history {
-                Some(History::Samples(h)) => sample_space::blend(
-                    h,
-                    &self.settings,
-                    mapping,
-                    camera,
-                    settings.gaze,
-                    lut,
-                    buffers,
-                )?,
+                Some(History::Samples(h)) => {
+                    sample_space::blend(h, &self.settings, mapping, camera, gaze, lut, buffers)?
+                }
                 _ => sample_space::first_frame(mapping, buffers)?,
             };
-            let rebuilt = build(method, &camera.display, settings.gaze, &settings.mapping)?;
             self.history = Some(History::Samples(sample_space::SampleHistory::new(
-                rebuilt,
+                plan.shared_mapping(),
                 camera.clone(),
-                settings.gaze,
+                gaze,
                 lut.clone(),
                 buffers,
                 ages,
             )));
             stats
         };
-        stats.jitter = jitter;
+        stats.jitter = plan.jitter_texels;
         self.method = Some(method);
         self.last = stats;
         Ok(stats)
     }
 
-    /// Keeps the reconstructed frame as Weier's history pyramid (other methods keep their
-    /// sample buffers in [`accumulate`](Self::accumulate)), and advances the frame counter.
+    /// Keeps the reconstructed frame (`color`, `depth`) as Weier's history pyramid (other
+    /// methods keep their sample buffers in [`accumulate`](Self::accumulate)), and advances
+    /// the frame counter.
     pub(crate) fn finish(
         &mut self,
-        mapping: &dyn FoveationMapping,
+        plan: &FramePlan,
         camera: &EyeCamera,
-        screen: &ScreenFrame,
+        color: &Image<Rgb>,
+        depth: &Image<f32>,
     ) -> Result<()> {
-        if mapping.method() == Method::Weier {
+        if plan.method() == Method::Weier {
             if let Some((ages, lut, gaze)) = self.weier_ages.take() {
-                let next = weier_taa::PyramidHistory::new(camera, screen, ages, lut, gaze)?;
+                let next = weier_taa::PyramidHistory::new(camera, color, depth, ages, lut, gaze)?;
                 self.history = Some(History::Pyramid(next));
             }
         }
@@ -337,59 +328,6 @@ pub(crate) fn running_estimate(c: Rgb, h: Rgb, v: f32, n: u16, alpha_min: f32) -
     ];
     let age = if v >= 0.5 { n.saturating_add(1) } else { 1 };
     (out, age)
-}
-
-/// Sample spacing in screen pixels as a function of eccentricity: the full-resolution
-/// shading rate over the mapping's (`1` where the mapping samples at least as densely as the
-/// screen), tabulated every 0.1°.
-#[derive(Clone, Debug)]
-pub struct SpacingLut {
-    step_deg: f64,
-    values: Vec<f32>,
-}
-
-impl SpacingLut {
-    /// The table of `mapping` on `display` at `gaze`.
-    pub fn new(
-        mapping: &dyn FoveationMapping,
-        display: &DisplayProfile,
-        gaze: Gaze,
-    ) -> Result<Self> {
-        let full = build(Method::Full, display, gaze, &MappingConfig::default())?;
-        let step_deg = 0.1;
-        let e_max = display.farthest_corner_eccentricity(&gaze).0 + 1.0;
-        let n = (e_max / step_deg).ceil() as usize + 2;
-        let values = (0..n)
-            .map(|k| {
-                let e = k as f64 * step_deg;
-                let full_rate = (full.radial_rate_cpd(e) * full.tangential_rate_cpd(e))
-                    .max(0.0)
-                    .sqrt();
-                let rate = (mapping.radial_rate_cpd(e) * mapping.tangential_rate_cpd(e))
-                    .max(0.0)
-                    .sqrt();
-                if rate > 0.0 && full_rate.is_finite() && rate.is_finite() {
-                    (full_rate / rate).max(1.0) as f32
-                } else {
-                    1.0
-                }
-            })
-            .collect();
-        Ok(Self { step_deg, values })
-    }
-
-    /// The largest spacing in the table, pixels.
-    pub fn max(&self) -> f32 {
-        self.values.iter().fold(1.0f32, |a, &b| a.max(b))
-    }
-
-    /// Spacing at eccentricity `e_deg`, pixels (linear interpolation, clamped).
-    pub fn at(&self, e_deg: f64) -> f32 {
-        let x = (e_deg.max(0.0) / self.step_deg).min((self.values.len() - 1) as f64);
-        let k = (x.floor() as usize).min(self.values.len() - 2);
-        let f = (x - k as f64) as f32;
-        self.values[k] + (self.values[k + 1] - self.values[k]) * f
-    }
 }
 
 #[cfg(test)]

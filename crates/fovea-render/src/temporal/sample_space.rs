@@ -35,7 +35,7 @@ use fovea_core::units::ScreenPoint;
 /// The previous frame of a buffer method: its mapping and camera, the accumulated colour
 /// (before AA), depth and the age of each texel's history.
 pub struct SampleHistory {
-    mapping: Box<dyn FoveationMapping>,
+    mapping: std::sync::Arc<dyn FoveationMapping>,
     camera: EyeCamera,
     gaze: Gaze,
     spacing: SpacingLut,
@@ -52,7 +52,7 @@ pub struct SampleHistory {
 impl SampleHistory {
     /// Keeps a frame: `mapping` must be the mapping `buffers` were shaded with.
     pub fn new(
-        mapping: Box<dyn FoveationMapping>,
+        mapping: std::sync::Arc<dyn FoveationMapping>,
         camera: EyeCamera,
         gaze: Gaze,
         spacing: SpacingLut,

@@ -30,8 +30,9 @@ use fovea_core::display::Gaze;
 use fovea_core::mapping::FoveationMapping;
 use fovea_core::units::ScreenPoint;
 use fovea_core::Image;
-use fovea_post::inverse_map::{SampleBuffers, ScreenFrame};
+use fovea_post::inverse_map::SampleBuffers;
 use fovea_post::mip::MipPyramid;
+use fovea_post::Rgb;
 
 use super::{
     depth_weight, reproject, resolution_weight, running_estimate, shaded_count, SpacingLut,
@@ -50,25 +51,22 @@ pub struct PyramidHistory {
 }
 
 impl PyramidHistory {
-    /// Keeps the reconstruction `screen` of a frame with the samples' `ages` (0 where no
+    /// Keeps the reconstruction (`color`, `depth`) of a frame with the samples' `ages` (0 where no
     /// sample was cast), its gaze and sample spacing. Levels cover the widest spacing.
     pub fn new(
         camera: &EyeCamera,
-        screen: &ScreenFrame,
+        color: &Image<Rgb>,
+        depth: &Image<f32>,
         ages: Image<u16>,
         spacing: SpacingLut,
         gaze: Gaze,
     ) -> Result<Self> {
         let max_spacing_px = spacing.max();
-        let (w, h) = (
-            screen.color.width() as usize,
-            screen.color.height() as usize,
-        );
-        let texels: Vec<[f32; 4]> = screen
-            .color
+        let (w, h) = (color.width() as usize, color.height() as usize);
+        let texels: Vec<[f32; 4]> = color
             .data()
             .par_iter()
-            .zip(screen.depth.data())
+            .zip(depth.data())
             .map(|(c, &d)| {
                 let d = if d.is_finite() {
                     d.min(SKY_DEPTH_M)

@@ -1,0 +1,171 @@
+//! The buffers of a frame, kept from frame to frame: a sequence, the bench's repeated frames
+//! or a real-time loop allocates its sample and screen buffers once and reuses them while the
+//! plan's sizes stay the same. At 8K a fresh screen buffer costs more than the reconstruction
+//! that fills it: the kernel zeroes every new page on first touch (about 20 % of an 8K VaFR
+//! frame's CPU time before this context existed).
+
+use fovea_core::display::DisplayProfile;
+use fovea_core::Image;
+use fovea_post::inverse_map::SampleBuffers;
+use fovea_post::Rgb;
+
+use super::{Frame, Prefill};
+use crate::error::{RenderError, Result};
+use crate::plan::FramePlan;
+
+/// Buffers reused across frames. Create one per eye and keep it for the whole sequence.
+#[derive(Default)]
+pub struct FrameContext {
+    /// Sample buffers (colour, depth per layer).
+    samples: Option<SampleBuffers>,
+    /// The last frame: its colour and depth are the next frame's screen buffers.
+    frame: Option<Frame>,
+    /// A screen-sized colour image freed by the screen post (the reconstruction's output when
+    /// contrast or DOF produced a new image), reused by the next reconstruction.
+    spare_color: Option<Image<Rgb>>,
+    /// Screen buffers allocated so far (colour and depth count one each).
+    screen_allocations: u64,
+}
+
+impl FrameContext {
+    /// An empty context; the first frame allocates.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The last frame rendered with this context.
+    pub fn frame(&self) -> Option<&Frame> {
+        self.frame.as_ref()
+    }
+
+    /// The last frame, taken out (the next frame allocates its screen buffers again).
+    pub fn take_frame(&mut self) -> Option<Frame> {
+        self.frame.take()
+    }
+
+    /// How many screen-sized buffers this context has allocated.
+    pub fn screen_allocations(&self) -> u64 {
+        self.screen_allocations
+    }
+
+    /// Sample buffers sized for `plan`, reset (colour 0, depth ∞) or copied from `prefill`.
+    pub(crate) fn samples_for(
+        &mut self,
+        plan: &FramePlan,
+        prefill: Option<&Prefill>,
+    ) -> Result<&mut SampleBuffers> {
+        let sizes = &plan.buffers;
+        if let Some(p) = prefill {
+            let ok = |n: usize, dims: &mut dyn Iterator<Item = (u32, u32)>| {
+                n == sizes.len() && dims.zip(sizes).all(|(d, b)| d == (b.width, b.height))
+            };
+            if !(ok(
+                p.color.len(),
+                &mut p.color.iter().map(|i| (i.width(), i.height())),
+            ) && ok(
+                p.depth.len(),
+                &mut p.depth.iter().map(|i| (i.width(), i.height())),
+            ) && ok(
+                p.known.len(),
+                &mut p.known.iter().map(|i| (i.width(), i.height())),
+            )) {
+                return Err(RenderError::invalid(
+                    "prefill",
+                    format!("{} layers", p.color.len()),
+                    format!("buffers of the mapping's sizes {sizes:?}"),
+                ));
+            }
+        }
+        let fits = self.samples.as_ref().is_some_and(|s| {
+            s.color.len() == sizes.len()
+                && s.color
+                    .iter()
+                    .zip(sizes)
+                    .all(|(i, b)| (i.width(), i.height()) == (b.width, b.height))
+        });
+        if !fits {
+            let mut color = Vec::with_capacity(sizes.len());
+            let mut depth = Vec::with_capacity(sizes.len());
+            for b in sizes {
+                color.push(Image::new(b.width, b.height, [0.0f32; 3])?);
+                depth.push(Image::new(b.width, b.height, f32::INFINITY)?);
+            }
+            self.samples = Some(SampleBuffers { color, depth });
+        }
+        let s = self.samples.as_mut().expect("set above");
+        for (l, (c, d)) in s.color.iter_mut().zip(s.depth.iter_mut()).enumerate() {
+            match prefill {
+                Some(p) => {
+                    c.data_mut().copy_from_slice(p.color[l].data());
+                    d.data_mut().copy_from_slice(p.depth[l].data());
+                }
+                None if fits => {
+                    c.data_mut().fill([0.0; 3]);
+                    d.data_mut().fill(f32::INFINITY);
+                }
+                None => {}
+            }
+        }
+        Ok(s)
+    }
+
+    /// The sample buffers [`samples_for`](Self::samples_for) prepared.
+    pub(crate) fn samples_for_reconstruct(&mut self) -> &mut SampleBuffers {
+        self.samples
+            .as_mut()
+            .expect("samples_for runs before the reconstruction")
+    }
+
+    /// Screen-sized colour and depth buffers for `display`: the last frame's when they fit,
+    /// otherwise new (zeroed pages, faulted in where the reconstruction writes them).
+    pub(crate) fn screen_buffers(
+        &mut self,
+        display: &DisplayProfile,
+    ) -> Result<(Image<Rgb>, Image<f32>)> {
+        let (w, h) = (display.width_px, display.height_px);
+        let fits = |wh: (u32, u32)| wh == (w, h);
+        let last = self.frame.take();
+        let (mut color, mut depth) = (None, None);
+        if let Some(f) = last {
+            if fits((f.depth.width(), f.depth.height())) {
+                depth = Some(f.depth);
+            }
+            // Any screen-sized image will do: the reconstruction writes every pixel.
+            if fits((f.color.width(), f.color.height())) {
+                color = Some(f.color);
+            }
+        }
+        if color.is_none() {
+            color = self
+                .spare_color
+                .take()
+                .filter(|c| fits((c.width(), c.height())));
+        }
+        let n = w as usize * h as usize;
+        let color = match color {
+            Some(c) => c,
+            None => {
+                self.screen_allocations += 1;
+                Image::from_vec(w, h, fovea_post::alloc::zeroed::<[f32; 3]>(n))?
+            }
+        };
+        let depth = match depth {
+            Some(d) => d,
+            None => {
+                self.screen_allocations += 1;
+                Image::from_vec(w, h, fovea_post::alloc::zeroed::<f32>(n))?
+            }
+        };
+        Ok((color, depth))
+    }
+
+    /// Keeps a screen colour image the screen post replaced, for the next frame.
+    pub(crate) fn keep_spare(&mut self, color: Image<Rgb>) {
+        self.spare_color = Some(color);
+    }
+
+    /// Stores the finished frame.
+    pub(crate) fn store(&mut self, frame: Frame) -> &Frame {
+        self.frame.insert(frame)
+    }
+}

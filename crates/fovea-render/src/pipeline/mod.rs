@@ -1,0 +1,509 @@
+//! One foveated frame, end to end (DESIGN.md "How a frame flows", VaFR Sec. 3.4 and 6). The
+//! frame is a short script over stage functions, each in the file of its stage:
+//!
+//! | stage | where | reads | writes |
+//! |---|---|---|---|
+//! | 1. eye state | `crate::eye` | gaze sample, tracker | [`EyeState`] |
+//! | 2. plan | `crate::plan` | settings, eye state | [`FramePlan`] (mapping, footprint, AA, culling) |
+//! | 3–4. trace, shade | [`trace_shade`] | plan, world | sample buffers |
+//! | 5. sample-space post | [`sample_post`] | plan, history | sample buffers (temporal, AA) |
+//! | 6. reconstruct | `fovea_post::inverse_map` | plan, sample buffers | screen colour + depth |
+//! | 7. screen post | [`screen_post`] | plan, screen | contrast, DOF, CoC |
+//! | 8. output | here | everything | [`Frame`], [`FrameStats`] |
+//!
+//! [`render_planned`] is the script; it reads the plan and writes into a [`FrameContext`]
+//! that keeps the buffers from frame to frame. [`render_frame`] and friends are the
+//! one-call forms for a single frame: they build the eye state, the plan and a context.
+//!
+//! Full resolution runs through the same code with the identity mapping: every pixel is a
+//! sample, no AA, the buffer is the screen.
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use fovea_core::display::{DisplayProfile, Gaze};
+use fovea_core::mapping::{FoveationMapping, MappingConfig, Method};
+use fovea_core::Image;
+use fovea_post::contrast::PeripheralContrast;
+use fovea_post::inverse_map::{reconstruct_into, SampleBuffers};
+use fovea_post::Rgb;
+
+use crate::camera::EyeCamera;
+use crate::dof::DofSettings;
+use crate::error::{RenderError, Result};
+use crate::eye::{EyeState, FocusDistance};
+use crate::plan::FramePlan;
+use crate::shade::ShadingMode;
+use crate::temporal::{TemporalAccumulator, TemporalStats};
+use crate::world::World;
+
+pub mod context;
+pub mod sample_post;
+pub mod screen_post;
+pub mod timing;
+pub mod trace_shade;
+
+pub use context::FrameContext;
+pub use fovea_core::mapping::footprint::sample_spread_rad;
+pub use timing::{Stage, StageMs, StageTimes, Stopwatch};
+
+pub use crate::plan::memory_estimate;
+
+/// Sample-space anti-aliasing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AaMode {
+    /// The method's own: FXAA for VaFR and visual-polar, Gaussian for KFR and LaFR, none
+    /// otherwise.
+    Auto,
+    /// No anti-aliasing.
+    None,
+    /// FXAA in sample space.
+    Fxaa,
+    /// 3×3 Gaussian in sample space.
+    Gaussian,
+}
+
+impl AaMode {
+    /// Parses `auto`, `none`, `fxaa`, `gaussian`.
+    pub fn parse(s: &str) -> Result<Self> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "auto" => Ok(AaMode::Auto),
+            "none" | "off" => Ok(AaMode::None),
+            "fxaa" => Ok(AaMode::Fxaa),
+            "gaussian" | "gauss" => Ok(AaMode::Gaussian),
+            _ => Err(RenderError::invalid(
+                "aa",
+                s,
+                "auto, none, fxaa or gaussian",
+            )),
+        }
+    }
+
+    /// What `Auto` means for `method`.
+    pub fn resolve(self, method: Method) -> AaMode {
+        match (self, method) {
+            (AaMode::Auto, Method::Vafr | Method::VisualPolar) => AaMode::Fxaa,
+            (AaMode::Auto, Method::Kfr | Method::Lafr) => AaMode::Gaussian,
+            (AaMode::Auto, _) => AaMode::None,
+            (m, _) => m,
+        }
+    }
+}
+
+/// Everything that decides a frame besides the scene, the camera and the eye.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameSettings {
+    /// Foveation method.
+    pub method: Method,
+    /// Parameters of every method.
+    pub mapping: MappingConfig,
+    /// Shading.
+    pub shading: ShadingMode,
+    /// Sample-space anti-aliasing.
+    pub aa: AaMode,
+    /// Also produce the sample-density view.
+    pub density_view: bool,
+    /// Refuse frames whose buffers would need more than this many bytes. Not serialised: it
+    /// follows the machine's free memory and decides no pixel.
+    #[serde(skip)]
+    pub memory_limit_bytes: u64,
+    /// Depth of field: focus policy, DOF-aware culling and the screen-space filter (`None`:
+    /// sharp). The focus value itself comes from the [`EyeState`].
+    pub dof: Option<DofSettings>,
+    /// Peripheral contrast enhancement after reconstruction (`None`: off).
+    pub contrast: Option<PeripheralContrast>,
+    /// Keep the shaded sample buffers (before AA) in [`Frame::samples`].
+    pub keep_samples: bool,
+}
+
+impl FrameSettings {
+    /// Defaults: direct shading, the method's own AA, a memory limit from
+    /// [`default_memory_limit`].
+    pub fn new(method: Method) -> Self {
+        Self {
+            method,
+            mapping: MappingConfig::default(),
+            shading: ShadingMode::Direct,
+            aa: AaMode::Auto,
+            density_view: false,
+            memory_limit_bytes: default_memory_limit(),
+            dof: None,
+            contrast: None,
+            keep_samples: false,
+        }
+    }
+
+    /// Checks every setting's range (shading, DOF, contrast, memory limit); the frame plan
+    /// calls it, so a bad setting is refused before any work.
+    pub fn validate(&self) -> Result<()> {
+        self.shading.validate()?;
+        if let Some(d) = &self.dof {
+            d.validate()?;
+        }
+        if let Some(c) = &self.contrast {
+            c.validate()?;
+        }
+        if self.memory_limit_bytes == 0 {
+            return Err(RenderError::invalid(
+                "max-memory",
+                0,
+                "a positive number of bytes, e.g. 8G",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// 80 % of the memory the OS reports available (`MemAvailable`), or 16 GiB where unknown.
+pub fn default_memory_limit() -> u64 {
+    let avail = std::fs::read_to_string("/proc/meminfo").ok().and_then(|s| {
+        s.lines()
+            .find(|l| l.starts_with("MemAvailable:"))
+            .and_then(|l| l.split_whitespace().nth(1))
+            .and_then(|kb| kb.parse::<u64>().ok())
+    });
+    avail.map_or(16 << 30, |kb| kb * 1024 / 10 * 8)
+}
+
+/// Per-frame statistics, as `fovea render` prints and writes to JSON.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameStats {
+    /// Method name.
+    pub method: String,
+    /// Display width, pixels.
+    pub width: u32,
+    /// Display height, pixels.
+    pub height: u32,
+    /// Samples the mapping shades (`sample_count()`); buffer pixels whose centre maps off the
+    /// screen (corners of layered and kernel mappings) get no ray, so `rays_primary` may be
+    /// slightly lower.
+    pub samples: u64,
+    /// Primary rays.
+    pub rays_primary: u64,
+    /// Shadow rays.
+    pub rays_shadow: u64,
+    /// Bounce rays (path-traced mode).
+    pub rays_bounce: u64,
+    /// All rays.
+    pub rays: u64,
+    /// Wall time per stage that ran, milliseconds.
+    pub stages_ms: StageMs,
+    /// Total wall time, milliseconds.
+    pub total_ms: f64,
+    /// Processor time per stage, milliseconds, summed over threads (`CLOCK_PROCESS_CPUTIME_ID`;
+    /// unlike wall time, it leaves out time the machine's hypervisor gave to other guests).
+    pub stages_cpu_ms: StageMs,
+    /// Total processor time, milliseconds, summed over threads.
+    pub total_cpu_ms: f64,
+    /// Sample buffers (width × height per layer).
+    pub buffers: Vec<[u32; 2]>,
+    /// Anti-aliasing used.
+    pub aa: AaMode,
+    /// Estimated peak memory of the frame's buffers, bytes.
+    pub memory_bytes: u64,
+    /// The eye state the frame was rendered for (gaze, focus and where it came from, pupil).
+    pub eye: EyeState,
+    /// Focus distance used for depth of field, metres (`null` without DOF and when focused at
+    /// infinity; `eye.focus` says which).
+    pub focus_m: Option<f64>,
+    /// Samples that hit a surface and were shaded.
+    pub samples_shaded: u64,
+    /// Samples that hit a surface and were culled by the DOF roulette (Liu Eq. 11).
+    pub samples_culled: u64,
+    /// The DOF filter applied, if any.
+    pub dof_filter: Option<String>,
+    /// Temporal accumulation of this frame (in a sequence with accumulation on).
+    pub temporal: Option<TemporalStats>,
+}
+
+/// A rendered frame.
+#[derive(Clone, Debug)]
+pub struct Frame {
+    /// Linear RGB at display resolution.
+    pub color: Image<Rgb>,
+    /// Depth along the view axis, metres (∞ where nothing was hit).
+    pub depth: Image<f32>,
+    /// Samples per screen pixel predicted by the mapping's shading rates (when asked).
+    pub density: Option<Image<f32>>,
+    /// Signed circle of confusion per pixel (with depth of field), pixels.
+    pub coc: Option<Image<f32>>,
+    /// Counts and timings.
+    pub stats: FrameStats,
+    /// The shaded sample buffers before AA (when [`FrameSettings::keep_samples`]).
+    pub samples: Option<SampleBuffers>,
+}
+
+/// Sample values known before tracing (e.g. warped from the other eye): texels whose `known`
+/// flag is set get no ray and keep `color` and `depth`.
+#[derive(Clone, Debug)]
+pub struct Prefill {
+    /// Colour per layer, the mapping's buffer sizes.
+    pub color: Vec<Image<Rgb>>,
+    /// Depth per layer.
+    pub depth: Vec<Image<f32>>,
+    /// Which texels are known.
+    pub known: Vec<Image<bool>>,
+}
+
+/// The eye state and plan of a single frame looking at `gaze` (focus from the settings'
+/// policy), with the time both took as the plan stage.
+pub fn plan_frame(
+    world: &World,
+    camera: &EyeCamera,
+    settings: &FrameSettings,
+    gaze: Gaze,
+    jitter_texels: [f64; 2],
+) -> Result<(FramePlan, StageTimes)> {
+    let mut times = StageTimes::default();
+    let t = Stopwatch::start();
+    settings.validate()?;
+    let eye = EyeState::fixating(world, camera, gaze, settings.dof.as_ref())?;
+    let plan = FramePlan::new(world, camera, settings, &eye, jitter_texels)?;
+    times.add(Stage::Plan, &t);
+    Ok((plan, times))
+}
+
+/// Renders one frame looking at `gaze`. `progress(done, total)` is called after each chunk of
+/// samples.
+pub fn render_frame(
+    world: &World,
+    camera: &EyeCamera,
+    settings: &FrameSettings,
+    gaze: Gaze,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<Frame> {
+    let (plan, times) = plan_frame(world, camera, settings, gaze, [0.0, 0.0])?;
+    let mut ctx = FrameContext::new();
+    render_planned(
+        &mut ctx,
+        world,
+        camera,
+        &plan,
+        FrameInputs::default(),
+        times,
+        progress,
+    )?;
+    Ok(ctx.take_frame().expect("rendered above"))
+}
+
+/// Renders one frame for a given eye state (gaze and focus already decided, e.g. a frame of a
+/// sequence rendered again with other settings).
+pub fn render_for_eye(
+    world: &World,
+    camera: &EyeCamera,
+    settings: &FrameSettings,
+    eye: &EyeState,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<Frame> {
+    let mut times = StageTimes::default();
+    let t = Stopwatch::start();
+    let plan = FramePlan::new(world, camera, settings, eye, [0.0, 0.0])?;
+    times.add(Stage::Plan, &t);
+    let mut ctx = FrameContext::new();
+    render_planned(
+        &mut ctx,
+        world,
+        camera,
+        &plan,
+        FrameInputs::default(),
+        times,
+        progress,
+    )?;
+    Ok(ctx.take_frame().expect("rendered above"))
+}
+
+/// Renders the next frame of a sequence with temporal accumulation, looking at `gaze`:
+/// samples jittered in sample space, the previous frame (kept in `accumulator`) reprojected
+/// and folded into the fresh samples before AA, and this frame kept for the next.
+pub fn render_frame_temporal(
+    world: &World,
+    camera: &EyeCamera,
+    settings: &FrameSettings,
+    gaze: Gaze,
+    accumulator: &mut TemporalAccumulator,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<Frame> {
+    let jitter = accumulator.jitter(settings.method);
+    let (plan, times) = plan_frame(world, camera, settings, gaze, jitter)?;
+    let mut ctx = FrameContext::new();
+    let inputs = FrameInputs {
+        accumulator: Some(accumulator),
+        prefill: None,
+    };
+    render_planned(&mut ctx, world, camera, &plan, inputs, times, progress)?;
+    Ok(ctx.take_frame().expect("rendered above"))
+}
+
+/// What a frame takes besides its plan: the temporal history, and texels known before
+/// tracing.
+#[derive(Default)]
+pub struct FrameInputs<'a> {
+    /// Temporal accumulation: the history to fold in, and to keep this frame in. The plan's
+    /// jitter should be the accumulator's ([`TemporalAccumulator::jitter`]).
+    pub accumulator: Option<&'a mut TemporalAccumulator>,
+    /// Sample values known before tracing (binocular reprojection): only the other texels
+    /// get rays.
+    pub prefill: Option<&'a Prefill>,
+}
+
+/// Renders the frame of `plan` into `ctx` (reusing its buffers) and returns it. `times`
+/// holds the time already spent on the frame (its plan); the stages add theirs.
+pub fn render_planned<'c>(
+    ctx: &'c mut FrameContext,
+    world: &World,
+    camera: &EyeCamera,
+    plan: &FramePlan,
+    inputs: FrameInputs<'_>,
+    mut times: StageTimes,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<&'c Frame> {
+    let t_total = Stopwatch::start();
+    let FrameInputs {
+        mut accumulator,
+        prefill,
+    } = inputs;
+    if camera.display != plan.display {
+        return Err(RenderError::invalid(
+            "camera",
+            &camera.display.name,
+            format!("the display the plan was made for ({})", plan.display.name),
+        ));
+    }
+    let known = prefill.map(|p| p.known.as_slice());
+
+    // 3–4. Trace and shade into the sample buffers.
+    let samples = ctx.samples_for(plan, prefill)?;
+    let counts =
+        trace_shade::trace_and_shade(world, camera, plan, known, samples, &mut times, progress)?;
+
+    // 5. Sample-space post: temporal accumulation, then anti-aliasing.
+    let temporal = match accumulator.as_deref_mut() {
+        Some(acc) => {
+            let t = Stopwatch::start();
+            let s = sample_post::accumulate(plan, camera, acc, samples)?;
+            times.add(Stage::Temporal, &t);
+            Some(s)
+        }
+        None => None,
+    };
+    let kept_samples = plan.settings.keep_samples.then(|| samples.clone());
+    times.time(Stage::Aa, || {
+        sample_post::anti_alias(plan, &mut samples.color)
+    });
+
+    // 6. Reconstruct into the context's screen buffers.
+    let (mut color, mut depth) = ctx.screen_buffers(&plan.display)?;
+    let samples = ctx.samples_for_reconstruct();
+    let t = Stopwatch::start();
+    reconstruct_into(
+        plan.mapping(),
+        &plan.display,
+        samples,
+        &mut color,
+        &mut depth,
+    )?;
+    times.add(Stage::Reconstruct, &t);
+    if let Some(acc) = accumulator {
+        let t = Stopwatch::start();
+        acc.finish(plan, camera, &color, &depth)?;
+        times.add(Stage::Temporal, &t);
+    }
+
+    // 7. Screen post: peripheral contrast, then depth of field.
+    let t = Stopwatch::start();
+    if let Some(enhanced) = screen_post::contrast(plan, &color)? {
+        ctx.keep_spare(std::mem::replace(&mut color, enhanced));
+        times.add(Stage::Contrast, &t);
+    }
+    let t = Stopwatch::start();
+    let coc = match screen_post::depth_of_field(plan, camera, &color, &depth)? {
+        Some((blurred, coc)) => {
+            ctx.keep_spare(std::mem::replace(&mut color, blurred));
+            times.add(Stage::Dof, &t);
+            Some(coc)
+        }
+        None => None,
+    };
+
+    // 8. Output.
+    let density = if plan.settings.density_view {
+        Some(density_view(plan.mapping(), &plan.display, &plan.eye.gaze)?)
+    } else {
+        None
+    };
+    let (total_ms, total_cpu_ms) = t_total.elapsed_ms();
+    let stats = frame_stats(plan, counts, times, temporal, total_ms, total_cpu_ms);
+    Ok(ctx.store(Frame {
+        color,
+        depth,
+        density,
+        coc,
+        stats,
+        samples: kept_samples,
+    }))
+}
+
+/// The frame's statistics from its plan, the trace's counts and the stage times (`total_*`
+/// are the stages' wall and CPU time after the plan, to which the plan's are added).
+fn frame_stats(
+    plan: &FramePlan,
+    counts: trace_shade::TraceCounts,
+    times: StageTimes,
+    temporal: Option<TemporalStats>,
+    total_ms: f64,
+    total_cpu_ms: f64,
+) -> FrameStats {
+    let settings = &plan.settings;
+    let focus = plan.settings.dof.as_ref().and(plan.eye.focus);
+    FrameStats {
+        method: settings.method.name().to_string(),
+        width: plan.display.width_px,
+        height: plan.display.height_px,
+        samples: plan.sample_count,
+        rays_primary: counts.primary,
+        rays_shadow: counts.secondary.shadow,
+        rays_bounce: counts.secondary.bounce,
+        rays: counts.primary + counts.secondary.shadow + counts.secondary.bounce,
+        total_ms: total_ms + times.wall.get(Stage::Plan),
+        total_cpu_ms: total_cpu_ms + times.cpu.get(Stage::Plan),
+        stages_ms: times.wall,
+        stages_cpu_ms: times.cpu,
+        buffers: plan.buffers.iter().map(|b| [b.width, b.height]).collect(),
+        aa: plan.aa,
+        memory_bytes: plan.memory_bytes,
+        eye: plan.eye,
+        focus_m: focus.and_then(FocusDistance::finite_m),
+        samples_shaded: counts.shaded,
+        samples_culled: counts.culled,
+        dof_filter: settings
+            .dof
+            .as_ref()
+            .and_then(|d| d.filter.map(|k| k.name().to_string())),
+        temporal,
+    }
+}
+
+/// Samples per screen pixel predicted by the mapping's rates: `ρ_r ρ_t / (ppd(e)/2)²`.
+pub fn density_view(
+    mapping: &dyn FoveationMapping,
+    display: &DisplayProfile,
+    gaze: &Gaze,
+) -> Result<Image<f32>> {
+    let (w, h) = (display.width_px, display.height_px);
+    let mut img = Image::new(w, h, 0.0f32)?;
+    img.data_mut()
+        .par_chunks_mut(w as usize)
+        .enumerate()
+        .for_each(|(y, row)| {
+            for (x, v) in row.iter_mut().enumerate() {
+                let p = fovea_core::units::ScreenPoint::new(x as f64 + 0.5, y as f64 + 0.5);
+                let e = display.eccentricity(p, gaze).0;
+                let screen = display.rectilinear_ppd(fovea_core::units::Degrees(e)) / 2.0;
+                let rr = mapping.radial_rate_cpd(e).clamp(0.0, 1e6);
+                let rt = mapping.tangential_rate_cpd(e).clamp(0.0, 1e6);
+                *v = (rr * rt / (screen * screen)) as f32;
+            }
+        });
+    Ok(img)
+}

@@ -1,0 +1,245 @@
+//! Stages 3–4 of the frame (DESIGN.md "How a frame flows"): **trace** and **shade**.
+//!
+//! For every shaded buffer pixel its centre (plus the plan's jitter) goes through the inverse
+//! mapping to a screen point, which gets one primary ray (so an LP method casts exactly
+//! `sample_count()` rays, less the texels whose centre maps off the screen); the closest hit
+//! becomes a G-buffer record ([`trace_chunk`]). Each record is then shaded — direct light with
+//! shadow rays, or path tracing — unless the DOF roulette (Liu Eq. 11) culls it, and scattered
+//! into the sample buffers ([`shade_chunk`]). Culled samples get their colour from their
+//! shaded neighbours afterwards (`crate::cull_fill`).
+//!
+//! Both run chunk by chunk ([`crate::plan::CHUNK_SAMPLES`] samples, whole rows), samples in
+//! tiles of [`crate::plan::TRACE_TILE`]² texels, so G-buffer memory stays bounded at any
+//! resolution and consecutive rays of a thread meet the same BVH nodes and texels.
+//!
+//! **Sample footprint.** Each sample's ray cone angle comes from the plan's
+//! [`SampleFootprint`](fovea_core::mapping::footprint::SampleFootprint): one pixel at full
+//! resolution, one value per polar column, otherwise the per-sample formula.
+
+use rayon::prelude::*;
+
+use fovea_core::mapping::SamplePoint;
+use fovea_core::Image;
+use fovea_post::inverse_map::SampleBuffers;
+use fovea_post::Rgb;
+
+use super::timing::{Stage, StageTimes, Stopwatch};
+use crate::camera::EyeCamera;
+use crate::cull_fill::{fill_culled, shade_or_cull, CullBuffers, SampleCull};
+use crate::error::Result;
+use crate::plan::FramePlan;
+use crate::shade::{shade, RayCounts};
+use crate::trace::{trace_sample, GSample};
+use crate::world::World;
+
+/// What the trace and shade stages did.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct TraceCounts {
+    /// Primary rays cast.
+    pub primary: u64,
+    /// Shadow and bounce rays.
+    pub secondary: RayCounts,
+    /// Samples that hit a surface and were shaded.
+    pub shaded: u64,
+    /// Samples that hit a surface and were culled by the DOF roulette.
+    pub culled: u64,
+}
+
+/// One chunk of a layer: rows `j0 ..` of buffer `layer`, `row_len` texels wide, visited in
+/// `order` (indices into the chunk).
+#[derive(Clone, Copy)]
+pub struct Chunk<'a> {
+    /// Layer.
+    pub layer: u32,
+    /// First row.
+    pub j0: u32,
+    /// Row length, texels.
+    pub row_len: usize,
+    /// Visit order of the chunk's texels (tiles).
+    pub order: &'a [u32],
+}
+
+/// Trace: one G-buffer record per texel of `chunk` that the mapping shades, that is not
+/// `known` already and whose centre maps onto the screen; `None` for the others.
+pub fn trace_chunk(
+    world: &World,
+    camera: &EyeCamera,
+    plan: &FramePlan,
+    chunk: Chunk<'_>,
+    known: Option<&Image<bool>>,
+    gbuf: &mut Vec<Option<GSample>>,
+) {
+    let mapping = plan.mapping();
+    let (display, gaze, jitter) = (&plan.display, &plan.eye.gaze, plan.jitter_texels);
+    let Chunk {
+        layer,
+        j0,
+        row_len,
+        order,
+    } = chunk;
+    order
+        .par_iter()
+        .map(|&k| {
+            let k = k as usize;
+            let (i, j) = ((k % row_len) as u32, j0 + (k / row_len) as u32);
+            if !mapping.is_shaded(layer, i, j) || known.is_some_and(|m| *m.get(i, j)) {
+                return None;
+            }
+            let s = SamplePoint {
+                layer,
+                u: i as f64 + 0.5 + jitter[0],
+                v: j as f64 + 0.5 + jitter[1],
+            };
+            let p = mapping.inverse(s)?;
+            let spread = plan.footprint.spread_rad(mapping, display, gaze, i, p);
+            Some(trace_sample(world, &camera.ray(p), spread))
+        })
+        .collect_into_vec(gbuf);
+}
+
+/// Shade: every record of `gbuf` (in `chunk.order`) shaded, or culled by the plan's DOF
+/// roulette, and scattered into the chunk's colour and depth (`color`, `depth`: the chunk's
+/// rows). Records the cull state of each sample in `cull_state` when culling.
+#[allow(clippy::too_many_arguments)]
+pub fn shade_chunk(
+    world: &World,
+    camera: &EyeCamera,
+    plan: &FramePlan,
+    chunk: Chunk<'_>,
+    gbuf: &[Option<GSample>],
+    color: &mut [Rgb],
+    depth: &mut [f32],
+    mut cull_state: Option<&mut CullBuffers>,
+    counts: &mut TraceCounts,
+) {
+    let Chunk {
+        layer,
+        j0,
+        row_len,
+        order,
+    } = chunk;
+    let shading = plan.settings.shading;
+    let cull = plan.culling.as_ref();
+    type Shaded = (Option<Rgb>, f32, Option<SampleCull>, RayCounts);
+    let shaded: Vec<Option<Shaded>> = order
+        .par_iter()
+        .zip(gbuf.par_iter())
+        .map(|(&k, g)| {
+            let g = g.as_ref()?;
+            let mut rc = RayCounts::default();
+            let key = ((layer as u64) << 48) ^ ((j0 as u64 * row_len as u64) + k as u64);
+            let depth = camera.view_depth(-g.to_eye, g.t);
+            if let Some(culling) = cull {
+                let (i, j) = (k % row_len as u32, j0 + k / row_len as u32);
+                let keep = culling.keep(depth, i, j, key);
+                let (v, info) = shade_or_cull(world, g, shading, keep, key, &mut rc);
+                return Some((v.map(|v| v.to_array()), depth, Some(info), rc));
+            }
+            let v = shade(world, g, shading, key, &mut rc);
+            Some((Some(v.to_array()), depth, None, rc))
+        })
+        .collect();
+    let chunk_start = j0 as usize * row_len;
+    for (&k, s) in order.iter().zip(shaded) {
+        let Some((c, d, info, rc)) = s else {
+            continue;
+        };
+        depth[k as usize] = d;
+        counts.secondary += rc;
+        let state = match c {
+            Some(c) => {
+                color[k as usize] = c;
+                if d.is_finite() {
+                    counts.shaded += 1;
+                    1
+                } else {
+                    0
+                }
+            }
+            None => {
+                counts.culled += 1;
+                2
+            }
+        };
+        if let (Some(cb), Some(info)) = (cull_state.as_deref_mut(), info) {
+            cb.record(chunk_start + k as usize, state, info);
+        }
+    }
+}
+
+/// Trace and shade every layer of the plan into `samples` (sized and reset for the plan, or
+/// holding the prefilled texels of `known`), chunk by chunk; then fill culled samples.
+/// `progress(done, total)` is called after each chunk.
+pub fn trace_and_shade(
+    world: &World,
+    camera: &EyeCamera,
+    plan: &FramePlan,
+    known: Option<&[Image<bool>]>,
+    samples: &mut SampleBuffers,
+    times: &mut StageTimes,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<TraceCounts> {
+    let total = plan.sample_count;
+    let mut counts = TraceCounts::default();
+    let mut gbuf = Vec::new();
+    for (layer, size) in plan.buffers.iter().enumerate() {
+        let (bw, bh) = (size.width, size.height);
+        let known = known.map(|k| &k[layer]);
+        let mut cull_state = match plan.culling {
+            Some(_) => Some(CullBuffers::new(bw, bh)?),
+            None => None,
+        };
+        let rows_per_chunk = plan.tiles.rows_per_chunk(bw);
+        let row_len = bw as usize;
+        let chunk_order = plan.tiles.order(row_len, rows_per_chunk);
+        let (color, depth) = (&mut samples.color[layer], &mut samples.depth[layer]);
+        for (chunk_idx, (c_chunk, d_chunk)) in color
+            .data_mut()
+            .chunks_mut(rows_per_chunk * row_len)
+            .zip(depth.data_mut().chunks_mut(rows_per_chunk * row_len))
+            .enumerate()
+        {
+            let rows = c_chunk.len() / row_len;
+            let last_order;
+            let order = if rows == rows_per_chunk {
+                &chunk_order
+            } else {
+                last_order = plan.tiles.order(row_len, rows);
+                &last_order
+            };
+            let chunk = Chunk {
+                layer: layer as u32,
+                j0: (chunk_idx * rows_per_chunk) as u32,
+                row_len,
+                order,
+            };
+            let t = Stopwatch::start();
+            trace_chunk(world, camera, plan, chunk, known, &mut gbuf);
+            times.add(Stage::Trace, &t);
+            counts.primary += gbuf.iter().filter(|g| g.is_some()).count() as u64;
+
+            let t = Stopwatch::start();
+            let cs = cull_state.as_mut();
+            shade_chunk(
+                world,
+                camera,
+                plan,
+                chunk,
+                &gbuf,
+                c_chunk,
+                d_chunk,
+                cs,
+                &mut counts,
+            );
+            times.add(Stage::Shade, &t);
+            progress(counts.primary.min(total), total);
+        }
+        // Culled samples get their colour from the shaded ones before any filtering.
+        if let Some(cb) = cull_state.filter(|cb| cb.state.data().contains(&2)) {
+            let t = Stopwatch::start();
+            samples.color[layer] = fill_culled(&samples.color[layer], &samples.depth[layer], &cb)?;
+            times.add(Stage::CullFill, &t);
+        }
+    }
+    Ok(counts)
+}

@@ -1,0 +1,269 @@
+//! The frame plan (DESIGN.md "How a frame flows", stage 2): everything about a frame that is
+//! decided before the first ray — the foveation mapping for this eye state, its footprint and
+//! spacing tables, the resolved anti-aliasing, the DOF culling limits at the eye's focus, the
+//! sample-space jitter, the tiling of the trace and the memory it will need.
+//!
+//! A plan is built once per eye per frame ([`FramePlan::new`]) and every stage reads it: the
+//! trace, temporal accumulation, reconstruction, stereo reprojection and the screen post never
+//! build a mapping of their own. It is data: [`serde::Serialize`] writes it (minus the
+//! mapping's internal tables, which its method, parameters, display and gaze determine) so it
+//! can be logged, diffed and handed to another executor.
+
+use std::sync::Arc;
+
+use serde::Serialize;
+
+use fovea_core::display::DisplayProfile;
+use fovea_core::mapping::footprint::{SampleFootprint, SpacingLut};
+use fovea_core::mapping::{build, BufferSize, FoveationMapping, Method};
+use fovea_post::Rgb;
+
+use crate::camera::EyeCamera;
+use crate::dof::Culling;
+use crate::error::{RenderError, Result};
+use crate::eye::EyeState;
+use crate::pipeline::{AaMode, FrameSettings};
+use crate::trace::GSample;
+use crate::world::World;
+
+/// Samples per trace/shade chunk: G-buffer memory stays bounded at any resolution.
+pub const CHUNK_SAMPLES: usize = 1 << 18;
+
+/// Side of the square tiles in which samples are traced and shaded, so that consecutive rays
+/// of a thread meet the same BVH nodes, triangles and texels.
+pub const TRACE_TILE: usize = 16;
+
+/// How the trace walks a buffer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct TileOrder {
+    /// Tile side, buffer pixels.
+    pub tile_px: usize,
+    /// Samples per chunk (whole buffer rows).
+    pub chunk_samples: usize,
+}
+
+impl TileOrder {
+    /// Indices `j·width + i` of a `width × height` block, tile by tile (row-major inside a tile
+    /// and across tiles).
+    pub fn order(&self, width: usize, height: usize) -> Vec<u32> {
+        let t = self.tile_px.max(1);
+        let mut order = Vec::with_capacity(width * height);
+        for tj in (0..height).step_by(t) {
+            for ti in (0..width).step_by(t) {
+                for j in tj..(tj + t).min(height) {
+                    for i in ti..(ti + t).min(width) {
+                        order.push((j * width + i) as u32);
+                    }
+                }
+            }
+        }
+        order
+    }
+
+    /// Rows of a `width`-wide buffer per chunk.
+    pub fn rows_per_chunk(&self, width: u32) -> usize {
+        (self.chunk_samples / width.max(1) as usize).max(1)
+    }
+}
+
+/// One eye's frame, decided.
+#[derive(Clone, Serialize)]
+pub struct FramePlan {
+    /// The settings the frame is rendered with.
+    pub settings: FrameSettings,
+    /// The eye: gaze (the mapping's centre), focus, pupil.
+    pub eye: EyeState,
+    /// The display.
+    pub display: DisplayProfile,
+    /// The method's mapping for this display and gaze, built once.
+    #[serde(skip)]
+    mapping: Arc<dyn FoveationMapping>,
+    /// Sample buffers (one per layer).
+    pub buffers: Vec<BufferSize>,
+    /// Samples the mapping shades.
+    pub sample_count: u64,
+    /// Sample-space anti-aliasing, resolved for the method.
+    pub aa: AaMode,
+    /// Sub-texel jitter of every sample (temporal accumulation), buffer texels.
+    pub jitter_texels: [f64; 2],
+    /// Ray-cone angle of the samples.
+    pub footprint: SampleFootprint,
+    /// Sample spacing in pixels by eccentricity (temporal accumulation, contrast).
+    pub spacing: SpacingLut,
+    /// DOF-aware culling at the eye's focus (with `dof.cull`).
+    pub culling: Option<Culling>,
+    /// How the trace walks the buffers.
+    pub tiles: TileOrder,
+    /// Estimated peak memory of the frame's buffers, bytes.
+    pub memory_bytes: u64,
+}
+
+impl std::fmt::Debug for FramePlan {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FramePlan")
+            .field("method", &self.settings.method)
+            .field("eye", &self.eye)
+            .field("buffers", &self.buffers)
+            .field("sample_count", &self.sample_count)
+            .field("aa", &self.aa)
+            .field("memory_bytes", &self.memory_bytes)
+            .finish_non_exhaustive()
+    }
+}
+
+impl FramePlan {
+    /// The plan of a frame of `settings` seen by `camera` with `eye`, its samples jittered by
+    /// `jitter_texels` (zero outside temporal accumulation). Validates the settings, builds the
+    /// mapping at the eye's gaze, and refuses a frame whose buffers would exceed
+    /// `settings.memory_limit_bytes`.
+    pub fn new(
+        world: &World,
+        camera: &EyeCamera,
+        settings: &FrameSettings,
+        eye: &EyeState,
+        jitter_texels: [f64; 2],
+    ) -> Result<Self> {
+        settings.validate()?;
+        if !jitter_texels
+            .iter()
+            .all(|j| j.is_finite() && j.abs() <= 0.5)
+        {
+            return Err(RenderError::invalid(
+                "jitter",
+                format!("{jitter_texels:?}"),
+                "sub-texel offsets in [-0.5, 0.5]",
+            ));
+        }
+        let display = &camera.display;
+        let mapping: Arc<dyn FoveationMapping> = Arc::from(build(
+            settings.method,
+            display,
+            eye.gaze,
+            &settings.mapping,
+        )?);
+        let mut memory = memory_estimate(mapping.as_ref(), display, settings.density_view);
+        if settings.dof.is_some() {
+            // CoC map and the filtered image.
+            memory += display.pixel_count() * (4 + std::mem::size_of::<Rgb>() as u64);
+        }
+        if memory > settings.memory_limit_bytes {
+            return Err(RenderError::ResourceLimit {
+                what: format!(
+                    "a {} frame at {}x{}",
+                    settings.method, display.width_px, display.height_px
+                ),
+                needed: format!("{:.2} GiB", memory as f64 / (1u64 << 30) as f64),
+                limit: format!(
+                    "{:.2} GiB (set with --max-memory)",
+                    settings.memory_limit_bytes as f64 / (1u64 << 30) as f64
+                ),
+            });
+        }
+        let focus_m = eye.focus.map(|f| f.metres());
+        let mut dof = settings.dof.clone();
+        if let (Some(d), Some(p)) = (dof.as_mut(), eye.pupil_mm) {
+            d.eye.pupil = fovea_core::units::Millimetres(p);
+        }
+        let culling = match (&dof, focus_m) {
+            (Some(d), Some(f)) if d.cull => Some(Culling::new(d, camera, world, f)?),
+            (Some(d), None) if d.cull || d.filter.is_some() => {
+                return Err(RenderError::invalid(
+                    "eye focus",
+                    "none",
+                    "a focus distance for a frame with depth of field (EyeState::fixating or an EyeTracker gives one)",
+                ))
+            }
+            _ => None,
+        };
+        let mut settings = settings.clone();
+        settings.dof = dof;
+        Ok(Self {
+            buffers: mapping.buffers(),
+            sample_count: mapping.sample_count(),
+            aa: settings.aa.resolve(settings.method),
+            jitter_texels,
+            footprint: SampleFootprint::new(mapping.as_ref(), display, &eye.gaze),
+            spacing: SpacingLut::new(mapping.as_ref(), display, eye.gaze),
+            culling,
+            tiles: TileOrder {
+                tile_px: TRACE_TILE,
+                chunk_samples: CHUNK_SAMPLES,
+            },
+            memory_bytes: memory,
+            display: display.clone(),
+            eye: *eye,
+            settings,
+            mapping,
+        })
+    }
+
+    /// The mapping.
+    pub fn mapping(&self) -> &dyn FoveationMapping {
+        self.mapping.as_ref()
+    }
+
+    /// The mapping, shared (for a history that outlives the frame).
+    pub fn shared_mapping(&self) -> Arc<dyn FoveationMapping> {
+        Arc::clone(&self.mapping)
+    }
+
+    /// The method.
+    pub fn method(&self) -> Method {
+        self.settings.method
+    }
+
+    /// The focus distance for the optics, metres (`None` without depth of field).
+    pub fn focus_m(&self) -> Option<f64> {
+        self.settings
+            .dof
+            .as_ref()
+            .and(self.eye.focus)
+            .map(|f| f.metres())
+    }
+
+    /// The plan as pretty JSON.
+    pub fn to_json(&self) -> Result<String> {
+        serde_json::to_string_pretty(self)
+            .map_err(|e| RenderError::Unsupported(format!("cannot serialise the plan: {e}")))
+    }
+}
+
+/// Bytes a frame of `mapping` on `display` needs at its peak: sample buffers (colour + depth,
+/// twice during AA), the screen image and depth, the density view, and one chunk of G-buffer.
+pub fn memory_estimate(
+    mapping: &dyn FoveationMapping,
+    display: &DisplayProfile,
+    density: bool,
+) -> u64 {
+    let screen = display.pixel_count();
+    let buf: u64 = mapping.buffers().iter().map(|b| b.pixels()).sum();
+    let per_px = (std::mem::size_of::<Rgb>() + 4) as u64;
+    let gbuf = (CHUNK_SAMPLES * (std::mem::size_of::<GSample>() + 16)) as u64;
+    let samples = if mapping.method() == Method::Full {
+        screen * per_px
+    } else {
+        2 * buf * per_px + screen * per_px
+    };
+    samples + if density { screen * 4 } else { 0 } + gbuf
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tile_order_visits_every_index_once() {
+        let t = TileOrder {
+            tile_px: 16,
+            chunk_samples: 1 << 10,
+        };
+        for (w, h) in [(1, 1), (17, 5), (40, 33)] {
+            let mut o = t.order(w, h);
+            assert_eq!(o.len(), w * h);
+            o.sort_unstable();
+            assert!(o.iter().enumerate().all(|(k, &v)| k as u32 == v));
+        }
+        assert_eq!(t.rows_per_chunk(100), 10);
+        assert_eq!(t.rows_per_chunk(5000), 1);
+    }
+}
