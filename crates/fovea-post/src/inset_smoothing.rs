@@ -220,6 +220,48 @@ impl Smoothing {
     pub const LAPLACIAN: Smoothing = Smoothing::LaplacianPyramid {
         levels: LAPLACIAN_LEVELS,
     };
+
+    /// Every method with the paper's parameters, with its name, in the paper's order.
+    pub const ALL: [(&'static str, Smoothing); 7] = [
+        ("none", Smoothing::None),
+        ("alpha-blend", Smoothing::ALPHA_BLEND),
+        ("gaussian-1d", Smoothing::Gaussian1d),
+        ("gaussian-2d", Smoothing::Gaussian2d),
+        (
+            "gaussian-1d-alpha",
+            Smoothing::GaussianAlpha {
+                kernel: GaussianKernel::OneD,
+            },
+        ),
+        (
+            "gaussian-2d-alpha",
+            Smoothing::GaussianAlpha {
+                kernel: GaussianKernel::TwoD,
+            },
+        ),
+        ("laplacian", Smoothing::LAPLACIAN),
+    ];
+
+    /// The name of a method of [`ALL`](Self::ALL) (`custom` for other parameters).
+    pub fn name(self) -> &'static str {
+        Self::ALL
+            .iter()
+            .find(|(_, m)| *m == self)
+            .map_or("custom", |(n, _)| n)
+    }
+
+    /// Parses a name of [`ALL`](Self::ALL).
+    pub fn parse(text: &str) -> Result<Self> {
+        let t = text.trim().to_ascii_lowercase();
+        Self::ALL
+            .iter()
+            .find(|(n, _)| *n == t)
+            .map(|(_, m)| *m)
+            .ok_or_else(|| {
+                let names: Vec<&str> = Self::ALL.iter().map(|(n, _)| *n).collect();
+                FoveaError::invalid("inset-smoothing", text, names.join(", "))
+            })
+    }
 }
 
 /// Bilinear upsampling by an integer `factor` with pixel centres aligned, edges clamped.

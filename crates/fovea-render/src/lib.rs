@@ -27,6 +27,7 @@ pub mod pipeline;
 pub mod plan;
 pub mod scene;
 pub mod sequence;
+pub mod settings;
 pub mod shade;
 pub mod stereo;
 pub mod temporal;

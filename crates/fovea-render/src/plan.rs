@@ -22,7 +22,7 @@ use crate::camera::EyeCamera;
 use crate::dof::Culling;
 use crate::error::{RenderError, Result};
 use crate::eye::EyeState;
-use crate::pipeline::{AaMode, FrameSettings};
+use crate::settings::{AaMode, FrameSettings};
 use crate::trace::GSample;
 use crate::world::World;
 

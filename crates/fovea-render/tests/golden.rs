@@ -191,6 +191,11 @@ fn cases() -> Vec<Case> {
         }),
         case("guenter", |s| method(s, Method::Guenter, off_centre())),
         case("inset", |s| method(s, Method::Inset, off_centre())),
+        case("inset-hard", |s| {
+            let mut f = FrameSettings::new(Method::Inset);
+            f.inset_smoothing = fovea_post::inset_smoothing::Smoothing::None;
+            frame(s, &f, off_centre())
+        }),
         case("weier", |s| method(s, Method::Weier, off_centre())),
         case("vafr-no-aa", |s| {
             let mut f = FrameSettings::new(Method::Vafr);

@@ -22,22 +22,20 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use fovea_core::display::{DisplayProfile, Gaze};
-use fovea_core::mapping::{FoveationMapping, MappingConfig, Method};
+use fovea_core::mapping::FoveationMapping;
 use fovea_core::Image;
-use fovea_post::contrast::PeripheralContrast;
-use fovea_post::inverse_map::{reconstruct_into, SampleBuffers};
+use fovea_post::inverse_map::SampleBuffers;
 use fovea_post::Rgb;
 
 use crate::camera::EyeCamera;
-use crate::dof::DofSettings;
 use crate::error::{RenderError, Result};
 use crate::eye::{EyeState, FocusDistance};
 use crate::plan::FramePlan;
-use crate::shade::ShadingMode;
 use crate::temporal::{TemporalAccumulator, TemporalStats};
 use crate::world::World;
 
 pub mod context;
+pub mod reconstruct;
 pub mod sample_post;
 pub mod screen_post;
 pub mod timing;
@@ -49,122 +47,7 @@ pub use timing::{Stage, StageMs, StageTimes, Stopwatch};
 
 pub use crate::plan::memory_estimate;
 
-/// Sample-space anti-aliasing.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum AaMode {
-    /// The method's own: FXAA for VaFR and visual-polar, Gaussian for KFR and LaFR, none
-    /// otherwise.
-    Auto,
-    /// No anti-aliasing.
-    None,
-    /// FXAA in sample space.
-    Fxaa,
-    /// 3×3 Gaussian in sample space.
-    Gaussian,
-}
-
-impl AaMode {
-    /// Parses `auto`, `none`, `fxaa`, `gaussian`.
-    pub fn parse(s: &str) -> Result<Self> {
-        match s.trim().to_ascii_lowercase().as_str() {
-            "auto" => Ok(AaMode::Auto),
-            "none" | "off" => Ok(AaMode::None),
-            "fxaa" => Ok(AaMode::Fxaa),
-            "gaussian" | "gauss" => Ok(AaMode::Gaussian),
-            _ => Err(RenderError::invalid(
-                "aa",
-                s,
-                "auto, none, fxaa or gaussian",
-            )),
-        }
-    }
-
-    /// What `Auto` means for `method`.
-    pub fn resolve(self, method: Method) -> AaMode {
-        match (self, method) {
-            (AaMode::Auto, Method::Vafr | Method::VisualPolar) => AaMode::Fxaa,
-            (AaMode::Auto, Method::Kfr | Method::Lafr) => AaMode::Gaussian,
-            (AaMode::Auto, _) => AaMode::None,
-            (m, _) => m,
-        }
-    }
-}
-
-/// Everything that decides a frame besides the scene, the camera and the eye.
-#[derive(Clone, Debug, Serialize)]
-pub struct FrameSettings {
-    /// Foveation method.
-    pub method: Method,
-    /// Parameters of every method.
-    pub mapping: MappingConfig,
-    /// Shading.
-    pub shading: ShadingMode,
-    /// Sample-space anti-aliasing.
-    pub aa: AaMode,
-    /// Also produce the sample-density view.
-    pub density_view: bool,
-    /// Refuse frames whose buffers would need more than this many bytes. Not serialised: it
-    /// follows the machine's free memory and decides no pixel.
-    #[serde(skip)]
-    pub memory_limit_bytes: u64,
-    /// Depth of field: focus policy, DOF-aware culling and the screen-space filter (`None`:
-    /// sharp). The focus value itself comes from the [`EyeState`].
-    pub dof: Option<DofSettings>,
-    /// Peripheral contrast enhancement after reconstruction (`None`: off).
-    pub contrast: Option<PeripheralContrast>,
-    /// Keep the shaded sample buffers (before AA) in [`Frame::samples`].
-    pub keep_samples: bool,
-}
-
-impl FrameSettings {
-    /// Defaults: direct shading, the method's own AA, a memory limit from
-    /// [`default_memory_limit`].
-    pub fn new(method: Method) -> Self {
-        Self {
-            method,
-            mapping: MappingConfig::default(),
-            shading: ShadingMode::Direct,
-            aa: AaMode::Auto,
-            density_view: false,
-            memory_limit_bytes: default_memory_limit(),
-            dof: None,
-            contrast: None,
-            keep_samples: false,
-        }
-    }
-
-    /// Checks every setting's range (shading, DOF, contrast, memory limit); the frame plan
-    /// calls it, so a bad setting is refused before any work.
-    pub fn validate(&self) -> Result<()> {
-        self.shading.validate()?;
-        if let Some(d) = &self.dof {
-            d.validate()?;
-        }
-        if let Some(c) = &self.contrast {
-            c.validate()?;
-        }
-        if self.memory_limit_bytes == 0 {
-            return Err(RenderError::invalid(
-                "max-memory",
-                0,
-                "a positive number of bytes, e.g. 8G",
-            ));
-        }
-        Ok(())
-    }
-}
-
-/// 80 % of the memory the OS reports available (`MemAvailable`), or 16 GiB where unknown.
-pub fn default_memory_limit() -> u64 {
-    let avail = std::fs::read_to_string("/proc/meminfo").ok().and_then(|s| {
-        s.lines()
-            .find(|l| l.starts_with("MemAvailable:"))
-            .and_then(|l| l.split_whitespace().nth(1))
-            .and_then(|kb| kb.parse::<u64>().ok())
-    });
-    avail.map_or(16 << 30, |kb| kb * 1024 / 10 * 8)
-}
+pub use crate::settings::{default_memory_limit, AaMode, FrameSettings};
 
 /// Per-frame statistics, as `fovea render` prints and writes to JSON.
 #[derive(Clone, Debug, Serialize)]
@@ -215,6 +98,9 @@ pub struct FrameStats {
     pub dof_filter: Option<String>,
     /// Temporal accumulation of this frame (in a sequence with accumulation on).
     pub temporal: Option<TemporalStats>,
+    /// The inset boundary smoothing applied (inset frames whose periphery is an exact 2× or 4×
+    /// subsampling of the screen; `null` otherwise).
+    pub inset_smoothing: Option<String>,
 }
 
 /// A rendered frame.
@@ -396,13 +282,7 @@ pub fn render_planned<'c>(
     let (mut color, mut depth) = ctx.screen_buffers(&plan.display)?;
     let samples = ctx.samples_for_reconstruct();
     let t = Stopwatch::start();
-    reconstruct_into(
-        plan.mapping(),
-        &plan.display,
-        samples,
-        &mut color,
-        &mut depth,
-    )?;
+    let inset_smoothing = reconstruct::reconstruct(plan, samples, &mut color, &mut depth)?;
     times.add(Stage::Reconstruct, &t);
     if let Some(acc) = accumulator {
         let t = Stopwatch::start();
@@ -433,7 +313,8 @@ pub fn render_planned<'c>(
         None
     };
     let (total_ms, total_cpu_ms) = t_total.elapsed_ms();
-    let stats = frame_stats(plan, counts, times, temporal, total_ms, total_cpu_ms);
+    let mut stats = frame_stats(plan, counts, times, temporal, total_ms, total_cpu_ms);
+    stats.inset_smoothing = inset_smoothing.map(|s| s.name().to_string());
     Ok(ctx.store(Frame {
         color,
         depth,
@@ -481,6 +362,7 @@ fn frame_stats(
             .as_ref()
             .and_then(|d| d.filter.map(|k| k.name().to_string())),
         temporal,
+        inset_smoothing: None,
     }
 }
 

@@ -1,0 +1,134 @@
+//! What decides a frame besides the scene, the camera and the eye: the method and its
+//! parameters, shading, anti-aliasing, depth of field, contrast, memory limit
+//! ([`FrameSettings`]), each range-checked by `validate()` before any work.
+
+use serde::Serialize;
+
+use fovea_core::mapping::{MappingConfig, Method};
+use fovea_post::contrast::PeripheralContrast;
+use fovea_post::inset_smoothing::Smoothing;
+
+use crate::dof::DofSettings;
+use crate::error::{RenderError, Result};
+use crate::shade::ShadingMode;
+
+/// Sample-space anti-aliasing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AaMode {
+    /// The method's own: FXAA for VaFR and visual-polar, Gaussian for KFR and LaFR, none
+    /// otherwise.
+    Auto,
+    /// No anti-aliasing.
+    None,
+    /// FXAA in sample space.
+    Fxaa,
+    /// 3×3 Gaussian in sample space.
+    Gaussian,
+}
+
+impl AaMode {
+    /// Parses `auto`, `none`, `fxaa`, `gaussian`.
+    pub fn parse(s: &str) -> Result<Self> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "auto" => Ok(AaMode::Auto),
+            "none" | "off" => Ok(AaMode::None),
+            "fxaa" => Ok(AaMode::Fxaa),
+            "gaussian" | "gauss" => Ok(AaMode::Gaussian),
+            _ => Err(RenderError::invalid(
+                "aa",
+                s,
+                "auto, none, fxaa or gaussian",
+            )),
+        }
+    }
+
+    /// What `Auto` means for `method`.
+    pub fn resolve(self, method: Method) -> AaMode {
+        match (self, method) {
+            (AaMode::Auto, Method::Vafr | Method::VisualPolar) => AaMode::Fxaa,
+            (AaMode::Auto, Method::Kfr | Method::Lafr) => AaMode::Gaussian,
+            (AaMode::Auto, _) => AaMode::None,
+            (m, _) => m,
+        }
+    }
+}
+
+/// Everything that decides a frame besides the scene, the camera and the eye.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameSettings {
+    /// Foveation method.
+    pub method: Method,
+    /// Parameters of every method.
+    pub mapping: MappingConfig,
+    /// Shading.
+    pub shading: ShadingMode,
+    /// Sample-space anti-aliasing.
+    pub aa: AaMode,
+    /// Also produce the sample-density view.
+    pub density_view: bool,
+    /// Refuse frames whose buffers would need more than this many bytes. Not serialised: it
+    /// follows the machine's free memory and decides no pixel.
+    #[serde(skip)]
+    pub memory_limit_bytes: u64,
+    /// Depth of field: focus policy, DOF-aware culling and the screen-space filter (`None`:
+    /// sharp). The focus value itself comes from the [`EyeState`].
+    pub dof: Option<DofSettings>,
+    /// Peripheral contrast enhancement after reconstruction (`None`: off).
+    pub contrast: Option<PeripheralContrast>,
+    /// Keep the shaded sample buffers (before AA) in `Frame::samples`.
+    pub keep_samples: bool,
+    /// Boundary smoothing of the inset method (Liu et al.'s inset paper, Sec. 3): alpha blend
+    /// by default; ignored by the other methods.
+    pub inset_smoothing: Smoothing,
+}
+
+impl FrameSettings {
+    /// Defaults: direct shading, the method's own AA, a memory limit from
+    /// [`default_memory_limit`].
+    pub fn new(method: Method) -> Self {
+        Self {
+            method,
+            mapping: MappingConfig::default(),
+            shading: ShadingMode::Direct,
+            aa: AaMode::Auto,
+            density_view: false,
+            memory_limit_bytes: default_memory_limit(),
+            dof: None,
+            contrast: None,
+            keep_samples: false,
+            inset_smoothing: Smoothing::ALPHA_BLEND,
+        }
+    }
+
+    /// Checks every setting's range (shading, DOF, contrast, memory limit); the frame plan
+    /// calls it, so a bad setting is refused before any work.
+    pub fn validate(&self) -> Result<()> {
+        self.shading.validate()?;
+        if let Some(d) = &self.dof {
+            d.validate()?;
+        }
+        if let Some(c) = &self.contrast {
+            c.validate()?;
+        }
+        if self.memory_limit_bytes == 0 {
+            return Err(RenderError::invalid(
+                "max-memory",
+                0,
+                "a positive number of bytes, e.g. 8G",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// 80 % of the memory the OS reports available (`MemAvailable`), or 16 GiB where unknown.
+pub fn default_memory_limit() -> u64 {
+    let avail = std::fs::read_to_string("/proc/meminfo").ok().and_then(|s| {
+        s.lines()
+            .find(|l| l.starts_with("MemAvailable:"))
+            .and_then(|l| l.split_whitespace().nth(1))
+            .and_then(|kb| kb.parse::<u64>().ok())
+    });
+    avail.map_or(16 << 30, |kb| kb * 1024 / 10 * 8)
+}
