@@ -102,10 +102,9 @@ fn module_graph(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
         let text = std::fs::read_to_string(&f).unwrap();
         let entry = graph.entry(m.clone()).or_default();
         for r in crate_refs(&text) {
-            if r != m && src.join(format!("{r}.rs")).exists() || src.join(&r).is_dir() {
-                if r != m {
-                    entry.insert(r);
-                }
+            let is_module = src.join(format!("{r}.rs")).exists() || src.join(&r).is_dir();
+            if r != m && is_module {
+                entry.insert(r);
             }
         }
     }

@@ -4,7 +4,10 @@
 //! that fills it: the kernel zeroes every new page on first touch (about 20 % of an 8K VaFR
 //! frame's CPU time before this context existed).
 
+use rayon::prelude::*;
+
 use fovea_core::display::DisplayProfile;
+use fovea_core::mapping::Method;
 use fovea_core::Image;
 use fovea_post::inverse_map::SampleBuffers;
 use fovea_post::Rgb;
@@ -12,6 +15,21 @@ use fovea_post::Rgb;
 use super::{Frame, Prefill};
 use crate::error::{RenderError, Result};
 use crate::plan::FramePlan;
+
+/// Rows of this many values per parallel task when filling or copying buffers.
+const PAR_CHUNK: usize = 1 << 16;
+
+/// `dst[i] = v` on every thread (first touches of fresh pages are spread too).
+fn par_fill<T: Copy + Send + Sync>(dst: &mut [T], v: T) {
+    dst.par_chunks_mut(PAR_CHUNK).for_each(|c| c.fill(v));
+}
+
+/// `dst = src` on every thread.
+fn par_copy<T: Copy + Send + Sync>(dst: &mut [T], src: &[T]) {
+    dst.par_chunks_mut(PAR_CHUNK)
+        .zip(src.par_chunks(PAR_CHUNK))
+        .for_each(|(d, s)| d.copy_from_slice(s));
+}
 
 /// Buffers reused across frames. Create one per eye and keep it for the whole sequence.
 #[derive(Default)]
@@ -92,16 +110,21 @@ impl FrameContext {
             }
             self.samples = Some(SampleBuffers { color, depth });
         }
+        // At full resolution without culling or jitter the trace and shade write every
+        // texel (colour and depth), so reused buffers need no reset.
+        let all_written = plan.method() == Method::Full
+            && plan.culling.is_none()
+            && plan.jitter_texels == [0.0, 0.0];
         let s = self.samples.as_mut().expect("set above");
         for (l, (c, d)) in s.color.iter_mut().zip(s.depth.iter_mut()).enumerate() {
             match prefill {
                 Some(p) => {
-                    c.data_mut().copy_from_slice(p.color[l].data());
-                    d.data_mut().copy_from_slice(p.depth[l].data());
+                    par_copy(c.data_mut(), p.color[l].data());
+                    par_copy(d.data_mut(), p.depth[l].data());
                 }
-                None if fits => {
-                    c.data_mut().fill([0.0; 3]);
-                    d.data_mut().fill(f32::INFINITY);
+                None if fits && !all_written => {
+                    par_fill(c.data_mut(), [0.0; 3]);
+                    par_fill(d.data_mut(), f32::INFINITY);
                 }
                 None => {}
             }
