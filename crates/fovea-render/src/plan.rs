@@ -60,9 +60,10 @@ impl TileOrder {
         order
     }
 
-    /// Rows of a `width`-wide buffer per chunk.
-    pub fn rows_per_chunk(&self, width: u32) -> usize {
-        (self.chunk_samples / width.max(1) as usize).max(1)
+    /// Rows of a `width`-wide buffer per chunk when each texel casts `rays_per_texel` rays
+    /// (the G-buffer holds one record per ray).
+    pub fn rows_per_chunk(&self, width: u32, rays_per_texel: u32) -> usize {
+        (self.chunk_samples / (width.max(1) as usize * rays_per_texel.max(1) as usize)).max(1)
     }
 }
 
@@ -86,6 +87,12 @@ pub struct FramePlan {
     pub aa: AaMode,
     /// Sub-texel jitter of every sample (temporal accumulation), buffer texels.
     pub jitter_texels: [f64; 2],
+    /// Offsets of a texel's primary rays inside the texel (buffer texels, `[0, 1)²`, before
+    /// the jitter): the centre alone, or a stratified pattern of `pixel_samples` points.
+    pub subsamples: Vec<[f64; 2]>,
+    /// Which of [`subsamples`](Self::subsamples) is nearest the texel centre: its depth is the
+    /// texel's, and it decides DOF culling for the texel.
+    pub representative: usize,
     /// Ray-cone angle of the samples.
     pub footprint: SampleFootprint,
     /// Sample spacing in pixels by eccentricity (temporal accumulation, contrast).
@@ -177,7 +184,16 @@ impl FramePlan {
         };
         let mut settings = settings.clone();
         settings.dof = dof;
+        let subsamples = subsample_offsets(settings.pixel_samples);
+        let representative = (0..subsamples.len())
+            .min_by(|&a, &b| {
+                let d = |o: [f64; 2]| (o[0] - 0.5).powi(2) + (o[1] - 0.5).powi(2);
+                d(subsamples[a]).total_cmp(&d(subsamples[b]))
+            })
+            .unwrap_or(0);
         Ok(Self {
+            subsamples,
+            representative,
             buffers: mapping.buffers(),
             sample_count: mapping.sample_count(),
             aa: settings.aa.resolve(settings.method),
@@ -228,6 +244,30 @@ impl FramePlan {
     }
 }
 
+/// `n` stratified points in the unit square: the `k × k` cell centres when `n = k²`, otherwise
+/// a rank-1 (Fibonacci) lattice `((s + ½)/n, frac((s + ½)·φ⁻¹))`, which puts one point in
+/// every `1/n` column and spreads them evenly down the rows. `n = 1` is the centre.
+pub fn subsample_offsets(n: u32) -> Vec<[f64; 2]> {
+    let n = n.max(1);
+    let k = (n as f64).sqrt().round() as u32;
+    if k * k == n {
+        let step = 1.0 / k as f64;
+        return (0..n)
+            .map(|s| {
+                let (i, j) = (s % k, s / k);
+                [(i as f64 + 0.5) * step, (j as f64 + 0.5) * step]
+            })
+            .collect();
+    }
+    let inv_phi = (5f64.sqrt() - 1.0) / 2.0;
+    (0..n)
+        .map(|s| {
+            let t = s as f64 + 0.5;
+            [t / n as f64, (t * inv_phi).fract()]
+        })
+        .collect()
+}
+
 /// Bytes a frame of `mapping` on `display` needs at its peak: sample buffers (colour + depth,
 /// twice during AA), the screen image and depth, the density view, and one chunk of G-buffer.
 pub fn memory_estimate(
@@ -263,7 +303,30 @@ mod tests {
             o.sort_unstable();
             assert!(o.iter().enumerate().all(|(k, &v)| k as u32 == v));
         }
-        assert_eq!(t.rows_per_chunk(100), 10);
-        assert_eq!(t.rows_per_chunk(5000), 1);
+        assert_eq!(t.rows_per_chunk(100, 1), 10);
+        assert_eq!(t.rows_per_chunk(100, 4), 2);
+        assert_eq!(t.rows_per_chunk(5000, 1), 1);
+    }
+
+    #[test]
+    fn subsamples_are_stratified_and_centred() {
+        assert_eq!(subsample_offsets(1), vec![[0.5, 0.5]]);
+        for n in [2, 3, 4, 5, 9, 16, 64] {
+            let o = subsample_offsets(n);
+            assert_eq!(o.len(), n as usize);
+            assert!(o.iter().flatten().all(|&v| (0.0..1.0).contains(&v)), "{n}");
+            // Stratified in u: one point in every 1/n column, or a k×k grid.
+            let mean = o.iter().fold([0.0, 0.0], |m, p| [m[0] + p[0], m[1] + p[1]]);
+            assert!((mean[0] / n as f64 - 0.5).abs() < 1e-12, "{n}");
+            assert!(
+                (mean[1] / n as f64 - 0.5).abs() < 0.5 / n as f64 + 1e-12,
+                "{n}"
+            );
+            let mut us: Vec<f64> = o.iter().map(|p| p[0]).collect();
+            us.sort_by(f64::total_cmp);
+            us.dedup();
+            let k = (n as f64).sqrt().round() as usize;
+            assert_eq!(us.len(), if k * k == n as usize { k } else { n as usize });
+        }
     }
 }

@@ -54,6 +54,9 @@ impl AaMode {
     }
 }
 
+/// Most primary rays per sample ([`FrameSettings::pixel_samples`]).
+pub const MAX_PIXEL_SAMPLES: u32 = 64;
+
 /// Everything that decides a frame besides the scene, the camera and the eye.
 #[derive(Clone, Debug, Serialize)]
 pub struct FrameSettings {
@@ -78,6 +81,10 @@ pub struct FrameSettings {
     pub contrast: Option<PeripheralContrast>,
     /// Keep the shaded sample buffers (before AA) in `Frame::samples`.
     pub keep_samples: bool,
+    /// Primary rays per sample (texel), stratified over the texel in sample space and
+    /// averaged (1 to 64; 1: one ray through the texel's centre). At full resolution this
+    /// supersamples every pixel, the reference the foveated frames are scored against.
+    pub pixel_samples: u32,
     /// Boundary smoothing of the inset method (Liu et al.'s inset paper, Sec. 3): alpha blend
     /// by default; ignored by the other methods.
     pub inset_smoothing: Smoothing,
@@ -97,6 +104,7 @@ impl FrameSettings {
             dof: None,
             contrast: None,
             keep_samples: false,
+            pixel_samples: 1,
             inset_smoothing: Smoothing::ALPHA_BLEND,
         }
     }
@@ -110,6 +118,13 @@ impl FrameSettings {
         }
         if let Some(c) = &self.contrast {
             c.validate()?;
+        }
+        if !(1..=MAX_PIXEL_SAMPLES).contains(&self.pixel_samples) {
+            return Err(RenderError::invalid(
+                "pixel-samples",
+                self.pixel_samples,
+                format!("1 to {MAX_PIXEL_SAMPLES} rays per sample"),
+            ));
         }
         if self.memory_limit_bytes == 0 {
             return Err(RenderError::invalid(

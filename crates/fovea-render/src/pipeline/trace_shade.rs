@@ -22,6 +22,7 @@ use fovea_core::mapping::SamplePoint;
 use fovea_core::Image;
 use fovea_post::inverse_map::SampleBuffers;
 use fovea_post::Rgb;
+use glam::Vec3;
 
 use super::timing::{Stage, StageTimes, Stopwatch};
 use crate::camera::EyeCamera;
@@ -59,8 +60,9 @@ pub struct Chunk<'a> {
     pub order: &'a [u32],
 }
 
-/// Trace: one G-buffer record per texel of `chunk` that the mapping shades, that is not
-/// `known` already and whose centre maps onto the screen; `None` for the others.
+/// Trace: one G-buffer record per primary ray of `chunk` — `plan.subsamples.len()` per texel
+/// (texel-major) — for texels that the mapping shades, that are not `known` already, and
+/// whose ray's point maps onto the screen; `None` for the others.
 pub fn trace_chunk(
     world: &World,
     camera: &EyeCamera,
@@ -77,29 +79,37 @@ pub fn trace_chunk(
         row_len,
         order,
     } = chunk;
-    order
-        .par_iter()
-        .map(|&k| {
-            let k = k as usize;
+    let subsamples = &plan.subsamples;
+    let n = subsamples.len();
+    // Each of n rays covers 1/n of the texel: its cone is 1/√n of the texel's.
+    let cone_scale = 1.0 / (n as f32).sqrt();
+    (0..order.len() * n)
+        .into_par_iter()
+        .map(|r| {
+            let k = order[r / n] as usize;
+            let o = subsamples[r % n];
             let (i, j) = ((k % row_len) as u32, j0 + (k / row_len) as u32);
             if !mapping.is_shaded(layer, i, j) || known.is_some_and(|m| *m.get(i, j)) {
                 return None;
             }
             let s = SamplePoint {
                 layer,
-                u: i as f64 + 0.5 + jitter[0],
-                v: j as f64 + 0.5 + jitter[1],
+                u: i as f64 + o[0] + jitter[0],
+                v: j as f64 + o[1] + jitter[1],
             };
             let p = mapping.inverse(s)?;
             let spread = plan.footprint.spread_rad(mapping, display, gaze, i, p);
+            let spread = if n == 1 { spread } else { spread * cone_scale };
             Some(trace_sample(world, &camera.ray(p), spread))
         })
         .collect_into_vec(gbuf);
 }
 
-/// Shade: every record of `gbuf` (in `chunk.order`) shaded, or culled by the plan's DOF
-/// roulette, and scattered into the chunk's colour and depth (`color`, `depth`: the chunk's
-/// rows). Records the cull state of each sample in `cull_state` when culling.
+/// Shade: every texel of `chunk` whose rays hit (`gbuf`, texel-major) shaded — the mean of
+/// its rays — or culled by the plan's DOF roulette (decided by the ray nearest the texel
+/// centre, whose depth is the texel's), and scattered into the chunk's colour and depth
+/// (`color`, `depth`: the chunk's rows). Records the cull state of each sample in
+/// `cull_state` when culling.
 #[allow(clippy::too_many_arguments)]
 pub fn shade_chunk(
     world: &World,
@@ -120,22 +130,44 @@ pub fn shade_chunk(
     } = chunk;
     let shading = plan.settings.shading;
     let cull = plan.culling.as_ref();
+    let n = plan.subsamples.len();
     type Shaded = (Option<Rgb>, f32, Option<SampleCull>, RayCounts);
     let shaded: Vec<Option<Shaded>> = order
         .par_iter()
-        .zip(gbuf.par_iter())
-        .map(|(&k, g)| {
-            let g = g.as_ref()?;
+        .enumerate()
+        .map(|(t, &k)| {
+            let rays = &gbuf[t * n..(t + 1) * n];
+            let rep = rays[plan.representative]
+                .as_ref()
+                .or_else(|| rays.iter().flatten().next())?;
             let mut rc = RayCounts::default();
             let key = ((layer as u64) << 48) ^ ((j0 as u64 * row_len as u64) + k as u64);
-            let depth = camera.view_depth(-g.to_eye, g.t);
+            // Sub-sample `s` of a texel draws its own random numbers (path tracing).
+            let key_of = |s: usize| key ^ ((s as u64) << 40);
+            let depth = camera.view_depth(-rep.to_eye, rep.t);
+            let mean_of_others = |first: Vec3, rc: &mut RayCounts| {
+                let mut sum = first;
+                let mut m = 1.0f32;
+                for (s, g) in rays.iter().enumerate() {
+                    if let Some(g) = g.as_ref().filter(|g| !std::ptr::eq(*g, rep)) {
+                        sum += shade(world, g, shading, key_of(s), rc);
+                        m += 1.0;
+                    }
+                }
+                sum / m
+            };
             if let Some(culling) = cull {
                 let (i, j) = (k % row_len as u32, j0 + k / row_len as u32);
                 let keep = culling.keep(depth, i, j, key);
-                let (v, info) = shade_or_cull(world, g, shading, keep, key, &mut rc);
+                let (v, info) = shade_or_cull(world, rep, shading, keep, key, &mut rc);
+                let v = match v {
+                    Some(v) if n > 1 => Some(mean_of_others(v, &mut rc)),
+                    v => v,
+                };
                 return Some((v.map(|v| v.to_array()), depth, Some(info), rc));
             }
-            let v = shade(world, g, shading, key, &mut rc);
+            let v = shade(world, rep, shading, key, &mut rc);
+            let v = if n > 1 { mean_of_others(v, &mut rc) } else { v };
             Some((Some(v.to_array()), depth, None, rc))
         })
         .collect();
@@ -189,7 +221,7 @@ pub fn trace_and_shade(
             Some(_) => Some(CullBuffers::new(bw, bh)?),
             None => None,
         };
-        let rows_per_chunk = plan.tiles.rows_per_chunk(bw);
+        let rows_per_chunk = plan.tiles.rows_per_chunk(bw, plan.subsamples.len() as u32);
         let row_len = bw as usize;
         let chunk_order = plan.tiles.order(row_len, rows_per_chunk);
         let (color, depth) = (&mut samples.color[layer], &mut samples.depth[layer]);
