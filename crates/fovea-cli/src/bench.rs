@@ -1,32 +1,31 @@
 //! `fovea bench`: the same view at several resolutions, full resolution against foveated
 //! methods in one run, with rays, per-stage times and speedups; and the primary-ray throughput
-//! of each available BVH backend on the same scene.
+//! of each available BVH backend on the same scene. The harness is
+//! [`fovea_eval::experiments::bench`]; this file parses the options, shows progress and prints.
 
-use std::time::Instant;
+use std::sync::Mutex;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::Args;
-use rayon::prelude::*;
+use indicatif::ProgressBar;
 
 use fovea_core::display::DisplayProfile;
 use fovea_core::mapping::Method;
-use fovea_render::bvh::{self, Backend, Ray};
-use fovea_render::camera::EyeCamera;
-use fovea_render::eye::EyeState;
-use fovea_render::pipeline::{
-    render_planned, FrameContext, FrameInputs, FrameSettings, FrameStats, Stage, StageMs,
-    StageTimes, Stopwatch,
+use fovea_eval::experiments::bench::{
+    run as run_bench, BenchEvent, BenchParams, BenchResult, BenchRun, BenchScene, DofTiming,
+    StereoTiming,
 };
-use fovea_render::plan::FramePlan;
+use fovea_eval::EvalError;
+use fovea_post::dof::FilterKind;
+use fovea_render::camera::{EyeCamera, HmdRig};
+use fovea_render::pipeline::{FrameSettings, Stage};
+use fovea_render::world::World;
+use fovea_render::RenderError;
 
 use crate::common::{display_of, thousands, MethodOptions};
 use crate::dof_args::EyeArgs;
 use crate::render::{memory_limit, progress_bar, shading};
 use crate::scene_args::{load, Loaded, SceneArgs};
-use fovea_core::units::Metres;
-use fovea_post::dof::coc::coc_map;
-use fovea_post::dof::{DofInput, FilterKind};
-use fovea_render::dof::{auto_focus_m, coc_params, px_per_degree, FocusMode};
 
 /// Options of `fovea bench`.
 #[derive(Args, Debug)]
@@ -92,84 +91,22 @@ pub struct BenchArgs {
     pub quiet: bool,
 }
 
-/// Primary-ray throughput of `caster` through `camera`: about `n` rays on a regular grid over
-/// the screen, Mrays/s (wall time, all threads).
-fn primary_throughput(caster: &dyn bvh::RayCaster, camera: &EyeCamera, n: u64) -> f64 {
-    let d = &camera.display;
-    let (w, h) = (d.width_px as u64, d.height_px as u64);
-    let side = ((n as f64) * (w as f64 / h as f64)).sqrt().max(1.0) as u64;
-    let rows = (n / side).max(1);
-    let t = Instant::now();
-    let hits: u64 = (0..rows)
-        .into_par_iter()
-        .map(|j| {
-            let mut c = 0u64;
-            for i in 0..side {
-                let x = (i as f32 + 0.5) * w as f32 / side as f32;
-                let y = (j as f32 + 0.5) * h as f32 / rows as f32;
-                let r = Ray {
-                    origin: camera.position,
-                    dir: camera.direction(x, y),
-                    t_min: 0.0,
-                    t_max: f32::INFINITY,
-                };
-                c += caster.intersect(&r).is_some() as u64;
-            }
-            c
-        })
-        .sum();
-    std::hint::black_box(hits);
-    (side * rows) as f64 / t.elapsed().as_secs_f64() / 1e6
-}
-
-/// Jiffies of the whole machine from `/proc/stat`: (stolen by the hypervisor, all).
-fn machine_jiffies() -> Option<(u64, u64)> {
-    let stat = std::fs::read_to_string("/proc/stat").ok()?;
-    let fields: Vec<u64> = stat
-        .lines()
-        .next()?
-        .split_whitespace()
-        .skip(1)
-        .filter_map(|f| f.parse().ok())
-        .collect();
-    Some((*fields.get(7)?, fields.iter().take(8).sum()))
-}
-
-/// Share of the machine's time the hypervisor gave to other guests between two readings.
-fn steal_fraction(a: Option<(u64, u64)>, b: Option<(u64, u64)>) -> Option<f64> {
-    let ((s0, t0), (s1, t1)) = (a?, b?);
-    (t1 > t0).then(|| (s1 - s0) as f64 / (t1 - t0) as f64)
-}
-
-/// The validated options of one benchmark.
-pub struct Plan {
-    displays: Vec<DisplayProfile>,
-    methods: Vec<Method>,
-    config: fovea_core::mapping::MappingConfig,
-    shading_mode: fovea_render::shade::ShadingMode,
-    memory_limit: u64,
-    dof_filters: Vec<FilterKind>,
-    dof_settings: fovea_render::dof::DofSettings,
-    stereo: bool,
-}
-
-/// Checks every option before anything is loaded or rendered.
-pub fn plan(args: &BenchArgs) -> Result<Plan> {
+/// The benchmark's parameters from the options, checked before anything is loaded.
+pub fn params(args: &BenchArgs) -> Result<BenchParams> {
     let displays: Vec<DisplayProfile> = args
         .res
         .split(',')
         .map(|s| display_of(s, args.vfov))
         .collect::<Result<_>>()?;
-    let mut methods = vec![Method::Full];
-    for m in args.methods.split(',') {
-        let m = Method::parse(m)?;
-        if !methods.contains(&m) {
-            methods.push(m);
-        }
-    }
-    let config = args.options.frame_config()?;
-    let shading_mode = shading(&args.shading, args.bounces, args.spp, 1)?;
-    let memory_limit = memory_limit(args.max_memory.as_deref())?;
+    let methods: Vec<Method> = args
+        .methods
+        .split(',')
+        .map(Method::parse)
+        .collect::<std::result::Result<_, _>>()?;
+    let mut frame = FrameSettings::new(Method::Full);
+    frame.mapping = args.options.frame_config()?;
+    frame.shading = shading(&args.shading, args.bounces, args.spp, 1)?;
+    frame.memory_limit_bytes = memory_limit(args.max_memory.as_deref())?;
     let dof_filters: Vec<FilterKind> = match args.dof.as_deref().map(str::trim) {
         None => Vec::new(),
         Some("all") => FilterKind::ALL.to_vec(),
@@ -178,419 +115,169 @@ pub fn plan(args: &BenchArgs) -> Result<Plan> {
             .map(FilterKind::parse)
             .collect::<Result<_, _>>()?,
     };
-    if !(1..=100).contains(&args.dof_reps) {
-        anyhow::bail!(
-            "invalid parameter `dof-reps` = {}: expected 1 to 100",
-            args.dof_reps
-        );
-    }
-    let dof_settings = args.eye.settings(None)?;
     let stereo = match args.eyes.trim().to_ascii_lowercase().as_str() {
         "one" | "1" => false,
         "both" | "2" => true,
         e => anyhow::bail!("invalid parameter `eyes` = {e}: expected one or both"),
     };
-    if !(1..=100).contains(&args.stereo_reps) {
-        anyhow::bail!(
-            "invalid parameter `stereo-reps` = {}: expected 1 to 100",
-            args.stereo_reps
-        );
-    }
-    Ok(Plan {
+    let params = BenchParams {
         displays,
         methods,
-        config,
-        shading_mode,
-        memory_limit,
+        frame,
+        bvh_rays: args.bvh_rays,
         dof_filters,
-        dof_settings,
+        dof: args.eye.settings(None)?,
+        dof_reps: args.dof_reps,
+        warmup: args.warmup,
+        frames: args.frames,
         stereo,
-    })
+        stereo_reps: args.stereo_reps,
+    };
+    params.validate()?;
+    Ok(params)
 }
 
 pub fn run(args: BenchArgs) -> Result<()> {
-    let plan = plan(&args)?;
+    let params = params(&args)?;
     let mut loaded = load(&args.scene)?;
-    let json = measure(&args, &plan, &mut loaded, !args.json)?;
+    let result = measure(
+        &mut loaded,
+        &args.scene,
+        &params,
+        args.quiet || args.json,
+        !args.json,
+    )?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&json)?);
+        println!("{}", serde_json::to_string_pretty(&result.to_json())?);
     } else {
-        print_summary(&json);
+        print_summary(&result);
     }
     Ok(())
 }
 
-/// Runs the benchmark on `loaded`; prints each run as it ends when `print`. Returns the JSON
-/// of `fovea bench --json`.
-pub fn measure(
-    args: &BenchArgs,
-    plan: &Plan,
-    loaded: &mut Loaded,
-    print: bool,
-) -> Result<serde_json::Value> {
-    let Plan {
-        displays,
-        methods,
-        config,
-        shading_mode,
-        memory_limit,
-        dof_filters,
-        dof_settings,
-        stereo,
-    } = plan;
-    let (shading_mode, memory_limit, stereo) = (*shading_mode, *memory_limit, *stereo);
-    let mut dof_report = Vec::new();
-    let mut stereo_report = Vec::new();
-    // Loaded and built once; the camera and generated lights follow each display.
-    let backend_name = loaded.world.caster.backend().name();
-    let mut runs: Vec<Run> = Vec::new();
-    let mut bvh_report = Vec::new();
-    for (k, display) in displays.iter().enumerate() {
-        let camera = loaded.view(&args.scene, display)?;
-        let world = &loaded.world;
-        if k == 0 && args.bvh_rays > 0 {
-            for b in [Backend::Obvhs, Backend::Embree] {
-                if !b.available() {
-                    bvh_report.push(serde_json::json!({
-                        "backend": b.name(), "available": false,
-                        "note": "build with --features embree (Debian libembree-dev)",
-                    }));
-                    continue;
-                }
-                let t = Instant::now();
-                let caster = bvh::build(b, &world.tris)?;
-                let build_ms = t.elapsed().as_secs_f64() * 1e3;
-                let mrays = primary_throughput(caster.as_ref(), &camera, args.bvh_rays);
-                bvh_report.push(serde_json::json!({
-                    "backend": b.name(), "available": true,
-                    "build_ms": build_ms, "primary_mrays_per_s": mrays,
-                    "chosen": b.name() == backend_name,
-                }));
-            }
-        }
-        let gaze = display.centre_gaze();
-        let mut full: Option<(f64, f64)> = None;
-        for &m in methods {
-            let mut s = FrameSettings::new(m);
-            s.mapping = config.clone();
-            s.shading = shading_mode;
-            s.memory_limit_bytes = memory_limit;
-            let pb = progress_bar(args.quiet || args.json, &format!("{} {}", display.name, m));
-            let jiffies = machine_jiffies();
-            // Warm-up frames (untimed: they allocate the context's buffers), then the timed
-            // frames with the same context; the median frame's statistics are kept.
-            let eye = EyeState::looking_at(gaze);
-            let mut ctx = FrameContext::new();
-            let mut timed: Vec<FrameStats> = Vec::new();
-            let mut allocations_after_warmup = 0;
-            for k in 0..args.warmup + args.frames {
-                if k == args.warmup {
-                    allocations_after_warmup = ctx.screen_allocations();
-                }
-                let mut times = StageTimes::default();
-                let t = Stopwatch::start();
-                let plan = FramePlan::new(world, &camera, &s, &eye, [0.0, 0.0])?;
-                times.add(Stage::Plan, &t);
-                let frame = render_planned(
-                    &mut ctx,
-                    world,
-                    &camera,
-                    &plan,
-                    FrameInputs::default(),
-                    times,
-                    &|d, t| {
-                        pb.set_length(t);
-                        pb.set_position(d);
-                    },
-                )?;
-                if k >= args.warmup {
-                    timed.push(frame.stats.clone());
-                }
-            }
-            let screen_allocations = ctx.screen_allocations() - allocations_after_warmup;
-            timed.sort_by(|a, b| a.total_ms.total_cmp(&b.total_ms));
-            let stats = timed.swap_remove(timed.len() / 2);
-            let frame = ctx.frame().context("no frame rendered")?;
-            // The images are freed with the context, except the full frame's while DOF
-            // filters are timed on it.
-            if m == Method::Full && !dof_filters.is_empty() {
-                pb.finish_and_clear();
-                let rows = time_dof_filters(
-                    world,
-                    &camera,
-                    &gaze,
-                    dof_settings,
-                    &frame.color,
-                    &frame.depth,
-                    dof_filters,
-                    args.dof_reps,
-                )?;
-                if print {
-                    print_dof(&display.name, &rows);
-                }
-                dof_report.push(serde_json::json!({
-                    "display": display.name,
-                    "width": display.width_px,
-                    "height": display.height_px,
-                    "filters": rows,
-                }));
-            }
-            drop(ctx);
-            let steal = steal_fraction(jiffies, machine_jiffies());
-            pb.finish_and_clear();
-            if m == Method::Full {
-                full = Some((stats.total_ms, stats.total_cpu_ms));
-            }
-            let run = Run {
-                speedup: full.map_or(1.0, |f| f.0 / stats.total_ms),
-                speedup_cpu: full.map_or(1.0, |f| f.1 / stats.total_cpu_ms),
-                cpu_share: stats.total_cpu_ms
-                    / (stats.total_ms * rayon::current_num_threads() as f64),
-                screen_allocations,
-                steal,
-                stats,
-            };
-            if print {
-                print_run(&run);
-            }
-            runs.push(run);
-        }
-        if stereo {
-            for &m in methods.iter().filter(|&&m| m != Method::Full) {
-                let row = time_stereo(
-                    world,
-                    loaded.rig(),
-                    display,
-                    m,
-                    config,
-                    shading_mode,
-                    memory_limit,
-                    args.stereo_reps,
-                )?;
-                if print {
-                    println!(
-                        "{} {}x{} {m} binocular: dup {:.0} ms, {} primary rays | rep {:.0} ms, {} primary rays ({} holes) | rep/dup time {:.2}, rays {:.2}",
-                        display.name,
-                        display.width_px,
-                        display.height_px,
-                        row["dup_ms"].as_f64().unwrap_or(f64::NAN),
-                        thousands(row["dup_rays_primary"].as_u64().unwrap_or(0)),
-                        row["rep_ms"].as_f64().unwrap_or(f64::NAN),
-                        thousands(row["rep_rays_primary"].as_u64().unwrap_or(0)),
-                        thousands(row["rep_holes"].as_u64().unwrap_or(0)),
-                        row["rep_over_dup_time"].as_f64().unwrap_or(f64::NAN),
-                        row["rep_over_dup_rays"].as_f64().unwrap_or(f64::NAN),
-                    );
-                }
-                stereo_report.push(row);
-            }
-        }
-    }
-    let world = &loaded.world;
-    let (scene_name, triangles, n_lights) =
-        (&world.scene.name, world.tris.len(), world.lights.len());
-    let json = serde_json::json!({
-        "scene": scene_name,
-        "triangles": triangles,
-        "lights": n_lights,
-        "bvh": backend_name,
-        "threads": rayon::current_num_threads(),
-        "bvh_throughput": bvh_report,
-        "dof": dof_report,
-        "binocular": stereo_report,
-        "runs": runs.iter().map(|r| {
-            let s = &r.stats;
-            let post = |st: &StageMs| st.sum(&[Stage::Aa, Stage::Reconstruct]);
-            serde_json::json!({
-                "method": s.method,
-                "width": s.width,
-                "height": s.height,
-                "samples": s.samples,
-                "rays": s.rays,
-                "rays_primary": s.rays_primary,
-                "rays_shadow": s.rays_shadow,
-                "rays_bounce": s.rays_bounce,
-                "total_ms": s.total_ms,
-                "stages_ms": s.stages_ms,
-                "cpu_ms": s.total_cpu_ms,
-                "stages_cpu_ms": s.stages_cpu_ms,
-                "post_fraction": post(&s.stages_ms) / s.total_ms,
-                "post_fraction_cpu": post(&s.stages_cpu_ms) / s.total_cpu_ms,
-                "speedup_vs_full": r.speedup,
-                "speedup_vs_full_cpu": r.speedup_cpu,
-                "machine_steal_fraction": r.steal,
-                "cpu_share": r.cpu_share,
-                "screen_allocations_after_warmup": r.screen_allocations,
+/// The loaded scene as the benchmark views it: the camera and lights follow each display as
+/// `fovea render` would set them.
+struct LoadedScene<'a> {
+    loaded: &'a mut Loaded,
+    args: &'a SceneArgs,
+}
+
+impl BenchScene for LoadedScene<'_> {
+    fn view(&mut self, display: &DisplayProfile) -> fovea_eval::Result<EyeCamera> {
+        self.loaded
+            .view(self.args, display)
+            .map_err(|e| match e.downcast::<RenderError>() {
+                Ok(r) => EvalError::Render(r),
+                Err(e) => EvalError::Scene(format!("{e:#}")),
             })
-        }).collect::<Vec<_>>(),
-    });
-    Ok(json)
+    }
+    fn world(&self) -> &World {
+        &self.loaded.world
+    }
+    fn rig(&self) -> &HmdRig {
+        self.loaded.rig()
+    }
+}
+
+/// Runs the benchmark on `loaded` (viewed as `scene` says) with a progress bar per method
+/// unless `quiet`, printing each run as it ends when `print`.
+pub fn measure(
+    loaded: &mut Loaded,
+    scene: &SceneArgs,
+    params: &BenchParams,
+    quiet: bool,
+    print: bool,
+) -> Result<BenchResult> {
+    let current = Mutex::new(ProgressBar::hidden());
+    let bar = || {
+        current
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .clone()
+    };
+    let observe = |e: BenchEvent<'_>| match e {
+        BenchEvent::Started { display, method } => {
+            let pb = progress_bar(quiet, &format!("{} {}", display.name, method));
+            *current
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner) = pb;
+        }
+        BenchEvent::Samples { done, total } => {
+            let pb = bar();
+            pb.set_length(total);
+            pb.set_position(done);
+        }
+        BenchEvent::DofTimed(t) => {
+            bar().finish_and_clear();
+            if print {
+                print_dof(&t.display, &t.filters);
+            }
+        }
+        BenchEvent::Run(r) => {
+            bar().finish_and_clear();
+            if print {
+                print_run(r);
+            }
+        }
+        BenchEvent::Stereo(s) => {
+            if print {
+                print_stereo(s);
+            }
+        }
+    };
+    let mut view = LoadedScene {
+        loaded,
+        args: scene,
+    };
+    Ok(run_bench(&mut view, params, &observe)?)
 }
 
 /// The closing lines of `fovea bench`: the scene and the BVH backends.
-fn print_summary(json: &serde_json::Value) {
+fn print_summary(r: &BenchResult) {
     println!(
         "scene {}: {} triangles, {} lights, BVH {}, {} threads",
-        json["scene"].as_str().unwrap_or(""),
-        thousands(json["triangles"].as_u64().unwrap_or(0)),
-        json["lights"].as_u64().unwrap_or(0),
-        json["bvh"].as_str().unwrap_or(""),
-        json["threads"].as_u64().unwrap_or(0),
+        r.scene,
+        thousands(r.triangles as u64),
+        r.lights,
+        r.bvh,
+        r.threads,
     );
-    for b in json["bvh_throughput"].as_array().into_iter().flatten() {
-        if b["available"].as_bool() == Some(true) {
+    for b in &r.bvh_throughput {
+        if b.available {
             println!(
                 "BVH {:>6}: {:.2} Mrays/s primary, build {:.0} ms{}",
-                b["backend"].as_str().unwrap_or(""),
-                b["primary_mrays_per_s"].as_f64().unwrap_or(0.0),
-                b["build_ms"].as_f64().unwrap_or(0.0),
-                if b["chosen"].as_bool() == Some(true) {
-                    " (chosen)"
-                } else {
-                    ""
-                }
+                b.backend,
+                json_number(b.primary_mrays_per_s).unwrap_or(0.0),
+                json_number(b.build_ms).unwrap_or(0.0),
+                if b.chosen { " (chosen)" } else { "" }
             );
         } else {
-            println!(
-                "BVH {:>6}: not in this build",
-                b["backend"].as_str().unwrap_or("")
-            );
+            println!("BVH {:>6}: not in this build", b.backend);
         }
     }
 }
 
-/// Binocular frame of `method` on `display`, Dup and Rep alternately `reps` times, both eyes
-/// fixating the first surface under the centre of the cyclopean view; medians.
-#[allow(clippy::too_many_arguments)]
-fn time_stereo(
-    world: &fovea_render::world::World,
-    rig: &fovea_render::camera::HmdRig,
-    display: &DisplayProfile,
-    method: Method,
-    config: &fovea_core::mapping::MappingConfig,
-    shading_mode: fovea_render::shade::ShadingMode,
-    memory_limit: u64,
-    reps: u32,
-) -> Result<serde_json::Value> {
-    use fovea_render::stereo::{fixating_eyes, render_stereo, StereoMode};
-    let (_, [(lc, lg), (rc, rg)]) = fixating_eyes(world, rig, display, &display.centre_gaze())?;
-    let mut settings = FrameSettings::new(method);
-    settings.mapping = config.clone();
-    settings.shading = shading_mode;
-    settings.memory_limit_bytes = memory_limit;
-    let eyes = [EyeState::looking_at(lg), EyeState::looking_at(rg)];
-    let (mut dup_ms, mut rep_ms) = (Vec::new(), Vec::new());
-    let (mut dup_rays, mut rep_rays, mut holes) = (0, 0, 0);
-    for _ in 0..reps {
-        let d = render_stereo(
-            world,
-            &lc,
-            &rc,
-            &settings,
-            eyes,
-            StereoMode::Dup,
-            &|_, _| {},
-        )?;
-        dup_ms.push(d.stats.total_ms);
-        dup_rays = d.stats.rays_primary;
-        let r = render_stereo(
-            world,
-            &lc,
-            &rc,
-            &settings,
-            eyes,
-            StereoMode::Rep,
-            &|_, _| {},
-        )?;
-        rep_ms.push(r.stats.total_ms);
-        rep_rays = r.stats.rays_primary;
-        holes = r.stats.holes_traced;
-    }
-    let median = |v: &mut Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
-    let (dm, rm) = (median(&mut dup_ms), median(&mut rep_ms));
-    Ok(serde_json::json!({
-        "display": display.name,
-        "width": display.width_px,
-        "height": display.height_px,
-        "method": method.name(),
-        "dup_ms": dm,
-        "rep_ms": rm,
-        "dup_rays_primary": dup_rays,
-        "rep_rays_primary": rep_rays,
-        "rep_holes": holes,
-        "rep_over_dup_time": rm / dm,
-        "rep_over_dup_rays": rep_rays as f64 / dup_rays as f64,
-    }))
+/// `v` as the JSON has it: non-finite numbers are `null`.
+fn json_number(v: Option<f64>) -> Option<f64> {
+    v.filter(|v| v.is_finite())
 }
 
-/// One DOF filter's time on one frame.
-#[derive(serde::Serialize)]
-struct DofTiming {
-    name: &'static str,
-    /// Median wall time, milliseconds.
-    ms: f64,
-    /// Median wall time per megapixel, milliseconds.
-    ms_per_megapixel: f64,
-    /// This filter's time over the fastest filter's, measured in the same run.
-    relative_to_fastest: f64,
-}
-
-/// Times each filter `reps` times on one frame (auto or fixed focus of `settings`).
-#[allow(clippy::too_many_arguments)]
-fn time_dof_filters(
-    world: &fovea_render::world::World,
-    camera: &EyeCamera,
-    gaze: &fovea_core::display::Gaze,
-    settings: &fovea_render::dof::DofSettings,
-    color: &fovea_core::Image<fovea_post::Rgb>,
-    depth: &fovea_core::Image<f32>,
-    filters: &[FilterKind],
-    reps: u32,
-) -> Result<Vec<DofTiming>> {
-    let focus_m = match settings.focus {
-        FocusMode::Fixed(f) => f,
-        FocusMode::Auto => auto_focus_m(world, camera, gaze)?,
-    };
-    let params = coc_params(settings, camera);
-    let coc = coc_map(&params, Metres(focus_m), depth)?;
-    let input = DofInput {
-        color,
-        depth_m: depth,
-        coc_px: &coc,
-        focus_m: focus_m as f32,
-        px_per_dioptre: params.px_per_dioptre() as f32,
-        gaze_px: [gaze.point.x_px as f32, gaze.point.y_px as f32],
-        px_per_degree: px_per_degree(camera) as f32,
-    };
-    let mp = color.width() as f64 * color.height() as f64 / 1e6;
-    let mut rows = Vec::new();
-    for &k in filters {
-        let f = k.build();
-        let mut times: Vec<f64> = (0..reps)
-            .map(|_| {
-                let t = Instant::now();
-                let out = f.apply(&input);
-                let ms = t.elapsed().as_secs_f64() * 1e3;
-                out.map(|_| ms)
-            })
-            .collect::<Result<_, _>>()?;
-        times.sort_by(|a, b| a.total_cmp(b));
-        let ms = times[times.len() / 2];
-        rows.push(DofTiming {
-            name: k.name(),
-            ms,
-            ms_per_megapixel: ms / mp,
-            relative_to_fastest: 0.0,
-        });
-    }
-    let fastest = rows.iter().map(|r| r.ms).fold(f64::INFINITY, f64::min);
-    for r in &mut rows {
-        r.relative_to_fastest = r.ms / fastest;
-    }
-    Ok(rows)
+fn print_stereo(row: &StereoTiming) {
+    let num = |v: f64| json_number(Some(v)).unwrap_or(f64::NAN);
+    println!(
+        "{} {}x{} {} binocular: dup {:.0} ms, {} primary rays | rep {:.0} ms, {} primary rays ({} holes) | rep/dup time {:.2}, rays {:.2}",
+        row.display,
+        row.width,
+        row.height,
+        row.method,
+        num(row.dup_ms),
+        thousands(row.dup_rays_primary),
+        num(row.rep_ms),
+        thousands(row.rep_rays_primary),
+        thousands(row.rep_holes),
+        num(row.rep_over_dup_time),
+        num(row.rep_over_dup_rays),
+    );
 }
 
 fn print_dof(display: &str, rows: &[DofTiming]) {
@@ -603,22 +290,7 @@ fn print_dof(display: &str, rows: &[DofTiming]) {
     }
 }
 
-/// One timed frame and its comparison with the full-resolution frame of the same display.
-struct Run {
-    stats: FrameStats,
-    /// Full-resolution wall time over this frame's.
-    speedup: f64,
-    /// Full-resolution CPU time over this frame's.
-    speedup_cpu: f64,
-    /// Share of the machine's time stolen by the hypervisor during the frame.
-    steal: Option<f64>,
-    /// The process's CPU time over wall time × threads: the share of its cores it got.
-    cpu_share: f64,
-    /// Screen buffers allocated during the timed frames (0: reused from the warm-up).
-    screen_allocations: u64,
-}
-
-fn print_run(r: &Run) {
+fn print_run(r: &BenchRun) {
     let s = &r.stats;
     let st = |k: Stage| s.stages_ms.get(k);
     println!(

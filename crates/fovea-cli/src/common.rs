@@ -193,13 +193,3 @@ impl MethodOptions {
         Ok(())
     }
 }
-
-/// A subcommand's options with every default, as `fovea SUBCOMMAND` with no options would
-/// have them (the report sets the few it changes).
-pub fn defaults<T: clap::Args + clap::FromArgMatches>() -> T {
-    let cmd = T::augment_args(clap::Command::new("defaults"));
-    let matches = cmd
-        .try_get_matches_from(["defaults"])
-        .expect("every option of a subcommand the report runs has a default");
-    T::from_arg_matches(&matches).expect("defaults parse")
-}

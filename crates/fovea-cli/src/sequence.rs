@@ -16,10 +16,10 @@ use serde::Serialize;
 
 use fovea_core::display::DisplayProfile;
 use fovea_core::gaze::csv::{parse_csv, CsvOptions};
-use fovea_core::gaze::synth::{RandomWalkParams, Scenario, SynthDisplay};
 use fovea_core::gaze::GazeTrajectory;
 use fovea_core::mapping::Method;
 use fovea_core::optics::AccommodationParams;
+use fovea_eval::experiments::scenario::GazeScenario;
 use fovea_post::tonemap::ToneCurve;
 use fovea_render::camera::{Eye, EyeCamera, HmdRig};
 use fovea_render::camera_path::CameraPath;
@@ -100,40 +100,6 @@ pub struct SequenceArgs {
     pub quiet: bool,
 }
 
-/// The demo scenario: fixate the centre, saccade left, pursue right, saccade back, fixate.
-fn demo(d: &DisplayProfile, seed: u64, duration_s: f64) -> Result<GazeTrajectory> {
-    let (w, h) = (d.width_px as f64, d.height_px as f64);
-    let sd = SynthDisplay::from_profile(d);
-    let s = Scenario::new(sd, (w / 2.0, h / 2.0), 1000.0, seed)
-        .fixation(0.25)
-        .saccade_to((0.3 * w, 0.55 * h))
-        .fixation(0.2)
-        .pursuit_to((0.65 * w, 0.55 * h), 12.0)
-        .saccade_to((w / 2.0, h / 2.0))
-        .fixation(duration_s.max(0.1));
-    Ok(s.build()?)
-}
-
-/// Saccades and pursuit in about 1.3 s (120 frames at 90 Hz): fixate left of centre, pursue
-/// right at 15°/s for 10°, saccade up-right, fixate, saccade back to the start.
-fn saccade_pursuit(d: &DisplayProfile, seed: u64, duration_s: f64) -> Result<GazeTrajectory> {
-    let (w, h) = (d.width_px as f64, d.height_px as f64);
-    let sd = SynthDisplay::from_profile(d);
-    let step = d.radius_px(fovea_core::units::Degrees(10.0));
-    let start = (w / 2.0 - step, h / 2.0);
-    let s = Scenario::new(sd, start, 1000.0, seed)
-        .fixation(0.12)
-        .pursuit_to((w / 2.0, h / 2.0), 15.0)
-        .saccade_to((w / 2.0 + 1.2 * step, h / 2.0 - 0.5 * step))
-        .fixation(0.2)
-        .saccade_to(start)
-        .fixation(duration_s.max(0.1));
-    Ok(s.build()?)
-}
-
-/// Names accepted by `--scenario`.
-pub const SCENARIOS: &str = "demo, saccade-pursuit, random-walk or fixation";
-
 /// The gaze of a sequence: an eye-tracker CSV, or a synthesised scenario of `duration_s`.
 pub fn gaze_trajectory(
     gaze_csv: Option<&Path>,
@@ -157,21 +123,7 @@ pub fn gaze_trajectory(
         }
         return Ok(t);
     }
-    let sd = SynthDisplay::from_profile(d);
-    match scenario {
-        "demo" => demo(d, seed, duration_s),
-        "saccade-pursuit" => saccade_pursuit(d, seed, duration_s),
-        "random-walk" => Ok(Scenario::new(sd, (w / 2.0, h / 2.0), 1000.0, seed)
-            .random_walk(RandomWalkParams {
-                duration_s: duration_s.max(0.01),
-                ..RandomWalkParams::default()
-            })
-            .build()?),
-        "fixation" => Ok(Scenario::new(sd, (w / 2.0, h / 2.0), 1000.0, seed)
-            .fixation(duration_s.max(0.01))
-            .build()?),
-        s => bail!("invalid parameter `scenario` = {s}: expected {SCENARIOS}"),
-    }
+    Ok(GazeScenario::parse(scenario)?.trajectory(d, seed, duration_s)?)
 }
 
 pub fn run(args: SequenceArgs) -> Result<()> {

@@ -62,13 +62,3 @@ impl TemporalArgs {
         Ok(Some(c))
     }
 }
-
-/// Parses `--temporal`: on, off or both.
-pub fn parse_temporal_modes(v: &str) -> Result<Vec<bool>> {
-    match v.trim().to_ascii_lowercase().as_str() {
-        "on" => Ok(vec![true]),
-        "off" => Ok(vec![false]),
-        "both" => Ok(vec![false, true]),
-        _ => bail!("invalid parameter `temporal` = {v}: expected on, off or both"),
-    }
-}

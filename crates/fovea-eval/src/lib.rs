@@ -10,10 +10,17 @@
 //! * [`bands::band_quality`]: PSNR, SSIM, ꟻLIP and samples per pixel by eccentricity band;
 //! * [`flicker::FlickerMeter`]: temporal flicker of a sequence against the full-resolution
 //!   sequence, by eccentricity band.
+//!
+//! And the experiments built on them ([`experiments`]): the speed harness, the DOF filter
+//! comparison, the flicker measurement and the inset analysis, each a function of a scene
+//! and a plain parameter struct.
 
 pub mod bands;
-pub mod dof_compare;
+pub mod error;
+pub mod experiments;
 pub mod flicker;
 pub mod gradient_intensity;
 pub mod metrics;
 pub mod ssim;
+
+pub use error::{EvalError, Result};

@@ -3,10 +3,11 @@
 
 use anyhow::Result;
 
-use fovea_eval::dof_compare::{run_dof_compare, FilterScore};
+use fovea_eval::experiments::dof_compare::{
+    focus_label, run as run_dof_compare, DofCompareParams, FilterScore,
+};
 
-use crate::common::defaults;
-use crate::dof_compare::{focus_label, params, write_outputs, DofCompareArgs};
+use crate::dof_compare::write_outputs;
 
 use super::doc::{Cell, Section, Table};
 use super::Ctx;
@@ -31,13 +32,17 @@ fn table(id: String, title: String, rows: &[FilterScore]) -> Table {
 
 pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
     let args = ctx.args;
-    let mut d: DofCompareArgs = defaults();
-    if args.quick {
-        d.window = "128x128".into();
-        d.lens_samples = 32;
-        d.pixel_samples = 4;
-    }
-    let p = params(&d, &ctx.display)?;
+    let p = if args.quick {
+        DofCompareParams {
+            window: [128, 128],
+            lens_samples: 32,
+            pixel_samples: 4,
+            ..DofCompareParams::default()
+        }
+    } else {
+        DofCompareParams::default()
+    };
+    p.validate()?;
     let quiet = args.quiet;
     let t0 = std::time::Instant::now();
     let result = run_dof_compare(&ctx.loaded.world, &ctx.camera, &ctx.gaze, &p, &|stage| {
@@ -86,14 +91,15 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         "Contact sheet: per focus case, the thin-lens reference, then each filter with its PSNR",
     );
     sec.text(format!(
-        "Reproduce: fovea dof-compare {}{} --gaze {:.0},{:.0} --window {} --lens-samples {} --pixel-samples {}.",
+        "Reproduce: fovea dof-compare {}{} --gaze {:.0},{:.0} --window {}x{} --lens-samples {} --pixel-samples {}.",
         super::scene_flags(&args.scene),
         super::display_flags(&args.display),
         ctx.gaze.point.x_px,
         ctx.gaze.point.y_px,
-        d.window,
-        d.lens_samples,
-        d.pixel_samples
+        p.window[0],
+        p.window[1],
+        p.lens_samples,
+        p.pixel_samples
     ));
     sec.data = written.json;
     Ok(())

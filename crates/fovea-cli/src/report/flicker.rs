@@ -4,39 +4,68 @@
 
 use anyhow::Result;
 
-use crate::common::defaults;
-use crate::flicker::{measure, plan, FlickerArgs};
+use fovea_core::mapping::Method;
+use fovea_core::optics::AccommodationParams;
+use fovea_eval::experiments::flicker::{accumulation_lines, check_sequence, FlickerParams};
+use fovea_eval::experiments::scenario::{camera_slide, GazeScenario};
+use fovea_render::sequence::Sequence;
+
+use crate::flicker::{measure, write_outputs, DEFAULT_CAMERA_MOVE};
 
 use super::doc::{Cell, Section, Table};
 use super::Ctx;
 
+/// Frames per second of the sequence.
+const FPS: f64 = 90.0;
+
+/// The gaze scenario.
+const SCENARIO: GazeScenario = GazeScenario::SaccadePursuit;
+
 pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
     let args = ctx.args;
-    let mut f: FlickerArgs = defaults();
-    f.scene = args.scene.clone();
-    f.display = args.display.clone();
-    f.seed = args.seed;
-    f.frames = args
+    let frames = args
         .flicker_frames
-        .unwrap_or(if args.quick { 6 } else { f.frames });
+        .unwrap_or(if args.quick { 6 } else { 120 });
+    check_sequence(frames as usize, FPS)?;
+    let mut params = FlickerParams::default();
     if args.quick {
-        f.methods = "vafr,weier".into();
+        params.methods = vec![Method::Vafr, Method::Weier];
     }
+    params.validate()?;
     // The default camera slide is over 120 frames; a shorter sequence moves as far per frame.
-    let slide = crate::scene_args::parse_vec3("camera-move", &f.camera_move)?;
-    let share = (f.frames as f32 / 120.0).min(1.0);
+    let slide = crate::scene_args::parse_vec3("camera-move", DEFAULT_CAMERA_MOVE)?;
+    let share = (frames as f32 / 120.0).min(1.0);
     let m = slide * share;
-    f.camera_move = format!("{},{},{}", m.x, m.y, m.z);
-    f.out = ctx.dir("flicker")?;
-    f.quiet = args.quiet;
-    let p = plan(&f)?;
-    let outcome = measure(&f, &p, &ctx.loaded.world, &ctx.camera)?;
+    let camera_move = format!("{},{},{}", m.x, m.y, m.z);
+    let gazes = SCENARIO
+        .trajectory(&ctx.display, args.seed, frames as f64 / FPS)?
+        .resample(FPS, frames as usize)?;
+    let cameras = camera_slide(&ctx.camera, m.to_array(), frames as usize)?;
+    let world = &ctx.loaded.world;
+    let seq = Sequence::plan(
+        world,
+        cameras,
+        gazes,
+        None,
+        FPS,
+        AccommodationParams::default(),
+        None,
+    )?;
+    let out = ctx.dir("flicker")?;
+    let result = measure(world, &seq, &params, args.quiet)?;
+    let written = write_outputs(
+        &result,
+        &ctx.display,
+        Some(SCENARIO.name()),
+        Some(&camera_move),
+        &out,
+    )?;
     sec.text(format!(
         "{} frames at {} fps of the `{}` gaze scenario (seed {}), the camera sliding {} m (right, up, back); the reference is full resolution with {} samples per pixel. Flicker = RMS of the frame-to-frame change the reference does not make, % of the display range.",
-        f.frames, f.fps, f.scenario, f.seed, f.camera_move, f.reference_spp
+        frames, FPS, SCENARIO.name(), args.seed, camera_move, params.reference_spp
     ));
-    let first = outcome
-        .reports
+    let first = result
+        .variants
         .first()
         .ok_or_else(|| anyhow::anyhow!("no variant was measured"))?;
     let mut cols = vec!["method".to_string(), "accumulation".to_string()];
@@ -64,7 +93,7 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
             Cell::text("— (no pixels)")
         }
     };
-    for r in &outcome.reports {
+    for r in &result.variants {
         let p = &r.flicker.periphery;
         let mut cells = vec![
             Cell::text(r.method.clone()),
@@ -82,19 +111,20 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         t.row(cells);
     }
     sec.table(t);
-    for line in crate::flicker::accumulation_lines(&outcome.reports) {
+    for line in accumulation_lines(&result.variants) {
         sec.text(line);
     }
+    let method_names: Vec<&str> = params.methods.iter().map(|m| m.name()).collect();
     sec.text(format!(
         "Reproduce: fovea flicker {}{} --frames {} --camera-move={} --methods {} --seed {}; per-frame values in {}.",
         super::scene_flags(&args.scene),
         super::display_flags(&args.display),
-        f.frames,
-        f.camera_move,
-        f.methods,
-        f.seed,
-        ctx.link(&f.out.join("flicker-frames.csv"))
+        frames,
+        camera_move,
+        method_names.join(","),
+        args.seed,
+        ctx.link(&out.join("flicker-frames.csv"))
     ));
-    sec.data = outcome.json;
+    sec.data = written.json;
     Ok(())
 }

@@ -3,32 +3,26 @@
 
 use anyhow::Result;
 
-use fovea_eval::gradient_intensity::DEFAULT_BAND_PX;
+use fovea_eval::experiments::inset::{run as run_inset, InsetParams, Row};
 
-use crate::inset_analysis::{analyse, check_options, inset_rect};
+use crate::inset_analysis::write_json;
 
 use super::doc::{Cell, Section, Table};
 use super::Ctx;
 
-/// The paper's periphery: 1/4 resolution per side, upsampled by 4.
-const PERIPHERY_FACTOR: u32 = 4;
-
 pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
-    let band = DEFAULT_BAND_PX;
-    check_options(&ctx.display, PERIPHERY_FACTOR, band)?;
-    let rect = inset_rect(&ctx.display, &ctx.gaze, None, band)?;
+    // The paper's periphery: 1/4 resolution per side, upsampled by 4; the default band.
+    let mut params = InsetParams::default();
+    params.validate()?;
+    params.check_display(&ctx.display)?;
     let dir = ctx.dir("inset")?;
-    let (rows, json) = analyse(
-        &ctx.loaded.world,
-        &ctx.camera,
-        &ctx.display,
-        rect,
-        PERIPHERY_FACTOR,
-        band,
-        &dir,
-    )?;
+    params.images = Some(dir.clone());
+    let analysis = run_inset(&ctx.loaded.world, &ctx.camera, &ctx.gaze, &params)?;
+    let json = write_json(&analysis, &dir)?;
+    let (rect, rows) = (analysis.inset, &analysis.rows);
+    let (factor, band) = (params.periphery_factor, params.band_px);
     sec.text(format!(
-        "Inset {}×{} at ({}, {}) around the gaze, periphery rendered at 1/{PERIPHERY_FACTOR} resolution per side; gradients ×100 of grey (Sobel), four areas of {band} px across the boundary: Area1 well inside, Area2 just inside, Area3 just outside, Area4 well outside. The full frame's Area2/Area3 is the target; Area1 should not change.",
+        "Inset {}×{} at ({}, {}) around the gaze, periphery rendered at 1/{factor} resolution per side; gradients ×100 of grey (Sobel), four areas of {band} px across the boundary: Area1 well inside, Area2 just inside, Area3 just outside, Area4 well outside. The full frame's Area2/Area3 is the target; Area1 should not change.",
         rect.w, rect.h, rect.x0, rect.y0
     ));
     let mut t = Table::new(
@@ -59,7 +53,7 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
             Cell::text("— (flat Area3)")
         }
     };
-    for r in &rows {
+    for r in rows {
         let a = &r.report.areas;
         let mut cells = vec![Cell::text(r.method.clone())];
         for area in a.iter().take(4) {
@@ -81,7 +75,7 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         .skip(1)
         .filter(|r| r.area2_over_area3.iter().all(|v| v.is_finite()))
         .min_by(|a, b| {
-            let err = |r: &crate::inset_analysis::Row| {
+            let err = |r: &Row| {
                 (0..2)
                     .map(|k| (r.area2_over_area3[k] - rows[0].area2_over_area3[k]).abs())
                     .sum::<f64>()

@@ -3,8 +3,11 @@
 
 use anyhow::Result;
 
-use crate::bench::{measure, plan, BenchArgs};
-use crate::common::defaults;
+use fovea_core::mapping::Method;
+use fovea_eval::experiments::bench::BenchParams;
+
+use crate::bench::measure;
+use crate::common::display_of;
 
 use super::doc::{Cell, Section, Table};
 use super::Ctx;
@@ -14,44 +17,55 @@ const STAGE_ORDER: [&str; 5] = ["plan", "trace", "shade", "aa", "reconstruct"];
 
 pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
     let args = ctx.args;
-    let mut b: BenchArgs = defaults();
-    b.scene = args.scene.clone();
-    b.vfov = args.display.vfov;
     let headset = args
         .display
         .res
         .clone()
         .unwrap_or_else(|| ctx.display.name.clone());
-    b.res = match (&args.bench_res, args.quick) {
+    let res = match (&args.bench_res, args.quick) {
         (Some(r), _) => r.clone(),
         (None, true) => headset,
         (None, false) => format!("{headset},2k,4k"),
     };
-    b.methods = if args.quick {
-        "vafr,kfr,weier".into()
+    let vfov = args.display.vfov;
+    let methods = if args.quick {
+        vec![Method::Vafr, Method::Kfr, Method::Weier]
     } else {
-        "vafr,kfr,lafr,visual-polar,guenter,inset,weier".into()
+        vec![
+            Method::Vafr,
+            Method::Kfr,
+            Method::Lafr,
+            Method::VisualPolar,
+            Method::Guenter,
+            Method::Inset,
+            Method::Weier,
+        ]
     };
-    b.bvh_rays = if args.quick { 200_000 } else { 2_000_000 };
-    b.quiet = args.quiet;
-    let plan = plan(&b)?;
+    let params = BenchParams {
+        displays: res
+            .split(',')
+            .map(|t| display_of(t, vfov))
+            .collect::<Result<_>>()?,
+        methods,
+        bvh_rays: if args.quick { 200_000 } else { 2_000_000 },
+        ..BenchParams::default()
+    };
+    params.validate()?;
     // `measure` sets the lights for each resolution; the next section sees the report's view
     // again, whether or not the benchmark finished.
-    let measured = measure(&b, &plan, &mut ctx.loaded, false);
+    let measured = measure(&mut ctx.loaded, &args.scene, &params, args.quiet, false);
     ctx.restore_view()?;
-    let json = measured?;
+    let result = measured?;
 
-    let runs = json["runs"].as_array().cloned().unwrap_or_default();
+    // Stages in pipeline order, then any other stage as the runs first report it (each run's
+    // by name, as the JSON lists them).
     let mut stages: Vec<String> = STAGE_ORDER.iter().map(|s| s.to_string()).collect();
-    for r in &runs {
-        for k in r["stages_ms"]
-            .as_object()
-            .into_iter()
-            .flatten()
-            .map(|(k, _)| k)
-        {
-            if !stages.contains(k) {
-                stages.push(k.clone());
+    for r in &result.runs {
+        let mut names: Vec<&str> = r.stats.stages_ms.iter().map(|(s, _)| s.name()).collect();
+        names.sort_unstable();
+        for k in names {
+            if !stages.iter().any(|s| s == k) {
+                stages.push(k.to_string());
             }
         }
     }
@@ -65,26 +79,33 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         "speed",
         format!(
             "One frame per method and resolution, {} threads; speedup = full resolution's time over the method's, measured in the same run",
-            json["threads"]
+            result.threads
         ),
         &col_refs,
     );
-    let num = |v: &serde_json::Value, d: usize| Cell::Num(v.as_f64().unwrap_or(f64::NAN), d);
-    for r in &runs {
+    // Non-finite numbers are missing, as in the JSON.
+    let num = |v: f64, d: usize| Cell::Num(if v.is_finite() { v } else { f64::NAN }, d);
+    for r in &result.runs {
+        let s = &r.stats;
         let mut cells = vec![
-            Cell::text(format!("{}×{}", r["width"], r["height"])),
-            Cell::text(r["method"].as_str().unwrap_or("?")),
-            Cell::Int(r["samples"].as_u64().unwrap_or(0)),
-            Cell::Int(r["rays"].as_u64().unwrap_or(0)),
+            Cell::text(format!("{}×{}", s.width, s.height)),
+            Cell::text(s.method.clone()),
+            Cell::Int(s.samples),
+            Cell::Int(s.rays),
         ];
-        for s in &stages {
-            cells.push(Cell::Num(r["stages_ms"][s].as_f64().unwrap_or(0.0), 1));
+        for name in &stages {
+            let ms = s
+                .stages_ms
+                .iter()
+                .find(|(st, _)| st.name() == name)
+                .map_or(0.0, |(_, v)| v);
+            cells.push(Cell::Num(if ms.is_finite() { ms } else { 0.0 }, 1));
         }
         cells.extend([
-            num(&r["total_ms"], 1),
-            num(&r["cpu_ms"], 1),
-            num(&r["speedup_vs_full"], 2),
-            num(&r["speedup_vs_full_cpu"], 2),
+            num(s.total_ms, 1),
+            num(s.total_cpu_ms, 1),
+            num(r.speedup, 2),
+            num(r.speedup_cpu, 2),
         ]);
         t.row(cells);
     }
@@ -104,37 +125,29 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
             "chosen",
         ],
     );
-    for r in json["bvh_throughput"].as_array().into_iter().flatten() {
-        let available = r["available"].as_bool() == Some(true);
+    for r in &result.bvh_throughput {
+        let (build, mrays) = match (r.available, r.build_ms, r.primary_mrays_per_s) {
+            (true, Some(b), Some(m)) => (num(b, 0), num(m, 2)),
+            _ => (Cell::text("—"), Cell::text("—")),
+        };
         bvh.row(vec![
-            Cell::text(r["backend"].as_str().unwrap_or("?")),
-            Cell::text(if available { "yes" } else { "no" }),
-            if available {
-                num(&r["build_ms"], 0)
-            } else {
-                Cell::text("—")
-            },
-            if available {
-                num(&r["primary_mrays_per_s"], 2)
-            } else {
-                Cell::text("—")
-            },
-            Cell::text(if r["chosen"].as_bool() == Some(true) {
-                "yes"
-            } else {
-                ""
-            }),
+            Cell::text(r.backend),
+            Cell::text(if r.available { "yes" } else { "no" }),
+            build,
+            mrays,
+            Cell::text(if r.chosen { "yes" } else { "" }),
         ]);
     }
     sec.table(bvh);
+    let method_names: Vec<&str> = params.methods.iter().map(|m| m.name()).collect();
     sec.text(format!(
         "Reproduce: fovea bench {} --res {} --vfov {} --methods {} --bvh-rays {}.",
         super::scene_flags(&args.scene),
-        b.res,
-        b.vfov,
-        b.methods,
-        b.bvh_rays
+        res,
+        vfov,
+        method_names.join(","),
+        params.bvh_rays
     ));
-    sec.data = json;
+    sec.data = result.to_json();
     Ok(())
 }

@@ -34,11 +34,19 @@ use fovea_render::camera::EyeCamera;
 use fovea_render::dof::{auto_focus_m, px_per_degree, DofSettings, FocusMode};
 use fovea_render::pipeline::{render_frame, FrameSettings};
 use fovea_render::shade::ShadingMode;
-use fovea_render::thin_lens::{render_window, ThinLens, Window};
+use fovea_render::thin_lens::{
+    render_window, ThinLens, Window, MAX_LENS_SAMPLES, MAX_PIXEL_SAMPLES,
+};
 use fovea_render::world::World;
-use fovea_render::{RenderError, Result};
 
+use crate::error::{EvalError, Result};
 use crate::metrics::{crop, flip_mean, luma_psnr, Region};
+
+/// Smallest and largest side of the scored window, pixels.
+pub const WINDOW_SIDES_PX: std::ops::RangeInclusive<u32> = 8..=16384;
+
+/// Largest margin, pixels.
+pub const MAX_MARGIN_PX: u32 = 256;
 
 /// Which focus distance a case uses.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -64,7 +72,7 @@ impl FocusSpec {
             "auto" => Ok(FocusSpec::Auto),
             _ => match t.parse::<f64>() {
                 Ok(v) if v.is_finite() && v > 0.0 => Ok(FocusSpec::Metres(v)),
-                _ => Err(RenderError::invalid(
+                _ => Err(EvalError::invalid(
                     "focus",
                     text,
                     "near, far, auto or a distance in metres > 0",
@@ -87,32 +95,35 @@ impl FocusSpec {
 /// Settings of a comparison.
 #[derive(Clone, Debug, Serialize)]
 pub struct DofCompareParams {
-    /// Inner window size (scored), pixels.
+    /// Inner window size (scored), pixels, sides in [`WINDOW_SIDES_PX`] (clipped to the
+    /// screen). Default: 384 × 384.
     pub window: [u32; 2],
-    /// Extra pinhole pixels on each side for the filters' context.
+    /// Extra pinhole pixels on each side for the filters' context, 0 to [`MAX_MARGIN_PX`].
+    /// Default: 32.
     pub margin_px: u32,
-    /// Lens samples of the reference (Konrad: 55).
+    /// Lens samples of the reference (Konrad: 55), 1 to [`MAX_LENS_SAMPLES`]. Default: 128.
     pub lens_samples: u32,
     /// Rays per pixel of the pinhole frame; above 1 both renders integrate over the pixel
     /// area (see [`fovea_render::thin_lens`]) so the scores isolate the blur from aliasing.
+    /// 1 to [`MAX_PIXEL_SAMPLES`] and at most `lens_samples`. Default: 16.
     pub pixel_samples: u32,
-    /// Shading of both renders.
+    /// Shading of both renders. Default: direct.
     #[serde(skip)]
     pub shading: ShadingMode,
-    /// The eye.
+    /// The eye (pupil 0 to 12 mm; 0 is a pinhole). Default: [`EyeModel::default`].
     pub eye: EyeModel,
-    /// CoC model given to the filters (the reference is a thin lens).
+    /// CoC model given to the filters (the reference is a thin lens). Default: thin lens.
     pub coc_model: CocModel,
-    /// Largest CoC diameter, pixels.
+    /// Largest CoC diameter, 0 to 256 pixels. Default: 64.
     pub max_coc_px: f64,
-    /// Filters to score.
+    /// Filters to score (at least one). Default: every filter.
     pub filters: Vec<FilterKind>,
-    /// Focus cases.
+    /// Focus cases (at least one). Default: near and far.
     pub focus: Vec<FocusSpec>,
     /// Also measure DOF-aware culling: this foveation method with this filter, whole frames
-    /// with and without culling.
+    /// with and without culling. Default: none.
     pub culling: Option<(Method, FilterKind)>,
-    /// The culling's `cull_hidden_coc_px` ([`DofSettings`]).
+    /// The culling's `cull_hidden_coc_px` ([`DofSettings`]), 0 to 256 pixels. Default: 0.
     pub cull_hidden_coc_px: f64,
 }
 
@@ -132,6 +143,90 @@ impl Default for DofCompareParams {
             culling: None,
             cull_hidden_coc_px: DofSettings::new(None, FocusMode::Auto).cull_hidden_coc_px,
         }
+    }
+}
+
+impl DofCompareParams {
+    /// Checks every parameter's range (see the fields).
+    pub fn validate(&self) -> Result<()> {
+        let [ww, wh] = self.window;
+        if !(WINDOW_SIDES_PX.contains(&ww) && WINDOW_SIDES_PX.contains(&wh)) {
+            return Err(EvalError::invalid(
+                "window",
+                format!("{ww}x{wh}"),
+                format!(
+                    "WxH with sides {} to {}, or full",
+                    WINDOW_SIDES_PX.start(),
+                    WINDOW_SIDES_PX.end()
+                ),
+            ));
+        }
+        if !(1..=MAX_LENS_SAMPLES).contains(&self.lens_samples) {
+            return Err(EvalError::invalid(
+                "lens-samples",
+                self.lens_samples,
+                format!("1 to {MAX_LENS_SAMPLES}"),
+            ));
+        }
+        if !(1..=MAX_PIXEL_SAMPLES).contains(&self.pixel_samples) {
+            return Err(EvalError::invalid(
+                "pixel-samples",
+                self.pixel_samples,
+                format!("1 to {MAX_PIXEL_SAMPLES}"),
+            ));
+        }
+        if self.pixel_samples > self.lens_samples {
+            return Err(EvalError::invalid(
+                "pixel-samples",
+                self.pixel_samples,
+                format!(
+                    "at most --lens-samples ({}), since each lens sample takes one pixel offset",
+                    self.lens_samples
+                ),
+            ));
+        }
+        if self.margin_px > MAX_MARGIN_PX {
+            return Err(EvalError::invalid(
+                "margin",
+                self.margin_px,
+                format!("0 to {MAX_MARGIN_PX}"),
+            ));
+        }
+        if !(self.cull_hidden_coc_px.is_finite()
+            && (0.0..=256.0).contains(&self.cull_hidden_coc_px))
+        {
+            return Err(EvalError::invalid(
+                "cull-hidden-coc",
+                self.cull_hidden_coc_px,
+                "0 to 256 pixels",
+            ));
+        }
+        if !(self.max_coc_px.is_finite() && (0.0..=256.0).contains(&self.max_coc_px)) {
+            return Err(EvalError::invalid(
+                "max-coc",
+                self.max_coc_px,
+                "0 to 256 pixels",
+            ));
+        }
+        if !(self.eye.pupil.0.is_finite() && (0.0..=12.0).contains(&self.eye.pupil.0)) {
+            return Err(EvalError::invalid("pupil", self.eye.pupil.0, "0 to 12 mm"));
+        }
+        self.shading.validate()?;
+        if self.filters.is_empty() {
+            return Err(EvalError::invalid(
+                "filters",
+                "none",
+                "at least one DOF filter",
+            ));
+        }
+        if self.focus.is_empty() {
+            return Err(EvalError::invalid(
+                "cases",
+                "none",
+                "at least one focus case: near, far, auto or metres",
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -239,6 +334,107 @@ impl DofComparison {
     }
 }
 
+impl DofComparison {
+    /// `{"filters": [mean over cases], "cases": [...], ...}`: the JSON of `fovea dof-compare`
+    /// (`dof-compare.json`) for a comparison on `scene` and `display`.
+    pub fn to_json(&self, scene: &str, display: &str) -> serde_json::Value {
+        serde_json::json!({
+            "scene": scene,
+            "display": display,
+            "window": self.window,
+            "pixels_per_degree": self.pixels_per_degree,
+            "lens_samples": self.params.lens_samples,
+            "pixel_samples": self.params.pixel_samples,
+            "pupil_mm": self.params.eye.pupil.0,
+            "coc_model": self.params.coc_model.name(),
+            "filters": self.mean_scores(),
+            "cases": self.cases,
+        })
+    }
+
+    /// The comparison as Markdown (`dof-compare.md`): one table per focus case and the means.
+    pub fn markdown(&self, scene: &str, display: &str) -> String {
+        let r = self;
+        let mut s = format!(
+            "# Depth-of-field filters against the thin-lens reference\n\n{scene}, {display}, window {}x{} at ({}, {}), {:.1} px/deg, pupil {:.2} mm, {} lens samples, {} pixel samples, CoC {}.\n",
+            r.window.width,
+            r.window.height,
+            r.window.x0,
+            r.window.y0,
+            r.pixels_per_degree,
+            r.params.eye.pupil.0,
+            r.params.lens_samples,
+            r.params.pixel_samples,
+            r.params.coc_model.name()
+        );
+        let table = |rows: &[FilterScore]| {
+            let mut t = String::from(
+                "\n| filter | luma PSNR (dB) | SSIM | ꟻLIP | ms / megapixel |\n|---|---:|---:|---:|---:|\n",
+            );
+            for f in rows {
+                t += &format!(
+                    "| {} | {} | {:.4} | {:.4} | {:.1} |\n",
+                    f.name,
+                    fmt_db(f.psnr_y_db),
+                    f.ssim,
+                    f.flip,
+                    f.ms_per_megapixel
+                );
+            }
+            t
+        };
+        for c in &r.cases {
+            let focus = focus_label(c.focus_m);
+            s += &format!(
+                "\n## Focus {} ({focus}), largest CoC {:.1} px, reference noise floor {} dB\n",
+                c.focus,
+                c.max_coc_px,
+                fmt_db(c.reference_noise_floor_db)
+            );
+            s += &table(&c.filters);
+            if let Some(k) = &c.culling {
+                s += &format!(
+                    "\nDOF-aware culling, {} + {} (whole frames): {} of {} surface samples culled ({:.1} %), shadow rays {} → {}; window PSNR {} dB without, {} dB with culling (cost {:.2} dB).\n",
+                    k.method,
+                    k.filter,
+                    k.samples_culled,
+                    k.samples_shaded + k.samples_culled,
+                    k.saved_fraction * 100.0,
+                    k.shadow_rays[0],
+                    k.shadow_rays[1],
+                    fmt_db(k.psnr_without_db),
+                    fmt_db(k.psnr_with_db),
+                    k.cost_db
+                );
+            }
+        }
+        if r.cases.len() > 1 {
+            s += "\n## Mean over the focus cases\n";
+            s += &table(&r.mean_scores());
+        }
+        s
+    }
+}
+
+/// A PSNR as tables print it: two decimals, or ∞.
+pub fn fmt_db(v: f64) -> String {
+    if v.is_infinite() {
+        "∞".into()
+    } else {
+        format!("{v:.2}")
+    }
+}
+
+/// A focus distance as printed: metres with three decimals, or ∞ (`focus_m` ≥ 1e308, the
+/// JSON's stand-in for infinity).
+pub fn focus_label(focus_m: f64) -> String {
+    if focus_m >= 1e308 {
+        "∞".to_string()
+    } else {
+        format!("{focus_m:.3} m")
+    }
+}
+
 /// Percentile `q` in [0, 1] of the finite values.
 fn percentile(values: &[f32], q: f64) -> Option<f64> {
     let mut v: Vec<f32> = values.iter().copied().filter(|d| d.is_finite()).collect();
@@ -249,21 +445,16 @@ fn percentile(values: &[f32], q: f64) -> Option<f64> {
     Some(v[((v.len() - 1) as f64 * q).round() as usize] as f64)
 }
 
-/// Runs the comparison. `progress(stage)` names each step as it starts.
-pub fn run_dof_compare(
+/// Runs the comparison of `camera`'s view of `world` in a window around `gaze`.
+/// `progress(stage)` names each step as it starts.
+pub fn run(
     world: &World,
     camera: &EyeCamera,
     gaze: &Gaze,
     params: &DofCompareParams,
     progress: &(dyn Fn(&str) + Sync),
 ) -> Result<DofComparison> {
-    if params.filters.is_empty() || params.focus.is_empty() {
-        return Err(RenderError::invalid(
-            "dof-compare",
-            "no filters or no focus cases",
-            "at least one filter and one focus",
-        ));
-    }
+    params.validate()?;
     let d = &camera.display;
     let (gx, gy) = (gaze.point.x_px, gaze.point.y_px);
     let inner = Window::centred(
@@ -451,10 +642,76 @@ pub fn run_dof_compare(
     })
 }
 
-fn crop_error(r: Region) -> RenderError {
-    RenderError::Core(FoveaError::invalid(
+fn crop_error(r: Region) -> EvalError {
+    EvalError::Core(FoveaError::invalid(
         "window",
         format!("{:?}", r),
         "a region inside the rendered window",
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn invalid(r: Result<()>) -> String {
+        match r {
+            Err(EvalError::InvalidParameter { name, .. }) => name,
+            other => panic!("expected an invalid parameter, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn default_params_are_valid() {
+        DofCompareParams::default().validate().unwrap();
+    }
+
+    #[test]
+    fn bad_params_give_typed_errors() {
+        let bad = |f: &dyn Fn(&mut DofCompareParams)| {
+            let mut p = DofCompareParams::default();
+            f(&mut p);
+            p.validate()
+        };
+        assert_eq!(invalid(bad(&|p| p.window = [3, 3])), "window");
+        assert_eq!(invalid(bad(&|p| p.window = [64, 20_000])), "window");
+        assert_eq!(invalid(bad(&|p| p.lens_samples = 0)), "lens-samples");
+        assert_eq!(invalid(bad(&|p| p.pixel_samples = 0)), "pixel-samples");
+        assert_eq!(
+            invalid(bad(&|p| {
+                p.lens_samples = 4;
+                p.pixel_samples = 8;
+            })),
+            "pixel-samples"
+        );
+        assert_eq!(invalid(bad(&|p| p.margin_px = 300)), "margin");
+        assert_eq!(
+            invalid(bad(&|p| p.cull_hidden_coc_px = f64::NAN)),
+            "cull-hidden-coc"
+        );
+        assert_eq!(invalid(bad(&|p| p.max_coc_px = 300.0)), "max-coc");
+        assert_eq!(
+            invalid(bad(&|p| p.eye.pupil = fovea_core::units::Millimetres(13.0))),
+            "pupil"
+        );
+        assert_eq!(invalid(bad(&|p| p.filters.clear())), "filters");
+        assert_eq!(invalid(bad(&|p| p.focus.clear())), "cases");
+        assert!(matches!(
+            bad(&|p| p.shading = ShadingMode::Path { bounces: 1, spp: 0, seed: 1 }),
+            Err(EvalError::Render(fovea_render::RenderError::InvalidParameter { ref name, .. })) if name == "spp"
+        ));
+        assert_eq!(
+            FocusSpec::parse("middle").unwrap_err().parameter(),
+            Some("focus")
+        );
+        assert_eq!(FocusSpec::parse("2.5").unwrap(), FocusSpec::Metres(2.5));
+    }
+
+    #[test]
+    fn labels() {
+        assert_eq!(focus_label(1e308), "∞");
+        assert_eq!(focus_label(1.25), "1.250 m");
+        assert_eq!(fmt_db(f64::INFINITY), "∞");
+        assert_eq!(fmt_db(31.234), "31.23");
+    }
 }

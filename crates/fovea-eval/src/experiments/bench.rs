@@ -1,0 +1,730 @@
+//! The speed harness: the same view at several resolutions, full resolution against foveated
+//! methods in one run — rays, per-stage wall and processor times, speedups (VaFR Sec. 6 and
+//! Table 1's sample counts; Weier et al. 2018, Table 1's per-stage timings) — the primary-ray
+//! throughput of each available BVH backend, the time of each depth-of-field filter on a
+//! full-resolution frame (Konrad et al.'s per-pixel cost), and binocular frames as VaFR's Dup
+//! (both eyes traced) and Rep (the right eye reprojected from the left, holes traced).
+//!
+//! Each method renders `warmup` untimed frames, then `frames` timed frames in one
+//! [`FrameContext`] (the warm-up allocates the buffers the timed frames reuse); the median
+//! timed frame is reported. Timing goes into the result, never into an assertion.
+
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use fovea_core::display::{DisplayProfile, Gaze};
+use fovea_core::mapping::Method;
+use fovea_core::units::Metres;
+use fovea_core::Image;
+use fovea_post::dof::coc::coc_map;
+use fovea_post::dof::{DofInput, FilterKind};
+use fovea_post::Rgb;
+use fovea_render::bvh::{self, Backend, Ray};
+use fovea_render::camera::{EyeCamera, HmdRig};
+use fovea_render::dof::{auto_focus_m, coc_params, px_per_degree, DofSettings, FocusMode};
+use fovea_render::eye::EyeState;
+use fovea_render::pipeline::{
+    render_planned, FrameContext, FrameInputs, FrameSettings, FrameStats, Stage, StageMs,
+    StageTimes, Stopwatch,
+};
+use fovea_render::plan::FramePlan;
+use fovea_render::stereo::{fixating_eyes, render_stereo, StereoMode};
+use fovea_render::world::World;
+
+use crate::error::{EvalError, Result};
+
+use super::median;
+
+/// Most warm-up, timed frames, DOF and binocular repetitions.
+pub const MAX_REPS: u32 = 1000;
+
+/// The scene as the benchmark views it on each display: the world, whose lights may follow
+/// the view (generated around the camera), and the head with both eyes.
+pub trait BenchScene {
+    /// The eye's camera on `display`, with the world set up for it.
+    fn view(&mut self, display: &DisplayProfile) -> Result<EyeCamera>;
+    /// The world as the last [`view`](Self::view) left it.
+    fn world(&self) -> &World;
+    /// The head rig (both eyes), for binocular frames.
+    fn rig(&self) -> &HmdRig;
+}
+
+/// A world whose lights do not follow the view, seen by one eye of a head rig.
+pub struct FixedScene<'a> {
+    /// The world.
+    pub world: &'a World,
+    /// The head.
+    pub rig: HmdRig,
+    /// The eye that renders single-eye frames.
+    pub eye: fovea_render::camera::Eye,
+}
+
+impl BenchScene for FixedScene<'_> {
+    fn view(&mut self, display: &DisplayProfile) -> Result<EyeCamera> {
+        Ok(self.rig.eye(self.eye, display)?)
+    }
+    fn world(&self) -> &World {
+        self.world
+    }
+    fn rig(&self) -> &HmdRig {
+        &self.rig
+    }
+}
+
+/// Parameters of a benchmark.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchParams {
+    /// Displays, in order. Default: the 2k, 4k, 8k and retinal presets.
+    pub displays: Vec<DisplayProfile>,
+    /// Methods compared with full resolution, which always runs first. Default: VaFR.
+    pub methods: Vec<Method>,
+    /// What every frame renders with besides its method: mapping parameters, shading, AA,
+    /// memory limit (the method is replaced per run). Default: `FrameSettings::new(full)`.
+    pub frame: FrameSettings,
+    /// Primary rays per backend for the BVH throughput test on the first display (0 skips
+    /// it). Default: 2,000,000.
+    pub bvh_rays: u64,
+    /// Depth-of-field filters to time on each display's full-resolution frame. Default: none.
+    pub dof_filters: Vec<FilterKind>,
+    /// The eye and focus of the DOF timing (its filter is ignored). Default: auto focus, the
+    /// standard eye ([`DofSettings::new`]).
+    pub dof: DofSettings,
+    /// Timed repetitions of each DOF filter (the median is reported), 1 to 100. Default: 3.
+    pub dof_reps: u32,
+    /// Untimed frames per method before the timed ones, 0 to [`MAX_REPS`]. Default: 1.
+    pub warmup: u32,
+    /// Timed frames per method (the median frame is reported), 1 to [`MAX_REPS`]. Default: 1.
+    pub frames: u32,
+    /// Also time binocular frames of every foveated method as Dup and Rep. Default: no.
+    pub stereo: bool,
+    /// Timed repetitions of each binocular mode (alternating; medians), 1 to 100. Default: 3.
+    pub stereo_reps: u32,
+}
+
+impl Default for BenchParams {
+    fn default() -> Self {
+        Self {
+            displays: ["2k", "4k", "8k", "retinal"]
+                .into_iter()
+                .filter_map(|n| DisplayProfile::preset(n).ok())
+                .collect(),
+            methods: vec![Method::Vafr],
+            frame: FrameSettings::new(Method::Full),
+            bvh_rays: 2_000_000,
+            dof_filters: Vec::new(),
+            dof: DofSettings::new(None, FocusMode::Auto),
+            dof_reps: 3,
+            warmup: 1,
+            frames: 1,
+            stereo: false,
+            stereo_reps: 3,
+        }
+    }
+}
+
+impl BenchParams {
+    /// Checks every parameter: at least one valid display, the frame and DOF settings, and the
+    /// repetition counts.
+    pub fn validate(&self) -> Result<()> {
+        if self.displays.is_empty() {
+            return Err(EvalError::invalid(
+                "res",
+                "none",
+                "at least one display (resolution or preset)",
+            ));
+        }
+        for d in &self.displays {
+            d.validate()?;
+        }
+        self.frame.validate()?;
+        self.dof.validate()?;
+        let count = |name: &str, v: u32, lo: u32, hi: u32| {
+            if (lo..=hi).contains(&v) {
+                Ok(())
+            } else {
+                Err(EvalError::invalid(name, v, format!("{lo} to {hi}")))
+            }
+        };
+        count("dof-reps", self.dof_reps, 1, 100)?;
+        count("stereo-reps", self.stereo_reps, 1, 100)?;
+        count("warmup", self.warmup, 0, MAX_REPS)?;
+        count("frames", self.frames, 1, MAX_REPS)?;
+        Ok(())
+    }
+
+    /// The methods in run order: full resolution, then the others (each once).
+    pub fn run_methods(&self) -> Vec<Method> {
+        let mut methods = vec![Method::Full];
+        for &m in &self.methods {
+            if !methods.contains(&m) {
+                methods.push(m);
+            }
+        }
+        methods
+    }
+}
+
+/// One BVH backend's primary-ray throughput.
+#[derive(Clone, Debug, Serialize)]
+pub struct BvhThroughput {
+    /// Backend name.
+    pub backend: &'static str,
+    /// Whether this build has it.
+    pub available: bool,
+    /// Build time, milliseconds (when available).
+    pub build_ms: Option<f64>,
+    /// Primary rays per second, millions, all threads (when available).
+    pub primary_mrays_per_s: Option<f64>,
+    /// Whether the world uses this backend.
+    pub chosen: bool,
+}
+
+/// One DOF filter's time on one frame.
+#[derive(Clone, Debug, Serialize)]
+pub struct DofTiming {
+    /// Filter name.
+    pub name: &'static str,
+    /// Median wall time, milliseconds.
+    pub ms: f64,
+    /// Median wall time per megapixel, milliseconds.
+    pub ms_per_megapixel: f64,
+    /// This filter's time over the fastest filter's, measured in the same run.
+    pub relative_to_fastest: f64,
+}
+
+/// The DOF filters timed on one display's full-resolution frame.
+#[derive(Clone, Debug, Serialize)]
+pub struct DofTimings {
+    /// Display name.
+    pub display: String,
+    /// Width, pixels.
+    pub width: u32,
+    /// Height, pixels.
+    pub height: u32,
+    /// Per filter.
+    pub filters: Vec<DofTiming>,
+}
+
+/// A binocular frame of one method on one display, Dup against Rep (medians).
+#[derive(Clone, Debug, Serialize)]
+pub struct StereoTiming {
+    /// Display name.
+    pub display: String,
+    /// Width, pixels.
+    pub width: u32,
+    /// Height, pixels.
+    pub height: u32,
+    /// Method name.
+    pub method: &'static str,
+    /// Dup wall time, milliseconds.
+    pub dup_ms: f64,
+    /// Rep wall time, milliseconds.
+    pub rep_ms: f64,
+    /// Dup primary rays (both eyes).
+    pub dup_rays_primary: u64,
+    /// Rep primary rays (the left eye and the right eye's holes).
+    pub rep_rays_primary: u64,
+    /// Rep: right texels traced.
+    pub rep_holes: u64,
+    /// `rep_ms / dup_ms`.
+    pub rep_over_dup_time: f64,
+    /// `rep_rays_primary / dup_rays_primary`.
+    pub rep_over_dup_rays: f64,
+}
+
+/// One timed frame and its comparison with the full-resolution frame of the same display.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchRun {
+    /// The median timed frame's statistics.
+    pub stats: FrameStats,
+    /// Full-resolution wall time over this frame's.
+    pub speedup: f64,
+    /// Full-resolution CPU time over this frame's.
+    pub speedup_cpu: f64,
+    /// Share of the machine's time stolen by the hypervisor during the frames.
+    pub steal: Option<f64>,
+    /// The process's CPU time over wall time × threads: the share of its cores it got.
+    pub cpu_share: f64,
+    /// Screen buffers allocated during the timed frames (0: reused from the warm-up).
+    pub screen_allocations: u64,
+}
+
+/// Everything a benchmark measured.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchResult {
+    /// Scene name.
+    pub scene: String,
+    /// Triangles.
+    pub triangles: usize,
+    /// Lights after the last view.
+    pub lights: usize,
+    /// The world's BVH backend.
+    pub bvh: &'static str,
+    /// Rayon threads.
+    pub threads: usize,
+    /// Per backend (empty when skipped).
+    pub bvh_throughput: Vec<BvhThroughput>,
+    /// Per display, with DOF filters asked for.
+    pub dof: Vec<DofTimings>,
+    /// Per display and foveated method, with stereo.
+    pub binocular: Vec<StereoTiming>,
+    /// Per display and method, in run order.
+    pub runs: Vec<BenchRun>,
+}
+
+/// What the benchmark tells its observer as it goes.
+#[derive(Clone, Copy, Debug)]
+pub enum BenchEvent<'a> {
+    /// A method's frames on a display start.
+    Started {
+        /// The display.
+        display: &'a DisplayProfile,
+        /// The method.
+        method: Method,
+    },
+    /// Samples done of the frame being rendered (from the render threads).
+    Samples {
+        /// Done.
+        done: u64,
+        /// In all.
+        total: u64,
+    },
+    /// The DOF filters were timed on a display's full-resolution frame.
+    DofTimed(&'a DofTimings),
+    /// A method's run ended.
+    Run(&'a BenchRun),
+    /// A binocular timing ended.
+    Stereo(&'a StereoTiming),
+}
+
+/// Runs the benchmark on `scene`; `observe` hears each step (from several threads for
+/// [`BenchEvent::Samples`]).
+pub fn run(
+    scene: &mut dyn BenchScene,
+    params: &BenchParams,
+    observe: &(dyn Fn(BenchEvent<'_>) + Sync),
+) -> Result<BenchResult> {
+    params.validate()?;
+    let methods = params.run_methods();
+    let backend_name = scene.world().caster.backend().name();
+    let mut result = BenchResult {
+        scene: String::new(),
+        triangles: 0,
+        lights: 0,
+        bvh: backend_name,
+        threads: rayon::current_num_threads(),
+        bvh_throughput: Vec::new(),
+        dof: Vec::new(),
+        binocular: Vec::new(),
+        runs: Vec::new(),
+    };
+    for (k, display) in params.displays.iter().enumerate() {
+        let camera = scene.view(display)?;
+        let world = scene.world();
+        if k == 0 && params.bvh_rays > 0 {
+            result.bvh_throughput = bvh_throughput(world, &camera, params.bvh_rays)?;
+        }
+        let gaze = display.centre_gaze();
+        let mut full: Option<(f64, f64)> = None;
+        for &m in &methods {
+            let mut s = params.frame.clone();
+            s.method = m;
+            observe(BenchEvent::Started { display, method: m });
+            let jiffies = machine_jiffies();
+            // Warm-up frames (untimed: they allocate the context's buffers), then the timed
+            // frames with the same context; the median frame's statistics are kept.
+            let eye = EyeState::looking_at(gaze);
+            let mut ctx = FrameContext::new();
+            let mut timed: Vec<FrameStats> = Vec::new();
+            let mut allocations_after_warmup = 0;
+            for k in 0..params.warmup + params.frames {
+                if k == params.warmup {
+                    allocations_after_warmup = ctx.screen_allocations();
+                }
+                let mut times = StageTimes::default();
+                let t = Stopwatch::start();
+                let plan = FramePlan::new(world, &camera, &s, &eye, [0.0, 0.0])?;
+                times.add(Stage::Plan, &t);
+                let frame = render_planned(
+                    &mut ctx,
+                    world,
+                    &camera,
+                    &plan,
+                    FrameInputs::default(),
+                    times,
+                    &|done, total| observe(BenchEvent::Samples { done, total }),
+                )?;
+                if k >= params.warmup {
+                    timed.push(frame.stats.clone());
+                }
+            }
+            let screen_allocations = ctx.screen_allocations() - allocations_after_warmup;
+            timed.sort_by(|a, b| a.total_ms.total_cmp(&b.total_ms));
+            let stats = timed.swap_remove(timed.len() / 2);
+            // The images are freed with the context, except the full frame's while DOF
+            // filters are timed on it.
+            if m == Method::Full && !params.dof_filters.is_empty() {
+                // `frames` ≥ 1 (validated), so the context holds the last timed frame.
+                let frame = ctx.frame().expect("a timed frame was rendered");
+                let timings = DofTimings {
+                    display: display.name.clone(),
+                    width: display.width_px,
+                    height: display.height_px,
+                    filters: time_dof_filters(
+                        world,
+                        &camera,
+                        &gaze,
+                        &params.dof,
+                        &frame.color,
+                        &frame.depth,
+                        &params.dof_filters,
+                        params.dof_reps,
+                    )?,
+                };
+                observe(BenchEvent::DofTimed(&timings));
+                result.dof.push(timings);
+            }
+            drop(ctx);
+            let steal = steal_fraction(jiffies, machine_jiffies());
+            if m == Method::Full {
+                full = Some((stats.total_ms, stats.total_cpu_ms));
+            }
+            let run = BenchRun {
+                speedup: full.map_or(1.0, |f| f.0 / stats.total_ms),
+                speedup_cpu: full.map_or(1.0, |f| f.1 / stats.total_cpu_ms),
+                cpu_share: stats.total_cpu_ms
+                    / (stats.total_ms * rayon::current_num_threads() as f64),
+                screen_allocations,
+                steal,
+                stats,
+            };
+            observe(BenchEvent::Run(&run));
+            result.runs.push(run);
+        }
+        if params.stereo {
+            for &m in methods.iter().filter(|&&m| m != Method::Full) {
+                let row = time_stereo(
+                    world,
+                    scene.rig(),
+                    display,
+                    m,
+                    &params.frame,
+                    params.stereo_reps,
+                )?;
+                observe(BenchEvent::Stereo(&row));
+                result.binocular.push(row);
+            }
+        }
+    }
+    let world = scene.world();
+    result.scene = world.scene.name.clone();
+    result.triangles = world.tris.len();
+    result.lights = world.lights.len();
+    Ok(result)
+}
+
+impl BenchResult {
+    /// The JSON of `fovea bench --json`.
+    pub fn to_json(&self) -> serde_json::Value {
+        let bvh: Vec<serde_json::Value> = self
+            .bvh_throughput
+            .iter()
+            .map(|b| {
+                if b.available {
+                    serde_json::json!({
+                        "backend": b.backend, "available": true,
+                        "build_ms": b.build_ms, "primary_mrays_per_s": b.primary_mrays_per_s,
+                        "chosen": b.chosen,
+                    })
+                } else {
+                    serde_json::json!({
+                        "backend": b.backend, "available": false,
+                        "note": "build with --features embree (Debian libembree-dev)",
+                    })
+                }
+            })
+            .collect();
+        serde_json::json!({
+            "scene": self.scene,
+            "triangles": self.triangles,
+            "lights": self.lights,
+            "bvh": self.bvh,
+            "threads": self.threads,
+            "bvh_throughput": bvh,
+            "dof": self.dof,
+            "binocular": self.binocular,
+            "runs": self.runs.iter().map(|r| {
+                let s = &r.stats;
+                let post = |st: &StageMs| st.sum(&[Stage::Aa, Stage::Reconstruct]);
+                serde_json::json!({
+                    "method": s.method,
+                    "width": s.width,
+                    "height": s.height,
+                    "samples": s.samples,
+                    "rays": s.rays,
+                    "rays_primary": s.rays_primary,
+                    "rays_shadow": s.rays_shadow,
+                    "rays_bounce": s.rays_bounce,
+                    "total_ms": s.total_ms,
+                    "stages_ms": s.stages_ms,
+                    "cpu_ms": s.total_cpu_ms,
+                    "stages_cpu_ms": s.stages_cpu_ms,
+                    "post_fraction": post(&s.stages_ms) / s.total_ms,
+                    "post_fraction_cpu": post(&s.stages_cpu_ms) / s.total_cpu_ms,
+                    "speedup_vs_full": r.speedup,
+                    "speedup_vs_full_cpu": r.speedup_cpu,
+                    "machine_steal_fraction": r.steal,
+                    "cpu_share": r.cpu_share,
+                    "screen_allocations_after_warmup": r.screen_allocations,
+                })
+            }).collect::<Vec<_>>(),
+        })
+    }
+}
+
+/// Builds each backend on the world's triangles and measures its primary-ray throughput
+/// through `camera`.
+fn bvh_throughput(world: &World, camera: &EyeCamera, rays: u64) -> Result<Vec<BvhThroughput>> {
+    let chosen = world.caster.backend().name();
+    let mut out = Vec::new();
+    for b in [Backend::Obvhs, Backend::Embree] {
+        if !b.available() {
+            out.push(BvhThroughput {
+                backend: b.name(),
+                available: false,
+                build_ms: None,
+                primary_mrays_per_s: None,
+                chosen: false,
+            });
+            continue;
+        }
+        let t = Instant::now();
+        let caster = bvh::build(b, &world.tris)?;
+        let build_ms = t.elapsed().as_secs_f64() * 1e3;
+        let mrays = primary_throughput(caster.as_ref(), camera, rays);
+        out.push(BvhThroughput {
+            backend: b.name(),
+            available: true,
+            build_ms: Some(build_ms),
+            primary_mrays_per_s: Some(mrays),
+            chosen: b.name() == chosen,
+        });
+    }
+    Ok(out)
+}
+
+/// Primary-ray throughput of `caster` through `camera`: about `n` rays on a regular grid over
+/// the screen, Mrays/s (wall time, all threads).
+fn primary_throughput(caster: &dyn bvh::RayCaster, camera: &EyeCamera, n: u64) -> f64 {
+    let d = &camera.display;
+    let (w, h) = (d.width_px as u64, d.height_px as u64);
+    let side = ((n as f64) * (w as f64 / h as f64)).sqrt().max(1.0) as u64;
+    let rows = (n / side).max(1);
+    let t = Instant::now();
+    let hits: u64 = (0..rows)
+        .into_par_iter()
+        .map(|j| {
+            let mut c = 0u64;
+            for i in 0..side {
+                let x = (i as f32 + 0.5) * w as f32 / side as f32;
+                let y = (j as f32 + 0.5) * h as f32 / rows as f32;
+                let r = Ray {
+                    origin: camera.position,
+                    dir: camera.direction(x, y),
+                    t_min: 0.0,
+                    t_max: f32::INFINITY,
+                };
+                c += caster.intersect(&r).is_some() as u64;
+            }
+            c
+        })
+        .sum();
+    std::hint::black_box(hits);
+    (side * rows) as f64 / t.elapsed().as_secs_f64() / 1e6
+}
+
+/// Jiffies of the whole machine from `/proc/stat`: (stolen by the hypervisor, all).
+fn machine_jiffies() -> Option<(u64, u64)> {
+    let stat = std::fs::read_to_string("/proc/stat").ok()?;
+    let fields: Vec<u64> = stat
+        .lines()
+        .next()?
+        .split_whitespace()
+        .skip(1)
+        .filter_map(|f| f.parse().ok())
+        .collect();
+    Some((*fields.get(7)?, fields.iter().take(8).sum()))
+}
+
+/// Share of the machine's time the hypervisor gave to other guests between two readings.
+fn steal_fraction(a: Option<(u64, u64)>, b: Option<(u64, u64)>) -> Option<f64> {
+    let ((s0, t0), (s1, t1)) = (a?, b?);
+    (t1 > t0).then(|| (s1 - s0) as f64 / (t1 - t0) as f64)
+}
+
+/// Binocular frame of `method` on `display`, Dup and Rep alternately `reps` times, both eyes
+/// fixating the first surface under the centre of the cyclopean view; medians.
+fn time_stereo(
+    world: &World,
+    rig: &HmdRig,
+    display: &DisplayProfile,
+    method: Method,
+    template: &FrameSettings,
+    reps: u32,
+) -> Result<StereoTiming> {
+    let (_, [(lc, lg), (rc, rg)]) = fixating_eyes(world, rig, display, &display.centre_gaze())?;
+    let mut settings = template.clone();
+    settings.method = method;
+    let eyes = [EyeState::looking_at(lg), EyeState::looking_at(rg)];
+    let (mut dup_ms, mut rep_ms) = (Vec::new(), Vec::new());
+    let (mut dup_rays, mut rep_rays, mut holes) = (0, 0, 0);
+    for _ in 0..reps {
+        let d = render_stereo(
+            world,
+            &lc,
+            &rc,
+            &settings,
+            eyes,
+            StereoMode::Dup,
+            &|_, _| {},
+        )?;
+        dup_ms.push(d.stats.total_ms);
+        dup_rays = d.stats.rays_primary;
+        let r = render_stereo(
+            world,
+            &lc,
+            &rc,
+            &settings,
+            eyes,
+            StereoMode::Rep,
+            &|_, _| {},
+        )?;
+        rep_ms.push(r.stats.total_ms);
+        rep_rays = r.stats.rays_primary;
+        holes = r.stats.holes_traced;
+    }
+    let (dm, rm) = (median(&mut dup_ms), median(&mut rep_ms));
+    Ok(StereoTiming {
+        display: display.name.clone(),
+        width: display.width_px,
+        height: display.height_px,
+        method: method.name(),
+        dup_ms: dm,
+        rep_ms: rm,
+        dup_rays_primary: dup_rays,
+        rep_rays_primary: rep_rays,
+        rep_holes: holes,
+        rep_over_dup_time: rm / dm,
+        rep_over_dup_rays: rep_rays as f64 / dup_rays as f64,
+    })
+}
+
+/// Times each filter `reps` times on one frame (auto or fixed focus of `settings`).
+#[allow(clippy::too_many_arguments)]
+fn time_dof_filters(
+    world: &World,
+    camera: &EyeCamera,
+    gaze: &Gaze,
+    settings: &DofSettings,
+    color: &Image<Rgb>,
+    depth: &Image<f32>,
+    filters: &[FilterKind],
+    reps: u32,
+) -> Result<Vec<DofTiming>> {
+    let focus_m = match settings.focus {
+        FocusMode::Fixed(f) => f,
+        FocusMode::Auto => auto_focus_m(world, camera, gaze)?,
+    };
+    let params = coc_params(settings, camera);
+    let coc = coc_map(&params, Metres(focus_m), depth)?;
+    let input = DofInput {
+        color,
+        depth_m: depth,
+        coc_px: &coc,
+        focus_m: focus_m as f32,
+        px_per_dioptre: params.px_per_dioptre() as f32,
+        gaze_px: [gaze.point.x_px as f32, gaze.point.y_px as f32],
+        px_per_degree: px_per_degree(camera) as f32,
+    };
+    let mp = color.width() as f64 * color.height() as f64 / 1e6;
+    let mut rows = Vec::new();
+    for &k in filters {
+        let f = k.build();
+        let mut times: Vec<f64> = (0..reps)
+            .map(|_| {
+                let t = Instant::now();
+                let out = f.apply(&input);
+                let ms = t.elapsed().as_secs_f64() * 1e3;
+                out.map(|_| ms)
+            })
+            .collect::<std::result::Result<_, _>>()?;
+        let ms = median(&mut times);
+        rows.push(DofTiming {
+            name: k.name(),
+            ms,
+            ms_per_megapixel: ms / mp,
+            relative_to_fastest: 0.0,
+        });
+    }
+    let fastest = rows.iter().map(|r| r.ms).fold(f64::INFINITY, f64::min);
+    for r in &mut rows {
+        r.relative_to_fastest = r.ms / fastest;
+    }
+    Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fovea_render::shade::ShadingMode;
+
+    fn invalid(r: Result<()>) -> String {
+        match r {
+            Err(EvalError::InvalidParameter { name, .. }) => name,
+            other => panic!("expected an invalid parameter of this crate, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn default_params_are_valid_and_run_full_first() {
+        let p = BenchParams::default();
+        p.validate().unwrap();
+        assert_eq!(p.displays.len(), 4);
+        assert_eq!(p.run_methods(), vec![Method::Full, Method::Vafr]);
+        let p = BenchParams {
+            methods: vec![Method::Kfr, Method::Full, Method::Kfr],
+            ..BenchParams::default()
+        };
+        assert_eq!(p.run_methods(), vec![Method::Full, Method::Kfr]);
+    }
+
+    #[test]
+    fn bad_params_give_typed_errors() {
+        let bad = |f: &dyn Fn(&mut BenchParams)| {
+            let mut p = BenchParams::default();
+            f(&mut p);
+            p.validate()
+        };
+        assert_eq!(invalid(bad(&|p| p.displays.clear())), "res");
+        assert_eq!(invalid(bad(&|p| p.dof_reps = 0)), "dof-reps");
+        assert_eq!(invalid(bad(&|p| p.stereo_reps = 101)), "stereo-reps");
+        assert_eq!(invalid(bad(&|p| p.frames = 0)), "frames");
+        assert_eq!(invalid(bad(&|p| p.warmup = MAX_REPS + 1)), "warmup");
+        assert!(matches!(
+            bad(&|p| p.frame.shading = ShadingMode::Path { bounces: 0, spp: 1, seed: 1 }),
+            Err(EvalError::Render(fovea_render::RenderError::InvalidParameter { ref name, .. }))
+                if name == "bounces"
+        ));
+        assert_eq!(
+            bad(&|p| p.dof.max_coc_px = f64::NAN)
+                .unwrap_err()
+                .parameter(),
+            Some("max-coc")
+        );
+        let mut d = DisplayProfile::preset("2k").unwrap();
+        d.width_px = 0;
+        assert!(bad(&|p| p.displays = vec![d.clone()]).is_err());
+    }
+}
