@@ -29,7 +29,7 @@ pub struct GSample {
     pub face_normal: Vec3,
     /// Unit vector from the hit towards the ray origin.
     pub to_eye: Vec3,
-    /// Base colour (texture × factor), linear RGB.
+    /// Base colour (factor × texture × vertex colour), linear RGB.
     pub albedo: Vec3,
     /// Metalness.
     pub metallic: f32,
@@ -145,6 +145,11 @@ pub fn surface(world: &World, ray: &Ray, hit: &Hit, spread_rad: f32) -> GSample 
                 }
             }
         }
+    }
+    // Vertex colours multiply the base colour (glTF: factor × texture × COLOR_0).
+    if !mesh.colors.is_empty() {
+        let c = idx.map(|i| mesh.colors[i as usize]);
+        albedo *= b0 * c[0] + b1 * c[1] + b2 * c[2];
     }
     // Keep the shading normal in the visible hemisphere.
     if n.dot(-ray.dir) < 0.0 {

@@ -42,6 +42,7 @@ fn uv_sphere(name: &str, c: Vec3, r: f32, seg: u32, material: u32) -> Mesh {
         positions,
         normals,
         tangents: vec![],
+        colors: vec![],
         indices,
         material,
     }

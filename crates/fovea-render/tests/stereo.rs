@@ -80,6 +80,7 @@ fn disocclusions_behind_a_thin_pole_are_traced_not_smeared() {
         normals: vec![n; 4],
         uvs: vec![],
         tangents: vec![],
+        colors: vec![],
         indices: vec![[0, 1, 2], [0, 2, 3]],
         material: red,
     });

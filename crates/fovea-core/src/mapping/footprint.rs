@@ -6,7 +6,8 @@
 //!
 //! * [`sample_spread_rad`]: the angle one sample spans, `1/(2√(ρ_r ρ_t))` degrees from the
 //!   radial and tangential shading rates `ρ_r`, `ρ_t` (cycles per degree, VaFR Eq. 13 and
-//!   20), clamped to `[1 screen pixel, 10°]`.
+//!   20), clamped to `[1 screen pixel, 10°]` (one pixel where a pixel spans more than 10°,
+//!   as on a 1x1 display).
 //! * [`SampleFootprint`]: that angle per polar buffer column (a column lies at one
 //!   eccentricity, VaFR Eq. 3) or one pixel for full resolution, and the fallback per sample.
 //! * [`SpacingLut`]: sample spacing in screen pixels against eccentricity, the full-resolution
@@ -23,11 +24,11 @@ pub const MAX_SPREAD_DEG: f64 = 10.0;
 
 /// Angle a sample of `mapping` spans at screen point `p`: its spacing `1/(2√(ρ_r ρ_t))`
 /// degrees from the shading rates, at least one screen pixel (the full-resolution ray's
-/// footprint, `1/f_px` rad) and at most [`MAX_SPREAD_DEG`]. The lower bound matters where a
-/// mapping samples more densely than the screen (VaFR near the gaze on low-resolution
-/// displays): detail finer than a pixel would be resampled onto the pixel grid by the inverse
-/// mapping and alias into moiré, so textures are filtered to the screen's Nyquist rate there,
-/// as in the full frame.
+/// footprint, `1/f_px` rad) and at most [`MAX_SPREAD_DEG`] (unless one pixel is wider: then
+/// one pixel). The lower bound matters where a mapping samples more densely than the screen
+/// (VaFR near the gaze on low-resolution displays): detail finer than a pixel would be
+/// resampled onto the pixel grid by the inverse mapping and alias into moiré, so textures
+/// are filtered to the screen's Nyquist rate there, as in the full frame.
 pub fn sample_spread_rad(
     mapping: &dyn FoveationMapping,
     display: &DisplayProfile,
@@ -46,9 +47,13 @@ pub fn sample_spread_rad(
         0.0
     };
     let pixel_rad = 1.0 / display.focal_y_px();
+    // `min` then `max` rather than `clamp`: on a tiny display one pixel spans more than
+    // `MAX_SPREAD_DEG` (a 1x1 display with a 90° field of view: 1 pixel = 2 rad), and the pixel
+    // wins. Wherever pixel ≤ 10° this is exactly `clamp(pixel_rad, 10°)`.
     spacing_deg
         .to_radians()
-        .clamp(pixel_rad, MAX_SPREAD_DEG.to_radians()) as f32
+        .min(MAX_SPREAD_DEG.to_radians())
+        .max(pixel_rad) as f32
 }
 
 /// The ray-cone angle of every sample of one frame: one pixel at full resolution, one value

@@ -116,22 +116,53 @@ impl Lafr {
         check_range("beta", params.beta, 1e-3, 10.0)?;
         check_range("foveal_boundary", params.foveal_boundary.0, 0.1, 45.0)?;
         let frame = LogPolarFrame::new(display, gaze, params.delta)?;
+        let defaults = LafrParams::default();
+        // What the display is, for messages: the user chose the resolution, usually not the
+        // kernel's parameters, so a refusal caused by the display names the display.
+        let screen = format!(
+            "{}x{} display with a {}° vertical field of view",
+            display.width_px, display.height_px, display.vfov.0
+        );
         let z_ef = frame.z_of_e(params.foveal_boundary.0);
         if !(z_ef > 0.0 && z_ef < 1.0) {
-            return Err(FoveaError::invalid(
-                "foveal_boundary",
-                params.foveal_boundary.0,
-                "an eccentricity between 1 px from the gaze and the farthest screen corner",
-            ));
+            let one_px_deg = display.c_r().atan().to_degrees();
+            let corner_deg = display.farthest_corner_eccentricity(&gaze).0;
+            let expected = format!(
+                "an eccentricity between one pixel from the gaze ({one_px_deg:.2}°) and the \
+                 farthest screen corner ({corner_deg:.1}°) on this {screen}"
+            );
+            if params.foveal_boundary != defaults.foveal_boundary {
+                return Err(FoveaError::invalid(
+                    "foveal_boundary",
+                    params.foveal_boundary.0,
+                    expected,
+                ));
+            }
+            return Err(FoveaError::Unsupported(format!(
+                "LaFR on a {screen}: its foveal region ({}° around the gaze) must span more \
+                 than one pixel ({one_px_deg:.2}° here) and end before the farthest screen \
+                 corner ({corner_deg:.1}° from this gaze); use a higher resolution, a wider \
+                 field of view or another method",
+                params.foveal_boundary.0
+            )));
         }
         let a = params.kernel_a;
         let f = 1.0 - (params.alpha * z_ef.powf(1.0 - a) / (1.0 - a)).ln() / z_ef.ln();
         if !(f > 0.0 && f < 1.0) {
+            if params.kernel_a == defaults.kernel_a && params.alpha == defaults.alpha {
+                return Err(FoveaError::Unsupported(format!(
+                    "LaFR on a {screen}: its foveal region ({}° around the gaze) covers too \
+                     much of the screen for the kernel (exponent F = {f:.3}, outside (0, 1)); \
+                     use a higher resolution, a wider field of view or another method",
+                    params.foveal_boundary.0
+                )));
+            }
             return Err(FoveaError::invalid(
                 "kernel_a",
                 a,
                 format!(
-                    "a value that keeps LaFR's exponent F = f'(a, α) in (0, 1); got F = {f:.3}"
+                    "a value that keeps LaFR's exponent F = f'(a, α) in (0, 1) on this \
+                     {screen}; got F = {f:.3}"
                 ),
             ));
         }
@@ -217,5 +248,31 @@ mod tests {
             prev = u;
             assert!((k.z_of_u(u) - i as f64 / 1000.0).abs() < 1e-6 || u == 0.0);
         }
+    }
+
+    #[test]
+    fn displays_too_small_for_the_foveal_region_are_named_not_the_kernel() {
+        // One pixel spans more than the 4.89° foveal boundary, or the boundary reaches the
+        // farthest corner (a 2° field of view): the error names the display.
+        for (w, h, vfov) in [(1, 1, 90.0), (16, 9, 90.0), (100, 1, 90.0), (64, 64, 2.0)] {
+            let d = DisplayProfile::with_vertical_fov("t", w, h, Degrees(vfov)).unwrap();
+            let e = match Lafr::new(&d, d.centre_gaze(), LafrParams::default()) {
+                Ok(_) => continue,
+                Err(e) => e.to_string(),
+            };
+            assert!(e.contains(&format!("{w}x{h}")), "{e}");
+            assert!(
+                !e.contains("foveal_boundary") && !e.contains("kernel_a"),
+                "{e}"
+            );
+        }
+        // A parameter the caller did set is named.
+        let d = DisplayProfile::with_vertical_fov("t", 16, 9, Degrees(90.0)).unwrap();
+        let p = LafrParams {
+            foveal_boundary: Degrees(2.0),
+            ..Default::default()
+        };
+        let e = Lafr::new(&d, d.centre_gaze(), p).err().unwrap().to_string();
+        assert!(e.contains("foveal_boundary") && e.contains("16x9"), "{e}");
     }
 }

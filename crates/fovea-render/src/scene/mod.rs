@@ -14,6 +14,13 @@
 //! infinite vertices, index out of range, a scene without triangles) with
 //! [`RenderError::BadInput`], and drops degenerate (zero-area) triangles with a warning, which
 //! is the documented fallback.
+//!
+//! Reading: every loader reads its files within [`LoadLimits`] (module `limits`; defaults
+//! there): regular files only (no FIFO, device or directory, also behind a symbolic link), at
+//! most the declared size or `max_file_bytes` per file and `max_total_bytes` per load, XML
+//! nested at most `max_nesting` deep, and files named by the scene inside the scene file's
+//! folder tree unless `allow_outside_scene_dir`. [`Scene::load`] uses the defaults,
+//! [`Scene::load_with_limits`] others.
 
 use std::path::{Path, PathBuf};
 
@@ -23,13 +30,16 @@ use serde::Serialize;
 use crate::error::{RenderError, Result};
 
 pub mod builtin;
+pub(crate) mod files;
 pub mod gltf;
+pub mod limits;
 pub mod mitsuba;
 pub mod obj;
 pub mod ply;
 mod primitives;
 pub mod texture;
 
+pub use limits::LoadLimits;
 pub use texture::{Texture, TextureId};
 
 /// Index of a material in [`Scene::materials`].
@@ -48,6 +58,9 @@ pub struct Mesh {
     pub uvs: Vec<Vec2>,
     /// Per-vertex tangents (xyz world space, w = bitangent sign); empty → derived from UVs.
     pub tangents: Vec<Vec4>,
+    /// Per-vertex colours, linear RGB, multiplied into the material's base colour (glTF
+    /// `COLOR_0`, OBJ `v x y z r g b`, PLY `red green blue`); empty → none.
+    pub colors: Vec<Vec3>,
     /// Triangles as vertex indices.
     pub indices: Vec<[u32; 3]>,
     /// Material of every triangle.
@@ -280,9 +293,15 @@ impl Bounds {
 }
 
 impl Scene {
-    /// Loads a scene file, choosing the loader by extension: `.gltf`/`.glb`, `.obj`,
-    /// `.xml` (Mitsuba), `.ply`.
+    /// Loads a scene file within the default [`LoadLimits`], choosing the loader by
+    /// extension: `.gltf`/`.glb`, `.obj`, `.xml` (Mitsuba), `.ply`.
     pub fn load(path: &Path) -> Result<Scene> {
+        Self::load_with_limits(path, &LoadLimits::default())
+    }
+
+    /// [`Scene::load`] within `limits`: file sizes, XML nesting, files outside the scene's
+    /// folder (see [`LoadLimits`]).
+    pub fn load_with_limits(path: &Path, limits: &LoadLimits) -> Result<Scene> {
         if !path.exists() {
             return Err(RenderError::Io {
                 path: path.to_path_buf(),
@@ -295,10 +314,10 @@ impl Scene {
             .map(|e| e.to_ascii_lowercase())
             .unwrap_or_default();
         let mut scene = match ext.as_str() {
-            "gltf" | "glb" => gltf::load(path)?,
-            "obj" => obj::load(path)?,
-            "xml" => mitsuba::load(path)?,
-            "ply" => ply::load_scene(path)?,
+            "gltf" | "glb" => gltf::load_with_limits(path, limits)?,
+            "obj" => obj::load_with_limits(path, limits)?,
+            "xml" => mitsuba::load_with_limits(path, limits)?,
+            "ply" => ply::load_scene_with_limits(path, limits)?,
             _ => {
                 return Err(RenderError::Unsupported(format!(
                     "scene format of {} (expected .gltf, .glb, .obj, .xml (Mitsuba) or .ply)",
@@ -391,8 +410,10 @@ impl Scene {
     /// * NaN / infinite vertex, index out of range, material out of range → error naming the
     ///   mesh;
     /// * zero-area triangles → dropped, with a warning giving the count;
-    /// * a normal / UV / tangent array whose length does not match the positions → dropped
-    ///   with a warning (normals fall back to geometric normals);
+    /// * triangles whose (finite) coordinates are so large that their area overflows `f32`
+    ///   → dropped, with a warning that says so (an error when no triangle is left);
+    /// * a normal / UV / tangent / colour array whose length does not match the positions →
+    ///   dropped with a warning (normals fall back to geometric normals; tangents silently);
     /// * a texture index out of range → the texture is ignored with a warning;
     /// * no triangles at all → error.
     pub fn validate(&mut self) -> Result<()> {
@@ -405,6 +426,7 @@ impl Scene {
             self.materials.push(Material::default());
         }
         let mut dropped = 0usize;
+        let (mut huge, mut largest) = (0usize, 0.0f32);
         for m in &mut self.meshes {
             if let Some(p) = m.positions.iter().find(|p| !p.is_finite()) {
                 return Err(RenderError::BadInput {
@@ -453,25 +475,55 @@ impl Scene {
             {
                 m.tangents.clear();
             }
+            if !m.colors.is_empty()
+                && (m.colors.len() != m.positions.len() || m.colors.iter().any(|c| !c.is_finite()))
+            {
+                self.warnings.push(format!(
+                    "mesh `{}`: vertex colours unusable (count or NaN), ignored",
+                    m.name
+                ));
+                m.colors.clear();
+            }
             let before = m.indices.len();
             let pos = &m.positions;
+            let mut overflowed = 0usize;
             m.indices.retain(|t| {
                 let (a, b, c) = (pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]);
                 let area2 = (b - a).cross(c - a).length();
-                area2
-                    > 1e-12
-                        * (b - a)
-                            .length_squared()
-                            .max((c - a).length_squared())
-                            .max(1e-30)
-                    && area2 > 0.0
+                let edge2 = (b - a)
+                    .length_squared()
+                    .max((c - a).length_squared())
+                    .max(1e-30);
+                if !(area2.is_finite() && edge2.is_finite()) {
+                    // Finite coordinates whose products overflow f32: not degenerate, too big.
+                    overflowed += 1;
+                    return false;
+                }
+                area2 > 1e-12 * edge2 && area2 > 0.0
             });
-            dropped += before - m.indices.len();
+            dropped += before - m.indices.len() - overflowed;
+            if overflowed > 0 {
+                huge += overflowed;
+                largest = m
+                    .positions
+                    .iter()
+                    .fold(largest, |l, p| l.max(p.abs().max_element()));
+            }
         }
         if dropped > 0 {
             self.warnings.push(format!(
                 "dropped {dropped} degenerate (zero-area) triangles"
             ));
+        }
+        let huge_text = (huge > 0).then(|| {
+            format!(
+                "{huge} triangle(s) with coordinates too large to compute with in single \
+                 precision (up to {largest:e}; edge lengths squared overflow above about \
+                 1.8e19): rescale the model"
+            )
+        });
+        if let Some(t) = &huge_text {
+            self.warnings.push(format!("dropped {t}"));
         }
         self.meshes.retain(|m| !m.indices.is_empty());
         let n_tex = self.textures.len() as u32;
@@ -496,7 +548,10 @@ impl Scene {
         if self.triangle_count() == 0 {
             return Err(RenderError::BadInput {
                 path: source,
-                what: "the scene has no (non-degenerate) triangles".into(),
+                what: match huge_text {
+                    Some(t) if dropped == 0 => format!("the scene has no usable triangles: {t}"),
+                    _ => "the scene has no (non-degenerate) triangles".into(),
+                },
             });
         }
         for l in &self.lights {

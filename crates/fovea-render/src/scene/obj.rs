@@ -1,13 +1,18 @@
 //! Wavefront OBJ + MTL loader (through `tobj`).
 //!
 //! Format facts used here:
-//! * `v x y z [w]` positions, `vt u v` texture coordinates (OBJ's `v` axis points **up** the
+//! * `v x y z [w]` positions (or `v x y z r g b`: a vertex colour, linear, stored in
+//!   [`Mesh::colors`] and multiplied into the base colour; colours on some vertices only are
+//!   ignored with a warning), `vt u v` texture coordinates (OBJ's `v` axis points **up** the
 //!   image, so it is converted to the glTF convention used by [`Mesh::uvs`]:
 //!   `uv = (u, 1 − v)`), `vn` normals, `f` faces with 1-based (or negative, relative) indices
 //!   `v/vt/vn`; polygons are fan-triangulated by `tobj`, points (`p`, one-vertex faces) and
 //!   lines (`l`, two-vertex faces) are ignored. `o`/`g` split the file into objects, each
 //!   becomes one [`Mesh`] per material.
 //! * `mtllib` names material libraries relative to the OBJ file; `usemtl` selects a material.
+//!   The OBJ, its MTL files and textures are read within the load's [`LoadLimits`]: regular
+//!   files only, of bounded size, inside the OBJ's folder tree unless allowed (an MTL or
+//!   texture refused that way is a warning, like a missing one).
 //!
 //! Material mapping (MTL → [`Material`]):
 //! * `Kd` → `base_color` (default 0.8 grey), `Ks` → `specular` (clamped to [0, 1]; default
@@ -31,9 +36,11 @@
 //! curve → the line is dropped) → a warning. Objects without `usemtl` get a default grey
 //! material.
 //!
-//! Errors: an unreadable file → [`RenderError::Io`]; malformed OBJ content (unparsable
-//! numbers, face indices out of range, which are checked here with line numbers before
-//! `tobj` sees them) → [`RenderError::BadInput`]. The parser is additionally run under
+//! Errors: an unreadable file → [`RenderError::Io`]; UTF-16 text →
+//! [`RenderError::Unsupported`] naming the encoding; malformed OBJ content (a `v`, `vt`, `vn`
+//! with too few or unparsable numbers, a malformed face vertex, face indices out of range,
+//! all checked here with their line number, without quoting the line, before `tobj` sees
+//! them) → [`RenderError::BadInput`]. The parser is additionally run under
 //! `catch_unwind`, so a panic inside `tobj` on some input we did not anticipate becomes a
 //! `BadInput` error instead of aborting. NaN vertices are rejected later by
 //! [`Scene::validate`].
@@ -49,6 +56,8 @@ use std::path::{Path, PathBuf};
 use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
+use super::files::SceneFiles;
+use super::limits::LoadLimits;
 use super::{Material, MaterialId, Mesh, Scene, Texture, TextureId};
 use crate::error::{RenderError, Result};
 
@@ -69,10 +78,18 @@ fn load_options() -> tobj::LoadOptions {
 }
 
 /// Loads an OBJ file with its MTL libraries as a scene: one mesh per object and material,
-/// materials from the MTL (see the module docs for the mapping and fallbacks).
+/// materials from the MTL (see the module docs for the mapping and fallbacks), within the
+/// default [`LoadLimits`].
 pub fn load(path: &Path) -> Result<Scene> {
+    load_with_limits(path, &LoadLimits::default())
+}
+
+/// [`load`] within `limits` (file sizes, files outside the scene's folder).
+pub fn load_with_limits(path: &Path, limits: &LoadLimits) -> Result<Scene> {
+    let files = SceneFiles::new(path, limits)?;
+    let bytes = files.read_scene_file()?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let (models, materials, mut warnings) = parse(path, true)?;
+    let (models, materials, mut warnings) = parse(&files, path, &bytes, true)?;
     let materials = materials.unwrap_or_default();
 
     // Textures: collect distinct files, decode in parallel.
@@ -153,7 +170,7 @@ pub fn load(path: &Path) -> Result<Scene> {
 
     let decoded: Vec<Result<Texture>> = tex_paths
         .par_iter()
-        .map(|(p, srgb)| Texture::load(p, *srgb))
+        .map(|(p, srgb)| Texture::load_in(&files, p, *srgb))
         .collect();
     let mut textures = Vec::new();
     let mut tex_ids: Vec<Option<TextureId>> = Vec::with_capacity(decoded.len());
@@ -235,7 +252,19 @@ pub fn load(path: &Path) -> Result<Scene> {
 /// are ignored (the Mitsuba loader assigns materials itself). Texture coordinates are
 /// converted to the glTF convention (`v` down). Errors as [`load`].
 pub fn load_mesh(path: &Path, material: MaterialId) -> Result<Mesh> {
-    let (models, _, _) = parse(path, false)?;
+    let files = SceneFiles::new(path, &LoadLimits::default())?;
+    let bytes = files.read_scene_file()?;
+    mesh_of(&files, path, &bytes, material)
+}
+
+/// [`load_mesh`] for a file a scene names, read through the scene's `files`.
+pub(crate) fn load_mesh_in(files: &SceneFiles, path: &Path, material: MaterialId) -> Result<Mesh> {
+    let bytes = files.read(path, None)?;
+    mesh_of(files, path, &bytes, material)
+}
+
+fn mesh_of(files: &SceneFiles, path: &Path, bytes: &[u8], material: MaterialId) -> Result<Mesh> {
+    let (models, _, _) = parse(files, path, bytes, false)?;
     let mut out = Mesh {
         name: path
             .file_stem()
@@ -246,6 +275,7 @@ pub fn load_mesh(path: &Path, material: MaterialId) -> Result<Mesh> {
     };
     let mut all_normals = true;
     let mut all_uvs = true;
+    let mut all_colors = true;
     let mut meshes = Vec::with_capacity(models.len());
     for model in models {
         let mut w = Vec::new();
@@ -255,6 +285,7 @@ pub fn load_mesh(path: &Path, material: MaterialId) -> Result<Mesh> {
         }
         all_normals &= !m.normals.is_empty();
         all_uvs &= !m.uvs.is_empty();
+        all_colors &= !m.colors.is_empty();
         meshes.push(m);
     }
     if meshes.len() == 1 {
@@ -272,6 +303,9 @@ pub fn load_mesh(path: &Path, material: MaterialId) -> Result<Mesh> {
         if all_uvs {
             out.uvs.extend_from_slice(&m.uvs);
         }
+        if all_colors {
+            out.colors.extend_from_slice(&m.colors);
+        }
         out.indices.extend(
             m.indices
                 .iter()
@@ -281,17 +315,37 @@ pub fn load_mesh(path: &Path, material: MaterialId) -> Result<Mesh> {
     Ok(out)
 }
 
-/// Reads the file, checks face indices, runs `tobj` (with the MTL libraries when `with_mtl`).
+/// Checks the text (encoding, statements, face indices; errors with line numbers), runs
+/// `tobj` (with the MTL libraries when `with_mtl`, read through `files`).
 #[allow(clippy::type_complexity)]
 fn parse(
+    files: &SceneFiles,
     path: &Path,
+    bytes: &[u8],
     with_mtl: bool,
 ) -> Result<(Vec<tobj::Model>, Option<Vec<tobj::Material>>, Vec<String>)> {
-    let bytes = std::fs::read(path).map_err(|e| RenderError::io(path, &e))?;
-    let text = String::from_utf8_lossy(&bytes);
-    check_indices(&text).map_err(|what| RenderError::bad(path, what))?;
+    if let Some(encoding) = utf16_encoding(bytes) {
+        return Err(RenderError::Unsupported(format!(
+            "{} is {encoding} text; OBJ files are read as UTF-8 or ASCII: convert it (e.g. \
+             `iconv -f UTF-16 -t UTF-8`)",
+            path.display()
+        )));
+    }
+    let text = String::from_utf8_lossy(bytes);
+    let counts = check_lines(&text).map_err(|what| RenderError::bad(path, what))?;
+    let mut early_warnings = Vec::new();
+    // tobj needs colours on every vertex or none (it indexes them like positions).
+    let text = if counts.colored > 0 && counts.colored < counts.vertices {
+        early_warnings.push(format!(
+            "vertex colours on {} of {} vertices only, ignored",
+            counts.colored, counts.vertices
+        ));
+        std::borrow::Cow::Owned(strip_vertex_colors(&text))
+    } else {
+        text
+    };
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let warnings = RefCell::new(Vec::<String>::new());
+    let warnings = RefCell::new(early_warnings);
     let mtl_loader = |p: &Path| -> tobj::MTLLoadResult {
         if !with_mtl {
             return Err(tobj::LoadError::OpenFileFailed);
@@ -299,7 +353,7 @@ fn parse(
         let full = dir.join(p);
         let mut err = None;
         let mut notes = Vec::new();
-        let r = load_mtl(&full, &mut err, &mut notes);
+        let r = load_mtl(files, &full, &mut err, &mut notes);
         for n in notes {
             warnings
                 .borrow_mut()
@@ -342,14 +396,25 @@ fn parse(
 
 /// Reads an MTL file, repairs or drops malformed lines (see [`sanitize_mtl`]; `notes` receives
 /// what was changed) and parses it with `tobj`; on failure `err` receives the reason.
-fn load_mtl(path: &Path, err: &mut Option<String>, notes: &mut Vec<String>) -> tobj::MTLLoadResult {
-    let bytes = match std::fs::read(path) {
+fn load_mtl(
+    files: &SceneFiles,
+    path: &Path,
+    err: &mut Option<String>,
+    notes: &mut Vec<String>,
+) -> tobj::MTLLoadResult {
+    let bytes = match files.read(path, None) {
         Ok(b) => b,
         Err(e) => {
-            *err = Some(format!("cannot read it ({e})"));
+            *err = Some(format!("not read ({e})"));
             return Err(tobj::LoadError::OpenFileFailed);
         }
     };
+    if let Some(encoding) = utf16_encoding(&bytes) {
+        *err = Some(format!(
+            "{encoding} text, not read (MTL files are UTF-8 or ASCII)"
+        ));
+        return Err(tobj::LoadError::OpenFileFailed);
+    }
     let (text, n) = sanitize_mtl(&String::from_utf8_lossy(&bytes));
     *notes = n;
     let mut reader = Cursor::new(text.as_bytes());
@@ -426,43 +491,126 @@ fn sanitize_mtl(text: &str) -> (String, Vec<String>) {
     (out, notes)
 }
 
-/// Checks every face index against the number of `v`/`vt`/`vn` entries, so that out-of-range
-/// (including negative, relative) indices are reported with their line instead of reaching
-/// the parser.
-fn check_indices(text: &str) -> std::result::Result<(), String> {
+/// What [`check_lines`] counted.
+#[derive(Debug, Default, PartialEq)]
+struct LineCounts {
+    /// `v` statements.
+    vertices: usize,
+    /// `v` statements with a colour (`v x y z r g b`).
+    colored: usize,
+}
+
+/// The encoding of UTF-16 text (by its byte-order mark, or NUL bytes in every other place
+/// of the first line), which `tobj` would read as garbage.
+fn utf16_encoding(bytes: &[u8]) -> Option<&'static str> {
+    if bytes.starts_with(&[0xFF, 0xFE]) {
+        return Some("UTF-16 (little-endian)");
+    }
+    if bytes.starts_with(&[0xFE, 0xFF]) {
+        return Some("UTF-16 (big-endian)");
+    }
+    let head = &bytes[..bytes.len().min(64)];
+    if head.len() >= 4 {
+        let nul_odd = head.iter().skip(1).step_by(2).all(|&b| b == 0);
+        let nul_even = head.iter().step_by(2).all(|&b| b == 0);
+        if nul_odd && !nul_even {
+            return Some("UTF-16 (little-endian, no byte-order mark)");
+        }
+        if nul_even && !nul_odd {
+            return Some("UTF-16 (big-endian, no byte-order mark)");
+        }
+    }
+    None
+}
+
+/// Checks the statements `tobj` would reject (`v`, `vt`, `vn`, `f`, `l`) and every face
+/// index against the number of `v`/`vt`/`vn` entries, so that problems are reported with
+/// their line (without echoing the line) instead of a bare parser error; counts the
+/// vertices and those with a colour.
+fn check_lines(text: &str) -> std::result::Result<LineCounts, String> {
     let (mut nv, mut nvt, mut nvn) = (0i64, 0i64, 0i64);
+    let mut counts = LineCounts::default();
     // Largest positive index of each kind and its line, checked against the final counts.
     let mut max_pos: [(i64, usize); 3] = [(0, 0); 3];
+    let is_num = |w: &str| w.parse::<f32>().is_ok();
     for (lineno, line) in text.lines().enumerate() {
+        let n = lineno + 1;
         let mut words = line.split_whitespace();
         match words.next() {
-            Some("v") => nv += 1,
-            Some("vt") => nvt += 1,
-            Some("vn") => nvn += 1,
-            Some("f") | Some("l") => {
+            Some("v") => {
+                let rest: Vec<&str> = words.collect();
+                if rest.len() < 3 || !rest[..3].iter().all(|w| is_num(w)) {
+                    return Err(format!(
+                        "line {n}: a vertex (`v`) needs three numbers x y z"
+                    ));
+                }
+                match rest.len() {
+                    3 => {}
+                    4 => match rest[3].parse::<f32>() {
+                        Ok(w) if w != 0.0 => {}
+                        Ok(_) => return Err(format!("line {n}: vertex weight w is 0")),
+                        Err(_) => return Err(format!("line {n}: vertex weight w is not a number")),
+                    },
+                    6 if rest[3..].iter().all(|w| is_num(w)) => counts.colored += 1,
+                    6 => return Err(format!("line {n}: vertex colour r g b is not 3 numbers")),
+                    k => {
+                        return Err(format!(
+                            "line {n}: a vertex (`v`) has {k} values; expected 3 (x y z), 4 \
+                             (x y z w) or 6 (x y z r g b)"
+                        ))
+                    }
+                }
+                counts.vertices += 1;
+                nv += 1;
+            }
+            Some("vt") => {
+                let rest: Vec<&str> = words.take(2).collect();
+                if rest.len() < 2 || !rest.iter().all(|w| is_num(w)) {
+                    return Err(format!(
+                        "line {n}: a texture coordinate (`vt`) needs two numbers u v"
+                    ));
+                }
+                nvt += 1;
+            }
+            Some("vn") => {
+                let rest: Vec<&str> = words.take(3).collect();
+                if rest.len() < 3 || !rest.iter().all(|w| is_num(w)) {
+                    return Err(format!("line {n}: a normal (`vn`) needs three numbers"));
+                }
+                nvn += 1;
+            }
+            Some(kw @ ("f" | "l")) => {
                 for token in words {
-                    for (k, part) in token.split('/').enumerate().take(3) {
+                    let parts: Vec<&str> = token.split('/').collect();
+                    // As `tobj`: empty parts are skipped, a fourth non-empty one is an error.
+                    if parts.iter().skip(3).any(|p| !p.is_empty()) || parts[0].is_empty() {
+                        return Err(format!(
+                            "line {n}: face (`{kw}`) vertex is not v, v/vt, v//vn or v/vt/vn"
+                        ));
+                    }
+                    for (k, part) in parts.iter().enumerate().take(3) {
+                        if part.is_empty() {
+                            continue;
+                        }
                         let Ok(x) = part.parse::<i64>() else {
-                            continue; // empty or unparsable: left to the parser
+                            return Err(format!("line {n}: face (`{kw}`) index is not an integer"));
                         };
                         let count = [nv, nvt, nvn][k];
                         let kind = ["vertex", "texture coordinate", "normal"][k];
                         if x < 0 {
                             if count + x < 0 {
                                 return Err(format!(
-                                    "line {}: relative {kind} index {x} but only {count} defined so far",
-                                    lineno + 1
+                                    "line {n}: relative {kind} index {x} but only {count} defined so far"
                                 ));
                             }
                         } else if x == 0 {
                             if k == 0 {
                                 return Err(format!(
-                                    "line {}: vertex index 0 (OBJ indices start at 1)",
-                                    lineno + 1
+                                    "line {n}: vertex index 0 (OBJ indices start at 1)"
                                 ));
                             }
                         } else if x > max_pos[k].0 {
-                            max_pos[k] = (x, lineno + 1);
+                            max_pos[k] = (x, n);
                         }
                     }
                 }
@@ -480,7 +628,27 @@ fn check_indices(text: &str) -> std::result::Result<(), String> {
             ));
         }
     }
-    Ok(())
+    Ok(counts)
+}
+
+/// The text with the colours of `v x y z r g b` statements removed.
+fn strip_vertex_colors(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for line in text.lines() {
+        let mut words = line.split_whitespace();
+        if words.next() == Some("v") {
+            let rest: Vec<&str> = words.collect();
+            if rest.len() == 6 {
+                out.push_str("v ");
+                out.push_str(&rest[..3].join(" "));
+                out.push('\n');
+                continue;
+            }
+        }
+        out.push_str(line);
+        out.push('\n');
+    }
+    out
 }
 
 /// Converts one `tobj` model to a mesh (uv `v` flipped to point down the image).
@@ -516,6 +684,18 @@ fn convert(model: tobj::Model, material: MaterialId, warnings: &mut Vec<String>)
         ));
         uvs.clear();
     }
+    let mut colors: Vec<Vec3> = m
+        .vertex_color
+        .chunks_exact(3)
+        .map(|c| Vec3::new(c[0], c[1], c[2]))
+        .collect();
+    if !colors.is_empty() && colors.len() != n {
+        warnings.push(format!(
+            "object `{}`: vertex colours on some vertices only, ignored",
+            model.name
+        ));
+        colors.clear();
+    }
     let indices = m
         .indices
         .chunks_exact(3)
@@ -527,6 +707,7 @@ fn convert(model: tobj::Model, material: MaterialId, warnings: &mut Vec<String>)
         normals,
         uvs,
         tangents: Vec::new(),
+        colors,
         indices,
         material,
     }
@@ -595,6 +776,7 @@ mod tests {
 
     #[test]
     fn index_check_reports_lines() {
+        let check_indices = check_lines;
         assert!(check_indices("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").is_ok());
         assert!(check_indices("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\n").is_ok());
         let e = check_indices("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n").unwrap_err();
@@ -605,6 +787,20 @@ mod tests {
         // A normal index in a file without normals is ignored by the parser.
         assert!(check_indices("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1//5 2//5 3//5\n").is_ok());
         assert!(check_indices("v 0 0 0\nf 0 1 1\n").is_err());
+        // A trailing slash is accepted (as `tobj` does), a fourth index is not.
+        assert!(check_indices("v 0 0 0\nvt 0 0\nvn 0 0 1\nf 1/1/1/ 1/1/1 1/1/1\n").is_ok());
+        assert!(check_indices("v 0 0 0\nf 1/1/1/1 1 1\n").is_err());
+        // Statements tobj would reject come with their line.
+        assert!(check_indices("v 0 0 0\nv 1 2\n")
+            .unwrap_err()
+            .starts_with("line 2:"));
+        assert_eq!(
+            check_indices("v 0 0 0 1 0 0\nv 0 0 0\n").unwrap(),
+            LineCounts {
+                vertices: 2,
+                colored: 1
+            }
+        );
     }
 
     #[test]

@@ -167,6 +167,7 @@ pub(crate) fn quad(origin: Vec3, du: Vec3, dv: Vec3, uv_scale: Vec2, uv: UvLayou
         normals: vec![n; 4],
         uvs,
         tangents: vec![],
+        colors: vec![],
         indices: vec![[0, 1, 2], [0, 2, 3]],
         material: 0,
     }

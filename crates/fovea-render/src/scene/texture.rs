@@ -7,6 +7,8 @@ use std::path::Path;
 
 use glam::{Vec2, Vec4};
 
+use super::files::SceneFiles;
+use super::limits::LoadLimits;
 use crate::error::{RenderError, Result};
 
 /// Index of a texture in [`crate::scene::Scene::textures`].
@@ -127,10 +129,29 @@ impl Texture {
         Self::from_linear(name, w, h, texels)
     }
 
-    /// Reads and decodes an image file.
+    /// Reads and decodes an image file (a regular file of at most
+    /// [`DEFAULT_MAX_FILE_BYTES`](super::limits::DEFAULT_MAX_FILE_BYTES)).
     pub fn load(path: &Path, srgb: bool) -> Result<Self> {
-        let img = image::ImageReader::open(path)
-            .map_err(|e| RenderError::io(path, &e))?
+        let files = SceneFiles::new(path, &LoadLimits::default())?;
+        let bytes = files.read_scene_file()?;
+        Self::decode_file(path, &bytes, srgb)
+    }
+
+    /// Reads (within the load's limits, inside the scene's folder) and decodes an image file
+    /// a scene names.
+    pub(crate) fn load_in(files: &SceneFiles, path: &Path, srgb: bool) -> Result<Self> {
+        let bytes = files.read(path, None)?;
+        Self::decode_file(path, &bytes, srgb)
+    }
+
+    /// Decodes the bytes of the image file `path`: the format is recognised from the content,
+    /// else from the file's extension.
+    fn decode_file(path: &Path, bytes: &[u8], srgb: bool) -> Result<Self> {
+        let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes));
+        if let Ok(format) = image::ImageFormat::from_path(path) {
+            reader.set_format(format);
+        }
+        let img = reader
             .with_guessed_format()
             .map_err(|e| RenderError::io(path, &e))?
             .decode()

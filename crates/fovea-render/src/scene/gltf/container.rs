@@ -10,6 +10,7 @@ use ::gltf::json;
 use super::uri::{read_uri, UriError};
 use super::{Msg, SUPPORTED_REQUIRED_EXTENSIONS};
 use crate::error::{RenderError, Result};
+use crate::scene::files::SceneFiles;
 
 /// Whether JSON that failed to parse as glTF 2.0 says `"asset": {"version": "1.x"}` (or is a
 /// glTF 1.0 file without `asset.version`, whose top-level objects are dictionaries).
@@ -88,6 +89,75 @@ pub(super) fn split_glb(bytes: &[u8]) -> Msg<(&[u8], Option<Vec<u8>>)> {
     Ok((json, bin))
 }
 
+/// How to read a Draco-compressed file.
+const DRACO_HINT: &str = "Draco-compressed meshes cannot be read: decode them first, e.g. with \
+     glTF-Transform (read the file with the KHR_draco_mesh_compression extension and a Draco \
+     decoder registered, dispose the extension, write it back; that is how \
+     chess-board.plain.glb was made from chess-board.glb)";
+
+/// Draco used but not required (`extensionsUsed` only): the spec then asks for uncompressed
+/// fallback data in the primitives' accessors. Primitives with a fallback are read from it
+/// (one warning says Draco is unsupported); a Draco primitive without one (its `POSITION` or
+/// `indices` accessor has no `bufferView`) makes the file [`RenderError::Unsupported`], with
+/// the hint of [`check_required_extensions`], instead of a missing-data error later.
+pub(super) fn check_draco_fallback(
+    path: &Path,
+    root: &json::Root,
+    json_bytes: &[u8],
+    warnings: &mut Vec<String>,
+) -> Result<()> {
+    const DRACO: &str = "KHR_draco_mesh_compression";
+    if !root.extensions_used.iter().any(|e| e == DRACO) {
+        return Ok(());
+    }
+    let Ok(v) = serde_json::from_slice::<serde_json::Value>(json_bytes) else {
+        return Ok(());
+    };
+    let accessors = v.get("accessors").and_then(|a| a.as_array());
+    let has_view = |index: &serde_json::Value| -> bool {
+        index
+            .as_u64()
+            .and_then(|i| accessors?.get(i as usize))
+            .is_some_and(|a| a.get("bufferView").is_some())
+    };
+    let mut compressed = 0usize;
+    let mut without_fallback = Vec::new();
+    let meshes = v.get("meshes").and_then(|m| m.as_array());
+    for (mi, mesh) in meshes.into_iter().flatten().enumerate() {
+        let prims = mesh.get("primitives").and_then(|p| p.as_array());
+        for (pi, prim) in prims.into_iter().flatten().enumerate() {
+            if prim.pointer(&format!("/extensions/{DRACO}")).is_none() {
+                continue;
+            }
+            compressed += 1;
+            let position_ok = prim.pointer("/attributes/POSITION").is_some_and(has_view);
+            let indices_ok = prim.get("indices").is_none_or(has_view);
+            if !(position_ok && indices_ok) {
+                without_fallback.push(format!("meshes[{mi}].primitives[{pi}]"));
+            }
+        }
+    }
+    if let Some(first) = without_fallback.first() {
+        return Err(RenderError::Unsupported(format!(
+            "{} uses Draco mesh compression ({DRACO}) without uncompressed fallback data \
+             ({first}{}); Draco is not supported. {DRACO_HINT}",
+            path.display(),
+            if without_fallback.len() > 1 {
+                format!(" and {} more", without_fallback.len() - 1)
+            } else {
+                String::new()
+            }
+        )));
+    }
+    if compressed > 0 {
+        warnings.push(format!(
+            "{compressed} Draco-compressed primitive(s): Draco is not supported, their \
+             uncompressed fallback data is used"
+        ));
+    }
+    Ok(())
+}
+
 /// Refuses files whose `extensionsRequired` lists an extension we do not implement.
 pub(super) fn check_required_extensions(path: &Path, root: &json::Root) -> Result<()> {
     let unsupported: Vec<&str> = root
@@ -100,12 +170,7 @@ pub(super) fn check_required_extensions(path: &Path, root: &json::Root) -> Resul
         return Ok(());
     };
     let hint = match *first {
-        "KHR_draco_mesh_compression" => {
-            "Draco-compressed meshes cannot be read: decode them first, e.g. with glTF-Transform \
-             (read the file with the KHR_draco_mesh_compression extension and a Draco decoder \
-             registered, dispose the extension, write it back; that is how \
-             chess-board.plain.glb was made from chess-board.glb)"
-        }
+        "KHR_draco_mesh_compression" => DRACO_HINT,
         "EXT_meshopt_compression" | "KHR_meshopt_compression" => {
             "meshopt-compressed buffers cannot be read: decode them first, e.g. with \
              glTF-Transform"
@@ -187,6 +252,7 @@ pub(super) fn validate(path: &Path, root: &json::Root, warnings: &mut Vec<String
 
 /// Reads every buffer (GLB binary chunk, `data:` URI or file).
 pub(super) fn load_buffers(
+    files: &SceneFiles,
     path: &Path,
     base: &Path,
     doc: &::gltf::Document,
@@ -202,16 +268,22 @@ pub(super) fn load_buffers(
                     format!("buffer {i} refers to the GLB binary chunk, which is missing"),
                 )
             })?,
-            ::gltf::buffer::Source::Uri(uri) => read_uri(base, uri).map_err(|e| match e {
-                UriError::Io(file, err) => RenderError::Io {
-                    path: file,
-                    message: format!("buffer {i} of {}: {err}", path.display()),
-                },
-                UriError::Bad(m) => RenderError::bad(path, format!("buffer {i}: {m}")),
-                UriError::Unsupported(m) => {
-                    RenderError::Unsupported(format!("{}: buffer {i}: {m}", path.display()))
-                }
-            })?,
+            ::gltf::buffer::Source::Uri(uri) => {
+                read_uri(files, base, uri, Some(buffer.length() as u64)).map_err(|e| match e {
+                    UriError::File(RenderError::Io {
+                        path: file,
+                        message,
+                    }) => RenderError::Io {
+                        path: file,
+                        message: format!("buffer {i} of {}: {message}", path.display()),
+                    },
+                    UriError::File(other) => other,
+                    UriError::Bad(m) => RenderError::bad(path, format!("buffer {i}: {m}")),
+                    UriError::Unsupported(m) => {
+                        RenderError::Unsupported(format!("{}: buffer {i}: {m}", path.display()))
+                    }
+                })?
+            }
         };
         if data.len() < buffer.length() {
             return Err(RenderError::bad(

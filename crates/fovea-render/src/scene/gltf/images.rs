@@ -11,12 +11,14 @@ use super::accessor::view_bytes;
 use super::uri::read_uri;
 use super::Msg;
 use crate::error::Result;
+use crate::scene::files::SceneFiles;
 use crate::scene::texture::{srgb_to_linear, MAX_TEXTURE_SIDE};
 use crate::scene::Texture;
 
 /// The name of an image (its own, else its URI, else `image i`) and its encoded bytes, from a
 /// buffer view, a `data:` URI or a file beside the glTF (`base`), or why they are missing.
 pub(super) fn image_source<'b>(
+    files: &SceneFiles,
     image: &::gltf::Image,
     base: &Path,
     buffers: &'b [Vec<u8>],
@@ -36,7 +38,7 @@ pub(super) fn image_source<'b>(
                 None if uri.starts_with("data:") => format!("image {i}"),
                 None => uri.to_owned(),
             };
-            let bytes = read_uri(base, uri)
+            let bytes = read_uri(files, base, uri, None)
                 .map(Cow::Owned)
                 .map_err(|e| e.to_string());
             (name, bytes)

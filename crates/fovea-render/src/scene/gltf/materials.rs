@@ -141,7 +141,7 @@ impl Loader<'_> {
             .requests
             .iter()
             .map(|&(i, srgb)| {
-                let (name, bytes) = image_source(&images[i], self.base, self.buffers);
+                let (name, bytes) = image_source(self.files, &images[i], self.base, self.buffers);
                 (name, bytes, srgb)
             })
             .collect();

@@ -1,5 +1,5 @@
 //! Mesh primitives → meshes in their local frame: `POSITION`, `NORMAL`, `TEXCOORD_0`,
-//! `TANGENT` and the indices (or `0..n`); triangle lists, strips and fans (with the spec's
+//! `TANGENT`, `COLOR_0` and the indices (or `0..n`); triangle lists, strips and fans (with the spec's
 //! winding). Points, lines and primitives without `POSITION` are skipped and listed in one
 //! warning per kind.
 
@@ -84,6 +84,17 @@ impl Loader<'_> {
             .chunks_exact(4)
             .map(Vec4::from_slice)
             .collect();
+        // COLOR_0: VEC3 or VEC4 (alpha dropped), float or normalized integers, linear.
+        let color_dims = prim
+            .get(&Semantic::Colors(0))
+            .map_or(3, |acc| match acc.dimensions() {
+                ::gltf::accessor::Dimensions::Vec4 => 4,
+                _ => 3,
+            });
+        let colors = optional(Semantic::Colors(0), color_dims)
+            .chunks_exact(color_dims)
+            .map(|c| Vec3::new(c[0], c[1], c[2]))
+            .collect();
         let order: Vec<u32> = match prim.indices() {
             Some(acc) => {
                 read_indices(&acc, self.buffers).map_err(|e| bad(format!("indices: {e}")))?
@@ -115,6 +126,7 @@ impl Loader<'_> {
             normals,
             uvs,
             tangents,
+            colors,
             indices,
             material,
         }))

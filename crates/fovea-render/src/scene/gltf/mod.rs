@@ -7,7 +7,8 @@
 //!   (a node that is nobody's child). Nodes are walked depth-first in document order and their
 //!   transforms (matrix or TRS) composed; every triangle primitive is baked into a world-space
 //!   [`Mesh`] with [`Mesh::transform`]. A mesh instanced by several nodes is decoded once.
-//! * **Primitives**: `POSITION`, `NORMAL`, `TEXCOORD_0`, `TANGENT`, `indices` (a non-indexed
+//! * **Primitives**: `POSITION`, `NORMAL`, `TEXCOORD_0`, `TANGENT`, `COLOR_0` (VEC3 or VEC4,
+//!   alpha dropped; linear, multiplied into the base colour), `indices` (a non-indexed
 //!   primitive uses `0..n`). Float, normalized and plain integer accessors are accepted
 //!   (`KHR_mesh_quantization`), as are sparse accessors. Modes `TRIANGLES`, `TRIANGLE_STRIP`
 //!   and `TRIANGLE_FAN` (the last two converted to triangles with the winding the spec gives).
@@ -31,8 +32,10 @@
 //!   - directional: illuminance in lux → irradiance `color · intensity`, same convention;
 //!   - `range` as given (the spec says node scale does not change it), else infinite.
 //! * **Cameras**: perspective cameras on nodes → [`CameraDesc`](super::CameraDesc) (position = node origin,
-//!   forward = node −Z, up = node +Y made orthogonal to forward, `yfov` in degrees). The
-//!   first camera in node order is the default view.
+//!   forward = node −Z, up = node +Y made orthogonal to forward, `yfov` in degrees in
+//!   `yfov_deg`). The first camera in node order is the default view. The renderer's
+//!   cameras take their field of view from the display profile, so a warning says that the
+//!   default view's `yfov` is recorded but not used.
 //! * **Units**: the glTF unit is the metre, so `metres_per_unit = 1`. glTF has no
 //!   environment, so `environment` is the dim grey `0.05` every loader uses by default.
 //!
@@ -41,16 +44,21 @@
 //! Alpha (`alphaMode`, base colour alpha), occlusion textures, texture samplers (the renderer
 //! always uses repeat wrap and trilinear filtering), `KHR_texture_transform`, other material
 //! extensions (`KHR_materials_clearcoat`, …: one warning lists the ignored extensions),
-//! animations, morph targets, skins (skinned meshes are shown in the pose of their node
-//! transforms, with a warning), orthographic cameras (warning).
+//! animations, morph targets (meshes shown in their base shape, with a warning naming
+//! them), skins (skinned meshes are shown in the pose of their node transforms, with a
+//! warning), orthographic cameras (warning), Draco compression used but not required
+//! (the uncompressed fallback is read, with a warning).
 //!
 //! # Errors and fallbacks
 //!
 //! | input | result |
 //! | --- | --- |
-//! | file cannot be read, external buffer missing | [`RenderError::Io`] |
+//! | file cannot be read, external buffer missing, a buffer or scene file that is not a regular file (FIFO, device, directory) | [`RenderError::Io`] |
+//! | a buffer or image outside the scene's folder tree (unless [`LoadLimits::allow_outside_scene_dir`]) | [`RenderError::BadInput`] (an image: warning, flat colour) |
+//! | a file over [`LoadLimits::max_file_bytes`], a buffer declaring more, all files over [`LoadLimits::max_total_bytes`] | [`RenderError::ResourceLimit`] (an image: warning) |
 //! | malformed JSON or GLB container (truncated, bad chunk), glTF validation errors (index out of range, bad enum), accessor outside its buffer, wrong accessor type, node cycle | [`RenderError::BadInput`] with the `gltf` crate's or our message |
 //! | `extensionsRequired` naming an extension we do not implement (Draco, meshopt, Basis…), glTF 1.0 | [`RenderError::Unsupported`] naming it; checked before any buffer is read |
+//! | Draco in `extensionsUsed` only, on a primitive without uncompressed fallback data | [`RenderError::Unsupported`] saying Draco is not supported |
 //! | non-finite vertex, vertex index out of range, no triangles | [`RenderError::BadInput`] from [`Scene::validate`] (run by [`Scene::load`]) |
 //! | image missing or undecodable | warning "missing texture … using flat colour", slot `None` |
 //! | texture on a `TEXCOORD_n`, n > 0 | warning, slot `None` |
@@ -74,7 +82,9 @@
 //! # Code
 //!
 //! One job per file. The container: `container` (GLB chunks, glTF 1.0 detection, required
-//! extensions, validation, buffers), `uri` (file and `data:` URIs), `accessor` (typed reads
+//! extensions, Draco fallback, validation, buffers), `uri` (file and `data:` URIs, files
+//! read through the load's [`LoadLimits`]: regular files in the scene's folder, a buffer up
+//! to its `byteLength`), `accessor` (typed reads
 //! from buffer views, sparse accessors, dequantization) and `images` (image sources and
 //! decoding with size limits). The scene mapping: `nodes` (the node graph, transforms,
 //! lights, cameras), `mesh` (primitives → meshes) and `materials` (materials and their
@@ -86,6 +96,8 @@ use std::path::Path;
 use ::gltf::json;
 use glam::Vec3;
 
+use super::files::SceneFiles;
+use super::limits::LoadLimits;
 use super::{MaterialId, Mesh, Scene};
 use crate::error::{RenderError, Result};
 
@@ -97,7 +109,9 @@ mod mesh;
 mod nodes;
 mod uri;
 
-use container::{check_required_extensions, is_gltf_1, load_buffers, split_glb, validate};
+use container::{
+    check_draco_fallback, check_required_extensions, is_gltf_1, load_buffers, split_glb, validate,
+};
 use materials::{read_emissive_strengths, Slot};
 
 /// Extensions that may appear in `extensionsRequired`: the ones this loader implements.
@@ -110,18 +124,30 @@ pub const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[
 /// Internal result with a message that the caller turns into a [`RenderError`].
 type Msg<T> = std::result::Result<T, String>;
 
-/// Loads a glTF 2.0 file (`.gltf` or `.glb`) into a world-space [`Scene`].
+/// Loads a glTF 2.0 file (`.gltf` or `.glb`) into a world-space [`Scene`], within the default
+/// [`LoadLimits`].
 ///
 /// Does not run [`Scene::validate`]; [`Scene::load`] does. See the module documentation for
 /// conventions, errors and fallbacks.
 pub fn load(path: &Path) -> Result<Scene> {
-    let bytes = std::fs::read(path).map_err(|e| RenderError::io(path, &e))?;
-    load_from_bytes(path, &bytes)
+    load_with_limits(path, &LoadLimits::default())
+}
+
+/// [`load`] within `limits` (file sizes, files outside the scene's folder).
+pub fn load_with_limits(path: &Path, limits: &LoadLimits) -> Result<Scene> {
+    let files = SceneFiles::new(path, limits)?;
+    let bytes = files.read_scene_file()?;
+    load_bytes_in(&files, path, &bytes)
 }
 
 /// Loads a glTF 2.0 document from its bytes; `path` names the file in messages and its folder
-/// resolves relative URIs.
+/// resolves relative URIs (read within the default [`LoadLimits`]).
 pub fn load_from_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
+    let files = SceneFiles::new(path, &LoadLimits::default())?;
+    load_bytes_in(&files, path, bytes)
+}
+
+fn load_bytes_in(files: &SceneFiles, path: &Path, bytes: &[u8]) -> Result<Scene> {
     let bad = |what: String| RenderError::bad(path, what);
     let (json_bytes, blob) = if bytes.starts_with(b"glTF") {
         split_glb(bytes).map_err(bad)?
@@ -145,6 +171,7 @@ pub fn load_from_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
     };
     check_required_extensions(path, &root)?;
     let mut warnings = Vec::new();
+    check_draco_fallback(path, &root, json_bytes, &mut warnings)?;
     validate(path, &root, &mut warnings)?;
     let emissive_strength = if root
         .extensions_used
@@ -157,7 +184,7 @@ pub fn load_from_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
     };
     let doc = ::gltf::Document::from_json_without_validation(root);
     let base = path.parent().unwrap_or_else(|| Path::new("."));
-    let buffers = load_buffers(path, base, &doc, blob)?;
+    let buffers = load_buffers(files, path, base, &doc, blob)?;
 
     let ignored: Vec<&str> = doc
         .extensions_used()
@@ -170,8 +197,31 @@ pub fn load_from_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
         warnings
             .push("skinning ignored: skinned meshes are shown with their node transforms".into());
     }
+    let morphed: Vec<String> = doc
+        .meshes()
+        .filter(|m| m.primitives().any(|p| p.morph_targets().len() > 0))
+        .map(|m| {
+            m.name()
+                .map(|n| format!("`{n}`"))
+                .unwrap_or_else(|| format!("mesh {}", m.index()))
+        })
+        .collect();
+    if !morphed.is_empty() {
+        warnings.push(format!(
+            "morph targets ignored: {} mesh(es) shown in their base shape ({}{})",
+            morphed.len(),
+            morphed
+                .iter()
+                .take(5)
+                .cloned()
+                .collect::<Vec<_>>()
+                .join(", "),
+            if morphed.len() > 5 { ", …" } else { "" }
+        ));
+    }
 
     let mut loader = Loader {
+        files,
         path,
         base,
         doc: &doc,
@@ -202,6 +252,7 @@ pub fn load_from_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
 
 /// State of one load.
 struct Loader<'a> {
+    files: &'a SceneFiles,
     path: &'a Path,
     base: &'a Path,
     doc: &'a ::gltf::Document,

@@ -1,13 +1,19 @@
 //! Buffer and image URIs: `data:` URIs (base64, standard or URL-safe, or percent-encoded),
 //! `file:` URIs and relative paths (percent-decoded, against the glTF file's folder); other
-//! schemes (http…) are not fetched.
+//! schemes (http…) are not fetched. Files are read through the load's
+//! [`SceneFiles`](crate::scene::files::SceneFiles): regular files inside the scene's folder
+//! tree, at most the declared size.
 
 use std::path::{Path, PathBuf};
 
+use crate::error::RenderError;
+use crate::scene::files::SceneFiles;
+
 /// Why a URI could not be read.
 pub(super) enum UriError {
-    /// A file that cannot be read.
-    Io(PathBuf, std::io::Error),
+    /// A file that cannot be read (missing, not a regular file, outside the scene's folder,
+    /// over a limit).
+    File(RenderError),
     /// Malformed `data:` URI.
     Bad(String),
     /// A scheme we do not fetch (http…).
@@ -17,15 +23,21 @@ pub(super) enum UriError {
 impl std::fmt::Display for UriError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            UriError::Io(p, e) => write!(f, "cannot read {}: {e}", p.display()),
+            UriError::File(e) => write!(f, "{e}"),
             UriError::Bad(m) | UriError::Unsupported(m) => f.write_str(m),
         }
     }
 }
 
 /// Reads a buffer or image URI: `data:` (base64 or percent-encoded), `file:`, or a path
-/// relative to `base` (percent-decoded).
-pub(super) fn read_uri(base: &Path, uri: &str) -> std::result::Result<Vec<u8>, UriError> {
+/// relative to `base` (percent-decoded). A file is read up to `declared` bytes when given
+/// (a buffer's `byteLength`).
+pub(super) fn read_uri(
+    files: &SceneFiles,
+    base: &Path,
+    uri: &str,
+    declared: Option<u64>,
+) -> std::result::Result<Vec<u8>, UriError> {
     if let Some(rest) = uri.strip_prefix("data:") {
         let (meta, payload) = rest
             .split_once(',')
@@ -45,7 +57,7 @@ pub(super) fn read_uri(base: &Path, uri: &str) -> std::result::Result<Vec<u8>, U
     } else {
         base.join(String::from_utf8_lossy(&percent_decode(uri)).into_owned())
     };
-    std::fs::read(&file).map_err(|e| UriError::Io(file, e))
+    files.read(&file, declared).map_err(UriError::File)
 }
 
 /// The scheme of an absolute URI (`http`, …); `None` for relative references (and Windows

@@ -113,7 +113,7 @@ impl<'t> Loader<'t> {
                 let mean = match Self::string_param(node, &["filename"]) {
                     Some(f) => {
                         let p = self.resolve(&f);
-                        match Texture::load(&p, true) {
+                        match Texture::load_in(self.files, &p, true) {
                             Ok(t) => t.sample(Vec2::splat(0.5), 64.0).truncate(),
                             Err(_) => Vec3::splat(0.5),
                         }

@@ -5,7 +5,11 @@
 //!
 //! The file is parsed with `roxmltree`; `<include filename=".."/>` elements are replaced by
 //! the root children of the included file (resolved against the including file's directory,
-//! then the scene's; depth ≤ 16, cycles rejected). `<default name="n" value="v"/>` entries
+//! then the scene's; depth ≤ 16, cycles rejected). Every file (scene, includes, meshes,
+//! textures) is read within the load's [`LoadLimits`]: regular files only, of bounded size,
+//! includes and `filename`s inside the scene file's folder tree unless allowed, and
+//! elements nested at most `max_nesting` deep (includes spliced in). Building the tree is
+//! linear in the file's size (line numbers from a table of line starts). `<default name="n" value="v"/>` entries
 //! (anywhere, first wins) define parameters, and `$n` is substituted in every attribute
 //! value; an unknown `$x` is left as written (the classroom's `<integrator type="$method">`
 //! lines are ignored anyway). Parameter names are compared without case and underscores,
@@ -65,8 +69,10 @@
 //! Shapes (`toWorld` applied; `flipNormals` flips normals and winding; no BSDF → Mitsuba's
 //! default diffuse 0.5):
 //! * `obj` (`filename`; `faceNormals` true → normals dropped; `flipTexCoords` false → `v` not
-//!   flipped) and `ply` through [`super::obj::load_mesh`] / [`super::ply::load_mesh`],
-//!   loaded in parallel (rayon) together with the textures.
+//!   flipped) and `ply` through the OBJ / PLY loaders ([`super::obj::load_mesh`] /
+//!   [`super::ply::load_mesh`], within this load's limits), loaded in parallel (rayon)
+//!   together with the textures. Their vertex colours are dropped with a warning, as Mitsuba
+//!   shows them only through a `vertexcolors` texture (not supported).
 //! * `rectangle`: the [-1, 1]² quad in z = 0, normal +z, uv = ((x+1)/2, (y+1)/2).
 //! * `cube`: [-1, 1]³, 24 vertices, 12 triangles, outward normals.
 //! * `sphere`: `center` (0) and `radius` (1) then `toWorld`; a UV sphere of 64 × 32
@@ -122,7 +128,9 @@
 //!
 //! # Errors
 //!
-//! Malformed XML → [`RenderError::BadInput`] with `roxmltree`'s message and position;
+//! Malformed XML (or UTF-16 text) → [`RenderError::BadInput`] with `roxmltree`'s message and
+//! position; XML nested deeper than `max_nesting` → [`RenderError::ResourceLimit`]; a file
+//! outside the scene's folder → `BadInput`, one that is not a regular file → `Io`;
 //! a root other than `<scene>`, a number that does not parse, a `<ref>` to an undefined id,
 //! a shape without a file or whose file does not exist (message names the shape, its line
 //! and the file) → `BadInput`; errors of the OBJ/PLY loaders are passed on. Unknown
@@ -143,6 +151,8 @@ use std::path::{Path, PathBuf};
 use glam::{Mat4, Vec3};
 use rayon::prelude::*;
 
+use super::files::SceneFiles;
+use super::limits::LoadLimits;
 use super::{CameraDesc, Light, MaterialId, Mesh, Scene, Texture, TextureId};
 use crate::error::{RenderError, Result};
 
@@ -158,7 +168,7 @@ mod values;
 
 use bsdf::{MatBuild, Slot};
 use shapes::ShapeJob;
-use tree::{collect_defaults, collect_ids, read_tree, substitute_tree, XNode};
+use tree::{collect_defaults, collect_ids, substitute_tree, TreeReader, XNode};
 use values::req_attr;
 
 /// Irradiance of a `sun` / `sunsky` emitter per unit of `sunScale` × `scale` (our constant,
@@ -183,6 +193,7 @@ fn bad(file: &Path, what: impl Into<String>) -> RenderError {
 /// collected so far, and the lights, cameras and environment.
 struct Loader<'t> {
     path: PathBuf,
+    files: &'t SceneFiles,
     dirs: Vec<PathBuf>,
     ids: HashMap<&'t str, &'t XNode>,
     warnings: Vec<String>,
@@ -199,11 +210,24 @@ struct Loader<'t> {
     shape_count: usize,
 }
 
-/// Loads a Mitsuba scene file (see the module docs for what is read and how).
+/// Loads a Mitsuba scene file (see the module docs for what is read and how), within the
+/// default [`LoadLimits`].
 pub fn load(path: &Path) -> Result<Scene> {
+    load_with_limits(path, &LoadLimits::default())
+}
+
+/// [`load`] within `limits`: file sizes, XML nesting (`max_nesting`), files outside the
+/// scene's folder.
+pub fn load_with_limits(path: &Path, limits: &LoadLimits) -> Result<Scene> {
+    let files = SceneFiles::new(path, limits)?;
     let scene_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let mut dirs = vec![scene_dir];
-    let mut tree = read_tree(path, &mut Vec::new(), &mut dirs)?;
+    let mut reader = TreeReader {
+        files: &files,
+        stack: Vec::new(),
+        dirs: vec![scene_dir],
+    };
+    let mut tree = reader.read_tree(path, true, 0)?;
+    let dirs = reader.dirs;
     if tree.tag != "scene" {
         return Err(bad(
             path,
@@ -219,6 +243,7 @@ pub fn load(path: &Path) -> Result<Scene> {
     collect_ids(&tree, &mut ids, &mut warnings);
     let mut l = Loader {
         path: path.to_path_buf(),
+        files: &files,
         dirs,
         ids,
         warnings,
@@ -292,12 +317,13 @@ impl<'t> Loader<'t> {
     fn finish(mut self) -> Result<Scene> {
         let jobs = std::mem::take(&mut self.jobs);
         let requests = std::mem::take(&mut self.tex_requests);
+        let files = self.files;
         let (meshes, textures): (Vec<Result<Mesh>>, Vec<Result<Texture>>) = rayon::join(
-            || jobs.par_iter().map(ShapeJob::build).collect(),
+            || jobs.par_iter().map(|j| j.build(files)).collect(),
             || {
                 requests
                     .par_iter()
-                    .map(|(p, srgb)| Texture::load(p, *srgb))
+                    .map(|(p, srgb)| Texture::load_in(files, p, *srgb))
                     .collect()
             },
         );
@@ -323,8 +349,14 @@ impl<'t> Loader<'t> {
 
         let mut out_meshes = Vec::with_capacity(meshes.len());
         let mut emissive_memo: HashMap<(MaterialId, [u32; 3]), MaterialId> = HashMap::new();
+        let mut colored = Vec::new();
         for (job, mesh) in jobs.iter().zip(meshes) {
             let mut mesh = mesh?;
+            if !mesh.colors.is_empty() {
+                // Mitsuba shows vertex colours only through a `vertexcolors` texture.
+                colored.push(mesh.name.clone());
+                mesh.colors.clear();
+            }
             if let Some(radiance) = job.emitter {
                 let key = (job.material, radiance.to_array().map(f32::to_bits));
                 let mid = match emissive_memo.get(&key) {
@@ -347,6 +379,20 @@ impl<'t> Loader<'t> {
             out_meshes.push(mesh);
         }
 
+        if !colored.is_empty() {
+            self.warnings.push(format!(
+                "vertex colours of {} shape(s) ignored, as Mitsuba does without a \
+                 `vertexcolors` texture ({}{})",
+                colored.len(),
+                colored
+                    .iter()
+                    .take(5)
+                    .cloned()
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                if colored.len() > 5 { ", …" } else { "" }
+            ));
+        }
         let mut materials = Vec::with_capacity(self.materials.len());
         for b in self.materials {
             let mut m = b.mat;

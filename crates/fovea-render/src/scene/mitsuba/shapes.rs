@@ -12,6 +12,7 @@ use super::transform::to_world;
 use super::tree::XNode;
 use super::{bad, Loader, MAX_DEPTH};
 use crate::error::Result;
+use crate::scene::files::SceneFiles;
 use crate::scene::primitives::{self, Poles, UvLayout};
 use crate::scene::{MaterialId, Mesh};
 
@@ -62,14 +63,14 @@ pub(super) struct ShapeJob {
 }
 
 impl ShapeJob {
-    pub(super) fn build(&self) -> Result<Mesh> {
+    pub(super) fn build(&self, files: &SceneFiles) -> Result<Mesh> {
         let mut mesh = match &self.geometry {
             Geometry::Obj {
                 path,
                 face_normals,
                 flip_tex,
             } => {
-                let mut m = crate::scene::obj::load_mesh(path, self.material)?;
+                let mut m = crate::scene::obj::load_mesh_in(files, path, self.material)?;
                 if *face_normals {
                     m.normals.clear();
                 }
@@ -81,7 +82,7 @@ impl ShapeJob {
                 m
             }
             Geometry::Ply { path, face_normals } => {
-                let mut m = crate::scene::ply::load_mesh(path, self.material)?;
+                let mut m = crate::scene::ply::load_mesh_in(files, path, self.material)?;
                 if *face_normals {
                     m.normals.clear();
                 }
@@ -184,7 +185,9 @@ impl<'t> Loader<'t> {
             let rel = Self::string_param(node, &["filename"])
                 .ok_or_else(|| bad(&this.path, format!("{label} has no filename")))?;
             let p = this.resolve(&rel);
-            if !p.is_file() {
+            // Existence only: the reader refuses what is not a regular file, or lies
+            // outside the scene's folder, with its own message.
+            if !p.exists() {
                 return Err(bad(
                     &this.path,
                     format!("{label} references {}, which does not exist", p.display()),

@@ -5,6 +5,14 @@
 //! substitution in attribute values (unknown names left as written), the id table for
 //! `<ref id>`, and parameter-name matching that ignores case and underscores (Mitsuba 0.6
 //! `toWorld` = Mitsuba 2/3 `to_world`).
+//!
+//! Bounds: files are read through the load's `SceneFiles` (regular files inside the scene's
+//! folder, within the size limits). `roxmltree` parses iteratively (no recursion per level);
+//! the owned tree is built recursively, so elements nested deeper than
+//! [`LoadLimits::max_nesting`](crate::scene::LoadLimits::max_nesting) (includes spliced in)
+//! are refused with a `ResourceLimit` before the recursion goes further; every later walk of
+//! the tree is then bounded too. Line numbers come from a table of line starts (a binary
+//! search per element), so building the tree is linear in the file's size.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -12,6 +20,7 @@ use std::sync::Arc;
 
 use super::{bad, MAX_DEPTH};
 use crate::error::{RenderError, Result};
+use crate::scene::files::SceneFiles;
 
 /// An XML element with includes spliced in and `$` parameters substituted.
 #[derive(Debug)]
@@ -74,104 +83,169 @@ fn norm_eq(a: &str, b: &str) -> bool {
     }
 }
 
-/// Reads and parses `path` into an owned tree, splicing includes.
-pub(super) fn read_tree(
-    path: &Path,
-    stack: &mut Vec<PathBuf>,
-    dirs: &mut Vec<PathBuf>,
-) -> Result<XNode> {
-    let bytes = std::fs::read(path).map_err(|e| RenderError::io(path, &e))?;
-    let text = String::from_utf8(bytes).map_err(|e| {
-        bad(
-            path,
+/// Line numbers of byte offsets: the offsets where lines start, searched by bisection
+/// (`roxmltree::Document::text_pos_at` scans the text from its start, which made loading
+/// quadratic in the number of elements).
+struct LineIndex {
+    starts: Vec<usize>,
+}
+
+impl LineIndex {
+    fn new(text: &str) -> Self {
+        let mut starts = vec![0];
+        starts.extend(
+            text.bytes()
+                .enumerate()
+                .filter(|&(_, b)| b == b'\n')
+                .map(|(i, _)| i + 1),
+        );
+        Self { starts }
+    }
+
+    /// 1-based line of byte offset `pos`.
+    fn line(&self, pos: usize) -> u32 {
+        self.starts.partition_point(|&s| s <= pos) as u32
+    }
+}
+
+/// What one parse needs while it builds the tree: the load's files, the include stack, the
+/// folders seen so far.
+pub(super) struct TreeReader<'f> {
+    pub(super) files: &'f SceneFiles,
+    pub(super) stack: Vec<PathBuf>,
+    pub(super) dirs: Vec<PathBuf>,
+}
+
+/// One parsed file: its path and line table.
+struct Source {
+    file: Arc<PathBuf>,
+    lines: LineIndex,
+}
+
+impl Source {
+    fn line_of(&self, node: roxmltree::Node) -> u32 {
+        self.lines.line(node.range().start)
+    }
+}
+
+/// The text of an XML file (UTF-8; UTF-16 and other bytes are named in the error).
+fn xml_text(path: &Path, bytes: Vec<u8>) -> Result<String> {
+    String::from_utf8(bytes).map_err(|e| {
+        let b = e.as_bytes();
+        let what = if b.starts_with(&[0xFF, 0xFE]) || b.starts_with(&[0xFE, 0xFF]) {
+            "malformed XML: UTF-16 text; only UTF-8 is read (convert it, e.g. with iconv)"
+                .to_string()
+        } else {
             format!(
                 "malformed XML: not UTF-8 text (byte {})",
                 e.utf8_error().valid_up_to()
-            ),
-        )
-    })?;
-    let doc =
-        roxmltree::Document::parse(&text).map_err(|e| bad(path, format!("malformed XML: {e}")))?;
-    let file = Arc::new(path.to_path_buf());
-    let root = doc.root_element();
-    stack.push(path.canonicalize().unwrap_or_else(|_| path.to_path_buf()));
-    let out = convert_node(&doc, root, &file, stack, dirs);
-    stack.pop();
-    out
+            )
+        };
+        bad(path, what)
+    })
 }
 
-fn convert_node(
-    doc: &roxmltree::Document,
-    node: roxmltree::Node,
-    file: &Arc<PathBuf>,
-    stack: &mut Vec<PathBuf>,
-    dirs: &mut Vec<PathBuf>,
-) -> Result<XNode> {
-    let line = doc.text_pos_at(node.range().start).row;
-    let mut out = XNode {
-        tag: node.tag_name().name().to_string(),
-        attrs: node
-            .attributes()
-            .map(|a| (a.name().to_string(), a.value().to_string()))
-            .collect(),
-        children: Vec::new(),
-        file: file.clone(),
-        line,
-    };
-    for child in node.children().filter(|c| c.is_element()) {
-        if child.tag_name().name() == "include" {
-            let Some(rel) = child.attribute("filename") else {
-                return Err(bad(
-                    file,
-                    format!(
-                        "line {}: <include> without a filename",
-                        doc.text_pos_at(child.range().start).row
-                    ),
-                ));
-            };
-            if stack.len() as u32 >= MAX_DEPTH {
-                return Err(bad(
-                    file,
-                    format!("<include> nested deeper than {MAX_DEPTH}"),
-                ));
-            }
-            let here = file.parent().map(Path::to_path_buf).unwrap_or_default();
-            let mut target = here.join(rel);
-            if !target.exists() {
-                if let Some(alt) = dirs.iter().map(|d| d.join(rel)).find(|p| p.exists()) {
-                    target = alt;
-                }
-            }
-            if !target.exists() {
-                return Err(bad(
-                    file,
-                    format!(
-                        "line {}: included file {} does not exist",
-                        doc.text_pos_at(child.range().start).row,
-                        target.display()
-                    ),
-                ));
-            }
-            let canon = target.canonicalize().unwrap_or_else(|_| target.clone());
-            if stack.contains(&canon) {
-                return Err(bad(
-                    file,
-                    format!("<include> cycle through {}", target.display()),
-                ));
-            }
-            if let Some(d) = target.parent() {
-                if !dirs.iter().any(|x| x == d) {
-                    dirs.push(d.to_path_buf());
-                }
-            }
-            let sub = read_tree(&target, stack, dirs)?;
-            out.children.extend(sub.children);
+impl TreeReader<'_> {
+    /// Reads and parses `path` into an owned tree, splicing includes. `main`: the scene file
+    /// itself (read wherever it lies); includes must lie in the scene's folder. `depth`:
+    /// nesting of the element that includes this file (0 for the scene file).
+    pub(super) fn read_tree(&mut self, path: &Path, main: bool, depth: u32) -> Result<XNode> {
+        let bytes = if main {
+            self.files.read_scene_file()?
         } else {
-            out.children
-                .push(convert_node(doc, child, file, stack, dirs)?);
-        }
+            self.files.read(path, None)?
+        };
+        let text = xml_text(path, bytes)?;
+        let doc = roxmltree::Document::parse(&text)
+            .map_err(|e| bad(path, format!("malformed XML: {e}")))?;
+        let src = Source {
+            file: Arc::new(path.to_path_buf()),
+            lines: LineIndex::new(&text),
+        };
+        let root = doc.root_element();
+        self.stack
+            .push(path.canonicalize().unwrap_or_else(|_| path.to_path_buf()));
+        let out = self.convert_node(&src, root, depth);
+        self.stack.pop();
+        out
     }
-    Ok(out)
+
+    fn convert_node(&mut self, src: &Source, node: roxmltree::Node, depth: u32) -> Result<XNode> {
+        let line = src.line_of(node);
+        let max = self.files.limits().max_nesting;
+        if depth >= max {
+            return Err(RenderError::ResourceLimit {
+                what: format!(
+                    "XML of {} (line {line}, includes spliced in)",
+                    src.file.display()
+                ),
+                needed: format!("elements nested more than {max} deep"),
+                limit: format!("max_nesting = {max}"),
+            });
+        }
+        let mut out = XNode {
+            tag: node.tag_name().name().to_string(),
+            attrs: node
+                .attributes()
+                .map(|a| (a.name().to_string(), a.value().to_string()))
+                .collect(),
+            children: Vec::new(),
+            file: src.file.clone(),
+            line,
+        };
+        for child in node.children().filter(|c| c.is_element()) {
+            if child.tag_name().name() == "include" {
+                let row = src.line_of(child);
+                let Some(rel) = child.attribute("filename") else {
+                    return Err(bad(
+                        &src.file,
+                        format!("line {row}: <include> without a filename"),
+                    ));
+                };
+                if self.stack.len() as u32 >= MAX_DEPTH {
+                    return Err(bad(
+                        &src.file,
+                        format!("<include> nested deeper than {MAX_DEPTH}"),
+                    ));
+                }
+                let here = src.file.parent().map(Path::to_path_buf).unwrap_or_default();
+                let mut target = here.join(rel);
+                if !target.exists() {
+                    if let Some(alt) = self.dirs.iter().map(|d| d.join(rel)).find(|p| p.exists()) {
+                        target = alt;
+                    }
+                }
+                if !target.exists() {
+                    return Err(bad(
+                        &src.file,
+                        format!(
+                            "line {row}: included file {} does not exist",
+                            target.display()
+                        ),
+                    ));
+                }
+                let canon = target.canonicalize().unwrap_or_else(|_| target.clone());
+                if self.stack.contains(&canon) {
+                    return Err(bad(
+                        &src.file,
+                        format!("<include> cycle through {}", target.display()),
+                    ));
+                }
+                if let Some(d) = target.parent() {
+                    if !self.dirs.iter().any(|x| x == d) {
+                        self.dirs.push(d.to_path_buf());
+                    }
+                }
+                // The included root's children take the include's place: one level below
+                // `node`, like the include element itself.
+                let sub = self.read_tree(&target, false, depth)?;
+                out.children.extend(sub.children);
+            } else {
+                out.children.push(self.convert_node(src, child, depth + 1)?);
+            }
+        }
+        Ok(out)
+    }
 }
 
 pub(super) fn collect_defaults(node: &XNode, out: &mut HashMap<String, String>) {
@@ -253,6 +327,17 @@ mod tests {
         assert_eq!(substitute("$a", &p), "1");
         assert_eq!(substitute("x$a,$b $", &p), "x1,$b $");
         assert_eq!(substitute("$method", &p), "$method");
+    }
+
+    #[test]
+    fn line_index_matches_roxmltree() {
+        let text = "<a>\n <b/>\n\n<c\n/></a>";
+        let doc = roxmltree::Document::parse(text).unwrap();
+        let lines = LineIndex::new(text);
+        for n in doc.descendants() {
+            let p = n.range().start;
+            assert_eq!(lines.line(p), doc.text_pos_at(p).row, "{p}");
+        }
     }
 
     #[test]
