@@ -28,7 +28,7 @@ use crate::camera::{Eye, EyeCamera, HmdRig};
 use crate::error::{RenderError, Result};
 use crate::eye::EyeState;
 use crate::pipeline::{
-    render_planned, Frame, FrameContext, FrameInputs, FrameSettings, Prefill, Stage, StageTimes,
+    render_alone, Frame, FrameInputs, FrameSettings, Prefill, Stage, StageTimes,
     Stopwatch,
 };
 use crate::plan::FramePlan;
@@ -194,13 +194,11 @@ pub fn render_stereo(
                   times: StageTimes,
                   prefill: Option<&Prefill>|
      -> Result<Frame> {
-        let mut ctx = FrameContext::new();
         let inputs = FrameInputs {
             accumulator: None,
             prefill,
         };
-        render_planned(&mut ctx, world, camera, plan, inputs, times, progress)?;
-        Ok(ctx.take_frame().expect("rendered above"))
+        render_alone(world, camera, plan, inputs, times, progress)
     };
     match mode {
         StereoMode::Dup => {

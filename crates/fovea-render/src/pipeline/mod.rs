@@ -160,17 +160,7 @@ pub fn render_frame(
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<Frame> {
     let (plan, times) = plan_frame(world, camera, settings, gaze, [0.0, 0.0])?;
-    let mut ctx = FrameContext::new();
-    render_planned(
-        &mut ctx,
-        world,
-        camera,
-        &plan,
-        FrameInputs::default(),
-        times,
-        progress,
-    )?;
-    Ok(ctx.take_frame().expect("rendered above"))
+    render_alone(world, camera, &plan, FrameInputs::default(), times, progress)
 }
 
 /// Renders one frame for a given eye state (gaze and focus already decided, e.g. a frame of a
@@ -186,17 +176,21 @@ pub fn render_for_eye(
     let t = Stopwatch::start();
     let plan = FramePlan::new(world, camera, settings, eye, [0.0, 0.0])?;
     times.add(Stage::Plan, &t);
+    render_alone(world, camera, &plan, FrameInputs::default(), times, progress)
+}
+
+/// [`render_planned`] into a context of its own, the frame handed over.
+pub fn render_alone(
+    world: &World,
+    camera: &EyeCamera,
+    plan: &FramePlan,
+    inputs: FrameInputs<'_>,
+    times: StageTimes,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<Frame> {
     let mut ctx = FrameContext::new();
-    render_planned(
-        &mut ctx,
-        world,
-        camera,
-        &plan,
-        FrameInputs::default(),
-        times,
-        progress,
-    )?;
-    Ok(ctx.take_frame().expect("rendered above"))
+    render_planned(&mut ctx, world, camera, plan, inputs, times, progress)?;
+    Ok(ctx.take_frame().expect("render_planned stores its frame"))
 }
 
 /// Renders the next frame of a sequence with temporal accumulation, looking at `gaze`:
@@ -212,13 +206,11 @@ pub fn render_frame_temporal(
 ) -> Result<Frame> {
     let jitter = accumulator.jitter(settings.method);
     let (plan, times) = plan_frame(world, camera, settings, gaze, jitter)?;
-    let mut ctx = FrameContext::new();
     let inputs = FrameInputs {
         accumulator: Some(accumulator),
         prefill: None,
     };
-    render_planned(&mut ctx, world, camera, &plan, inputs, times, progress)?;
-    Ok(ctx.take_frame().expect("rendered above"))
+    render_alone(world, camera, &plan, inputs, times, progress)
 }
 
 /// What a frame takes besides its plan: the temporal history, and texels known before
