@@ -22,7 +22,8 @@ use fovea_render::pipeline::{FrameSettings, Stage};
 use fovea_render::world::World;
 use fovea_render::RenderError;
 
-use crate::common::{display_of, thousands, MethodOptions};
+use crate::choices::{Eyes, Shading};
+use crate::common::{display_of, thousands, FrameOptions, MethodOptions};
 use crate::dof_args::EyeArgs;
 use crate::render::{memory_limit, progress_bar, shading};
 use crate::scene_args::{load, Loaded, SceneArgs};
@@ -44,9 +45,11 @@ pub struct BenchArgs {
     pub methods: String,
     #[command(flatten)]
     pub options: MethodOptions,
+    #[command(flatten)]
+    pub frame: FrameOptions,
     /// Shading: direct or path.
-    #[arg(long, default_value = "direct")]
-    pub shading: String,
+    #[arg(long, value_enum, ignore_case = true, default_value_t = Shading::Direct)]
+    pub shading: Shading,
     /// Indirect bounces of --shading path.
     #[arg(long, default_value_t = 2)]
     pub bounces: u32,
@@ -78,8 +81,8 @@ pub struct BenchArgs {
     pub frames: u32,
     /// Eyes: one, or both (also times binocular frames of every foveated method as
     /// VaFR_Dup and VaFR_Rep, side by side).
-    #[arg(long, default_value = "one")]
-    pub eyes: String,
+    #[arg(long, value_enum, ignore_case = true, default_value_t = Eyes::One)]
+    pub eyes: Eyes,
     /// Timed repetitions of each binocular mode (alternating Dup and Rep; medians reported).
     #[arg(long, default_value_t = 3)]
     pub stereo_reps: u32,
@@ -105,7 +108,8 @@ pub fn params(args: &BenchArgs) -> Result<BenchParams> {
         .collect::<std::result::Result<_, _>>()?;
     let mut frame = FrameSettings::new(Method::Full);
     frame.mapping = args.options.frame_config()?;
-    frame.shading = shading(&args.shading, args.bounces, args.spp, 1)?;
+    frame.shading = shading(args.shading, args.bounces, args.spp, 1)?;
+    args.frame.apply(&mut frame);
     frame.memory_limit_bytes = memory_limit(args.max_memory.as_deref())?;
     let dof_filters: Vec<FilterKind> = match args.dof.as_deref().map(str::trim) {
         None => Vec::new(),
@@ -115,11 +119,7 @@ pub fn params(args: &BenchArgs) -> Result<BenchParams> {
             .map(FilterKind::parse)
             .collect::<Result<_, _>>()?,
     };
-    let stereo = match args.eyes.trim().to_ascii_lowercase().as_str() {
-        "one" | "1" => false,
-        "both" | "2" => true,
-        e => anyhow::bail!("invalid parameter `eyes` = {e}: expected one or both"),
-    };
+    let stereo = args.eyes == Eyes::Both;
     let params = BenchParams {
         displays,
         methods,

@@ -6,13 +6,18 @@ use fovea_core::acuity::AcuityModel;
 use fovea_core::display::{parse_resolution, DisplayProfile, Gaze};
 use fovea_core::units::Degrees;
 
+use fovea_render::pipeline::FrameSettings;
+use fovea_render::settings::MAX_PIXEL_SAMPLES;
+
+use crate::choices::{self, Headset, InsetPlacement, InsetSmoothing, VpInverse};
+
 /// Which display to use: a preset or a resolution with a field of view.
 #[derive(Args, Debug, Clone)]
 pub struct DisplayArgs {
     /// Headset or test-resolution preset: vive-pro-eye, pimax-crystal, varjo-xr4, 2k, 4k, 6k,
     /// 8k, retinal.
-    #[arg(long, conflicts_with = "res")]
-    pub headset: Option<String>,
+    #[arg(long, conflicts_with = "res", value_enum, ignore_case = true)]
+    pub headset: Option<Headset>,
     /// Custom per-eye resolution WxH (square pixels), e.g. 1920x1080, or a preset name.
     #[arg(long)]
     pub res: Option<String>,
@@ -23,15 +28,18 @@ pub struct DisplayArgs {
 
 impl DisplayArgs {
     /// The chosen display; `default` when neither --headset nor --res is given.
-    pub fn display(&self, default: &str) -> Result<DisplayProfile> {
+    pub fn display(&self, default: Headset) -> Result<DisplayProfile> {
         if let Some(r) = &self.res {
             display_of(r, self.vfov)
         } else {
-            Ok(DisplayProfile::preset(
-                self.headset.as_deref().unwrap_or(default),
-            )?)
+            preset(self.headset.unwrap_or(default))
         }
     }
+}
+
+/// The display of a `--headset` preset.
+pub fn preset(headset: Headset) -> Result<DisplayProfile> {
+    Ok(DisplayProfile::preset(&choices::name(&headset))?)
 }
 
 /// A display from `WxH` (square pixels, `vfov_deg` vertical field of view) or a preset name.
@@ -119,11 +127,11 @@ pub struct MethodOptions {
     #[arg(long)]
     pub vafr_emax: Option<f64>,
     /// Visual-polar inverse CDF: exact (Lambert W) or paper-fit (Liu Eq. 3).
-    #[arg(long)]
-    pub vp_inverse: Option<String>,
+    #[arg(long, value_enum, ignore_case = true)]
+    pub vp_inverse: Option<VpInverse>,
     /// Inset placement: dynamic (follows the gaze) or fixed (screen centre).
-    #[arg(long)]
-    pub inset: Option<String>,
+    #[arg(long, value_enum, ignore_case = true)]
+    pub inset: Option<InsetPlacement>,
     /// Weier's r0,r1 in degrees and p_min, e.g. 10,20,0.2.
     #[arg(long)]
     pub weier: Option<String>,
@@ -146,7 +154,6 @@ impl MethodOptions {
     /// callers build those with [`fovea_core::analysis::MethodEntry::kfr`] / `lafr`).
     pub fn apply(&self, config: &mut fovea_core::mapping::MappingConfig) -> Result<()> {
         use fovea_core::acuity::TangentialFactor;
-        use fovea_core::mapping::VisualPolarInverse;
         if let Some(a) = self.kfr_alpha {
             config.kfr.alpha = a;
         }
@@ -156,21 +163,11 @@ impl MethodOptions {
         if let Some(e) = self.vafr_emax {
             config.vafr.max_eccentricity = Degrees(e);
         }
-        if let Some(v) = &self.vp_inverse {
-            config.visual_polar.inverse = match v.as_str() {
-                "exact" => VisualPolarInverse::Exact,
-                "paper-fit" | "fit" => VisualPolarInverse::PaperFit,
-                _ => anyhow::bail!(
-                    "invalid parameter `vp-inverse` = {v}: expected exact or paper-fit"
-                ),
-            };
+        if let Some(v) = self.vp_inverse {
+            config.visual_polar.inverse = v.into();
         }
-        if let Some(i) = &self.inset {
-            config.inset.dynamic = match i.as_str() {
-                "dynamic" => true,
-                "fixed" => false,
-                _ => anyhow::bail!("invalid parameter `inset` = {i}: expected dynamic or fixed"),
-            };
+        if let Some(i) = self.inset {
+            config.inset.dynamic = i == InsetPlacement::Dynamic;
         }
         if let Some(w) = &self.weier {
             let bad = || {
@@ -191,5 +188,43 @@ impl MethodOptions {
             config.weier.p_min = v[2];
         }
         Ok(())
+    }
+}
+
+/// Sampling and reconstruction options of a rendered frame, shared by `render`, `sequence`
+/// and `bench`.
+#[derive(Args, Debug, Clone)]
+pub struct FrameOptions {
+    /// Primary rays per sample, 1 to 64, stratified over the sample's texel and averaged (1:
+    /// one ray through its centre). At full resolution, a supersampled reference.
+    #[arg(long, default_value_t = 1,
+          value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_PIXEL_SAMPLES)))]
+    pub pixel_samples: u32,
+    #[command(flatten)]
+    pub inset: InsetSmoothingArgs,
+}
+
+impl FrameOptions {
+    /// Sets these options in `settings`.
+    pub fn apply(&self, settings: &mut FrameSettings) {
+        settings.pixel_samples = self.pixel_samples;
+        self.inset.apply(settings);
+    }
+}
+
+/// `--inset-smoothing` (`render`, `sequence`, `bench`, `flicker`).
+#[derive(Args, Debug, Clone)]
+pub struct InsetSmoothingArgs {
+    /// Boundary smoothing of the inset method, with the parameters of Liu et al.'s inset paper
+    /// (alpha blend over 8 px, 9-tap Gaussians over a 16-px strip, a 5-level Laplacian
+    /// pyramid); other methods ignore it.
+    #[arg(long, value_enum, ignore_case = true, default_value_t = InsetSmoothing::AlphaBlend)]
+    pub inset_smoothing: InsetSmoothing,
+}
+
+impl InsetSmoothingArgs {
+    /// Sets the smoothing in `settings`.
+    pub fn apply(&self, settings: &mut FrameSettings) {
+        settings.inset_smoothing = self.inset_smoothing.into();
     }
 }

@@ -11,6 +11,7 @@ use fovea_core::display::{DisplayProfile, Gaze};
 use fovea_core::mapping::Method;
 use fovea_core::units::Degrees;
 
+use crate::choices::Headset;
 use crate::common::{acuity, parse_gaze, DisplayArgs, MethodOptions};
 use crate::plot::{line_plot, Series, Style};
 
@@ -47,6 +48,9 @@ pub struct CurvesArgs {
     out: PathBuf,
     #[command(flatten)]
     options: MethodOptions,
+    /// Do not list the files written.
+    #[arg(long, short)]
+    quiet: bool,
 }
 
 struct Spec {
@@ -202,7 +206,7 @@ pub fn run(a: CurvesArgs) -> Result<()> {
             (t, s, format!("fig{n}"))
         }
         None => {
-            let d = a.display.display("2k")?;
+            let d = a.display.display(Headset::K2)?;
             let g = parse_gaze(&d, a.gaze.as_deref())?;
             let methods = a
                 .methods
@@ -229,7 +233,9 @@ pub fn run(a: CurvesArgs) -> Result<()> {
         samples: a.samples,
     };
     for p in write_curves(&title, &specs, &stem, &acuity, plot, &a.out)? {
-        println!("wrote {}", p.display());
+        if !a.quiet {
+            println!("wrote {}", p.display());
+        }
     }
     Ok(())
 }

@@ -13,6 +13,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use fovea_core::mapping::Method;
 use fovea_core::optics::AccommodationParams;
 use fovea_core::Image;
+use fovea_eval::experiments::scenario::GazeScenario;
 use fovea_post::dof::FilterKind;
 use fovea_post::tonemap::ToneCurve;
 use fovea_post::Rgb;
@@ -25,6 +26,8 @@ use fovea_render::scene::builtin;
 use fovea_render::sequence::{Sequence, SequenceDriver, Track};
 use fovea_render::world::World;
 
+use crate::choices::Headset;
+use crate::common::preset;
 use crate::output::{side_by_side, write_rgb};
 use crate::sequence::gaze_trajectory;
 
@@ -32,8 +35,8 @@ use crate::sequence::gaze_trajectory;
 #[derive(Args, Debug)]
 pub struct DemoArgs {
     /// Headset or resolution preset.
-    #[arg(long, default_value = "vive-pro-eye")]
-    pub headset: String,
+    #[arg(long, value_enum, ignore_case = true, default_value_t = Headset::VivePro)]
+    pub headset: Headset,
     /// Frames along the built-in gaze trajectory (30 per second of gaze).
     #[arg(long, default_value_t = 12)]
     pub frames: u32,
@@ -53,14 +56,14 @@ pub fn run(args: DemoArgs) -> Result<()> {
         );
     }
     let t0 = std::time::Instant::now();
-    let display = fovea_core::display::DisplayProfile::preset(&args.headset)?;
+    let display = preset(args.headset)?;
     let scene = builtin::depth_range()?;
     let camera = EyeCamera::from_desc(&scene.cameras[0], &display)?;
     let world = World::new(scene, Backend::best_available())?;
     let fps = 30.0;
     let gazes = gaze_trajectory(
         None,
-        "saccade-pursuit",
+        GazeScenario::SaccadePursuit,
         1,
         true,
         &display,

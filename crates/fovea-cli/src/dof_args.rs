@@ -10,6 +10,8 @@ use fovea_post::dof::coc::CocModel;
 use fovea_post::dof::FilterKind;
 use fovea_render::dof::{DofSettings, FocusMode};
 
+use crate::choices::{DofFilter, Switch};
+
 /// The eye and focus.
 #[derive(Args, Debug, Clone)]
 #[command(allow_negative_numbers = true)]
@@ -107,14 +109,14 @@ pub fn parse_focus(text: &str) -> Result<FocusMode> {
 pub struct DofArgs {
     /// Depth-of-field filter: none, bokeh, bokeh-lca, physical-lca, layered, adaptive-coc,
     /// bilateral, recursive, gather. `liu-hybrid` as the method defaults to bokeh-lca.
-    #[arg(long)]
-    pub dof: Option<String>,
+    #[arg(long, value_enum, ignore_case = true)]
+    pub dof: Option<DofFilter>,
     #[command(flatten)]
     pub eye: EyeArgs,
     /// Longitudinal chromatic aberration with the bokeh filter: on (Liu's chromatic rows,
     /// = bokeh-lca) or off (= bokeh). physical-lca is the physically based alternative.
-    #[arg(long)]
-    pub lca: Option<String>,
+    #[arg(long, value_enum, ignore_case = true)]
+    pub lca: Option<Switch>,
     /// DOF-aware culling: shade samples by Liu's Russian roulette on the DOF weight
     /// (Eq. 10–11); culled samples skip their shadow rays and are rebuilt from their
     /// neighbours' light visibility before the blur (docs/dof.md).
@@ -133,15 +135,9 @@ impl DofArgs {
     /// The DOF settings, or `None` when no DOF was asked for. `liu_hybrid` turns on Liu's
     /// whole method: bokeh with LCA (unless `--dof`/`--lca` say otherwise) and culling.
     pub fn settings(&self, liu_hybrid: bool) -> Result<Option<DofSettings>> {
-        let lca = match self.lca.as_deref().map(|s| s.trim().to_ascii_lowercase()) {
-            None => None,
-            Some(s) if s == "on" || s == "true" || s == "yes" => Some(true),
-            Some(s) if s == "off" || s == "false" || s == "no" => Some(false),
-            Some(s) => bail!("invalid parameter `lca` = {s}: expected on or off"),
-        };
-        let filter = match self.dof.as_deref() {
-            Some("none") | Some("off") => None,
-            Some(name) => Some(FilterKind::parse(name)?),
+        let lca = self.lca.map(Switch::is_on);
+        let filter = match self.dof {
+            Some(d) => d.kind(),
             None if liu_hybrid => Some(FilterKind::BokehLca),
             None if self.cull || lca.is_some() => {
                 bail!("--cull and --lca need --dof <filter> (or --method liu-hybrid)")

@@ -14,6 +14,7 @@ use fovea_eval::experiments::dof_compare::{
 use fovea_post::dof::FilterKind;
 use fovea_post::tonemap::{to_srgb8, ToneCurve};
 
+use crate::choices::{Headset, Shading};
 use crate::common::DisplayArgs;
 use crate::dof_args::EyeArgs;
 use crate::render::shading;
@@ -61,8 +62,8 @@ pub struct DofCompareArgs {
     #[arg(long, default_value_t = 0.0)]
     pub cull_hidden_coc: f64,
     /// Shading: direct or path.
-    #[arg(long, default_value = "direct")]
-    pub shading: String,
+    #[arg(long, value_enum, ignore_case = true, default_value_t = Shading::Direct)]
+    pub shading: Shading,
     /// Output folder: contact-sheet.png, dof-compare.md, dof-compare.json.
     #[arg(long, default_value = "fovea-out/dof-compare")]
     pub out: PathBuf,
@@ -90,7 +91,7 @@ fn parse_window(text: &str, w: u32, h: u32) -> Result<[u32; 2]> {
 }
 
 pub fn run(args: DofCompareArgs) -> Result<()> {
-    let display = args.display.display("vive-pro-eye")?;
+    let display = args.display.display(Headset::VivePro)?;
     let params = params(&args, &display)?;
     let prepared = prepare(&args.scene, &display)?;
     let g = args.gaze.resolve(&display, &prepared.camera)?;
@@ -168,7 +169,7 @@ pub fn params(args: &DofCompareArgs, display: &DisplayProfile) -> Result<DofComp
         margin_px: args.margin,
         lens_samples: args.lens_samples,
         pixel_samples: args.pixel_samples,
-        shading: shading(&args.shading, 2, 4, 1)?,
+        shading: shading(args.shading, 2, 4, 1)?,
         eye: args.eye.eye()?,
         coc_model: args.eye.coc_model()?,
         max_coc_px: args.eye.settings(None)?.max_coc_px,

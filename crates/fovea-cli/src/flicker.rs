@@ -14,7 +14,7 @@ use fovea_core::display::DisplayProfile;
 use fovea_core::mapping::Method;
 use fovea_core::optics::AccommodationParams;
 use fovea_eval::experiments::flicker::{
-    check_sequence, run as run_flicker, Accumulation, FlickerParams, FlickerResult,
+    check_sequence, run as run_flicker, FlickerParams, FlickerResult,
 };
 use fovea_eval::experiments::scenario::camera_slide;
 use fovea_eval::flicker::PERIPHERY_DEG;
@@ -23,7 +23,8 @@ use fovea_render::pipeline::FrameSettings;
 use fovea_render::sequence::Sequence;
 use fovea_render::world::World;
 
-use crate::common::{DisplayArgs, MethodOptions};
+use crate::choices::{self, AccumulationChoice, Headset, Scenario};
+use crate::common::{DisplayArgs, InsetSmoothingArgs, MethodOptions};
 use crate::render::memory_limit;
 use crate::scene_args::{parse_vec3, prepare, SceneArgs};
 use crate::sequence::{gaze_trajectory, read_camera_path};
@@ -44,12 +45,14 @@ pub struct FlickerArgs {
     pub options: MethodOptions,
     #[command(flatten)]
     pub temporal_opts: TemporalArgs,
+    #[command(flatten)]
+    pub inset: InsetSmoothingArgs,
     /// Foveation methods to compare (comma-separated).
     #[arg(long, default_value = "vafr,kfr,visual-polar,inset,weier")]
     pub methods: String,
     /// Temporal accumulation: off, on or both (each method twice).
-    #[arg(long, default_value = "both")]
-    pub temporal: String,
+    #[arg(long, value_enum, ignore_case = true, default_value_t = AccumulationChoice::Both)]
+    pub temporal: AccumulationChoice,
     /// Frames.
     #[arg(long, default_value_t = 120)]
     pub frames: u32,
@@ -57,8 +60,8 @@ pub struct FlickerArgs {
     #[arg(long, default_value_t = 90.0)]
     pub fps: f64,
     /// Synthesised gaze scenario.
-    #[arg(long, default_value = "saccade-pursuit")]
-    pub scenario: String,
+    #[arg(long, value_enum, ignore_case = true, default_value_t = Scenario::SaccadePursuit)]
+    pub scenario: Scenario,
     /// Gaze from an eye-tracker CSV instead.
     #[arg(long, conflicts_with = "scenario")]
     pub gaze_csv: Option<PathBuf>,
@@ -123,9 +126,10 @@ pub fn params(args: &FlickerArgs) -> Result<FlickerParams> {
     frame.mapping = args.options.frame_config()?;
     frame.memory_limit_bytes = memory_limit(args.max_memory.as_deref())?;
     frame.contrast = args.temporal_opts.contrast()?;
+    args.inset.apply(&mut frame);
     let params = FlickerParams {
         methods,
-        accumulation: Accumulation::parse(&args.temporal)?,
+        accumulation: args.temporal.into(),
         temporal: args.temporal_opts.settings()?,
         bands_deg,
         periphery_deg: args.periphery,
@@ -140,11 +144,11 @@ pub fn params(args: &FlickerArgs) -> Result<FlickerParams> {
 pub fn run(args: FlickerArgs) -> Result<()> {
     check_sequence(args.frames as usize, args.fps)?;
     let params = params(&args)?;
-    let display = args.display.display("vive-pro-eye")?;
+    let display = args.display.display(Headset::VivePro)?;
     let duration_s = args.frames as f64 / args.fps;
     let gazes = gaze_trajectory(
         args.gaze_csv.as_deref(),
-        &args.scenario,
+        args.scenario.into(),
         args.seed,
         args.quiet,
         &display,
@@ -179,10 +183,11 @@ pub fn run(args: FlickerArgs) -> Result<()> {
         None,
     )?;
     let result = measure(&prepared.world, &seq, &params, args.quiet)?;
+    let scenario = choices::name(&args.scenario);
     let written = write_outputs(
         &result,
         &display,
-        args.gaze_csv.is_none().then_some(args.scenario.as_str()),
+        args.gaze_csv.is_none().then_some(scenario.as_str()),
         args.camera_path
             .is_none()
             .then_some(args.camera_move.as_str()),

@@ -10,6 +10,7 @@ use clap::Args;
 use fovea_eval::experiments::inset::{run as run_inset, InsetAnalysis, InsetParams};
 use fovea_eval::gradient_intensity::DEFAULT_BAND_PX;
 
+use crate::choices::Headset;
 use crate::common::DisplayArgs;
 use crate::scene_args::{prepare, GazeArgs, SceneArgs};
 
@@ -40,6 +41,9 @@ pub struct InsetAnalysisArgs {
     /// Print the JSON instead of the table.
     #[arg(long)]
     pub json: bool,
+    /// Do not say where the files went.
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 /// Parses `--inset-size WxH`.
@@ -58,7 +62,7 @@ fn parse_size(text: &str) -> Result<[u32; 2]> {
 }
 
 pub fn run(args: InsetAnalysisArgs) -> Result<()> {
-    let display = args.display.display("vive-pro-eye")?;
+    let display = args.display.display(Headset::VivePro)?;
     let params = InsetParams {
         inset_size: args.inset_size.as_deref().map(parse_size).transpose()?,
         periphery_factor: args.periphery_factor,
@@ -106,7 +110,9 @@ pub fn run(args: InsetAnalysisArgs) -> Result<()> {
             ratio(r.report.ratio_y)
         );
     }
-    println!("wrote {}", args.out.display());
+    if !args.quiet {
+        println!("wrote {}", args.out.display());
+    }
     Ok(())
 }
 

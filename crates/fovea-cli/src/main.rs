@@ -5,6 +5,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod bench;
+mod choices;
 mod common;
 mod curves;
 mod demo;
@@ -79,6 +80,37 @@ fn restore_default_sigpipe() {
     }
 }
 
+/// A clap usage error as one line: clap's first line, then what it would list below it (the
+/// valid values of an enum option, a close spelling), then where the details are.
+fn usage_error_line(e: &clap::Error) -> String {
+    use clap::error::{ContextKind, ContextValue};
+    let text = e.to_string();
+    let mut line = text
+        .lines()
+        .next()
+        .unwrap_or("error: invalid arguments")
+        .to_string();
+    let mut extra = Vec::new();
+    if let Some(ContextValue::Strings(valid)) = e.get(ContextKind::ValidValue) {
+        if !valid.is_empty() {
+            extra.push(format!("expected: {}", valid.join(", ")));
+        }
+    }
+    for kind in [ContextKind::SuggestedValue, ContextKind::SuggestedArg] {
+        match e.get(kind) {
+            Some(ContextValue::String(s)) => extra.push(format!("did you mean '{s}'?")),
+            Some(ContextValue::Strings(v)) if !v.is_empty() => {
+                extra.push(format!("did you mean '{}'?", v.join("' or '")))
+            }
+            _ => {}
+        }
+    }
+    if !extra.is_empty() {
+        line += &format!(" ({})", extra.join("; "));
+    }
+    line + " (see fovea --help)"
+}
+
 fn main() -> ExitCode {
     restore_default_sigpipe();
     let cli = match Cli::try_parse() {
@@ -94,9 +126,7 @@ fn main() -> ExitCode {
                 e.exit();
             }
             // Usage errors in one line too; --help has the details.
-            let text = e.to_string();
-            let first = text.lines().next().unwrap_or("invalid arguments");
-            eprintln!("{first} (see fovea --help)");
+            eprintln!("{}", usage_error_line(&e));
             return ExitCode::from(2);
         }
     };
@@ -120,5 +150,56 @@ fn main() -> ExitCode {
             eprintln!("error: {}", format!("{e:#}").replace('\n', " "));
             ExitCode::from(2)
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+    use fovea_core::mapping::Method;
+    use fovea_render::pipeline::FrameSettings;
+
+    #[test]
+    fn the_command_line_definition_is_consistent() {
+        // Every default parses, no two options share a name, every `conflicts_with` exists.
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn frame_option_defaults_are_the_library_defaults() {
+        let lib = FrameSettings::new(Method::Inset);
+        for sub in ["render", "sequence", "bench"] {
+            let cli = Cli::try_parse_from(["fovea", sub]).unwrap();
+            let frame = match cli.command {
+                Command::Render(a) => a.frame,
+                Command::Sequence(a) => a.frame,
+                Command::Bench(a) => a.frame,
+                _ => unreachable!(),
+            };
+            let mut s = FrameSettings::new(Method::Inset);
+            frame.apply(&mut s);
+            assert_eq!(s.pixel_samples, lib.pixel_samples, "{sub}");
+            assert_eq!(s.inset_smoothing, lib.inset_smoothing, "{sub}");
+        }
+    }
+
+    #[test]
+    fn a_bad_name_is_one_line_that_lists_the_valid_ones() {
+        let e = Cli::try_parse_from(["fovea", "render", "--method", "vafrr"]).unwrap_err();
+        let line = usage_error_line(&e);
+        assert_eq!(line.lines().count(), 1, "{line}");
+        assert!(
+            line.starts_with("error: invalid value 'vafrr' for '--method <METHOD>'"),
+            "{line}"
+        );
+        assert!(
+            line.contains("(expected: full, vafr, kfr, lafr, visual-polar, guenter, inset, weier, liu-hybrid; did you mean 'vafr'?)"),
+            "{line}"
+        );
+        assert!(line.ends_with("(see fovea --help)"), "{line}");
+        // Aliases are accepted but not listed.
+        assert!(!line.contains("lmfr"), "{line}");
+        assert!(Cli::try_parse_from(["fovea", "render", "--method", "LMFR"]).is_ok());
     }
 }

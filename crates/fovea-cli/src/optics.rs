@@ -9,6 +9,7 @@ use fovea_core::optics::{
 use fovea_core::units::{CandelasPerSquareMetre, Lux, Metres, Millimetres};
 use serde_json::json;
 
+use crate::choices::Headset;
 use crate::common::DisplayArgs;
 
 #[derive(Args, Debug)]
@@ -44,10 +45,14 @@ pub struct OpticsArgs {
     /// Print JSON.
     #[arg(long)]
     json: bool,
+    /// Accepted as by every command; `optics` prints only the numbers asked for, so there is
+    /// nothing to leave out.
+    #[arg(long, short)]
+    quiet: bool,
 }
 
 pub fn run(a: OpticsArgs) -> Result<()> {
-    let display = a.display.display("vive-pro-eye")?;
+    let display = a.display.display(Headset::VivePro)?;
     let (pupil, source) = match (a.pupil, a.lux, a.luminance) {
         (Some(p), _, _) => (Millimetres(p), "given".to_string()),
         (_, Some(lx), _) => (

@@ -10,13 +10,14 @@ use fovea_core::mapping::Method;
 use fovea_post::tonemap::ToneCurve;
 use fovea_render::eye::{EyeState, FocusDistance};
 use fovea_render::pipeline::{
-    default_memory_limit, render_planned, AaMode, FrameContext, FrameInputs, FrameSettings, Stage,
+    default_memory_limit, render_planned, FrameContext, FrameInputs, FrameSettings, Stage,
     StageTimes, Stopwatch,
 };
 use fovea_render::plan::FramePlan;
 use fovea_render::shade::ShadingMode;
 
-use crate::common::{thousands, DisplayArgs, MethodOptions};
+use crate::choices::{Aa, Eyes, Headset, MethodChoice, Shading, Stereo, Switch, Tonemap};
+use crate::common::{thousands, DisplayArgs, FrameOptions, MethodOptions};
 use crate::dof_args::DofArgs;
 use crate::output::{check_image_path, write_rgb, write_scalar};
 use crate::scene_args::{prepare, GazeArgs, SceneArgs};
@@ -32,8 +33,8 @@ pub struct RenderArgs {
     /// Foveation method: full, vafr, kfr, lafr, visual-polar, guenter, inset, weier, or
     /// liu-hybrid (Liu et al.'s whole method: visual-polar sampling, DOF-aware culling and
     /// bokeh with LCA; auto focus unless --focus is given).
-    #[arg(long, default_value = "vafr")]
-    pub method: String,
+    #[arg(long, value_enum, ignore_case = true, default_value_t = MethodChoice::Vafr)]
+    pub method: MethodChoice,
     #[command(flatten)]
     pub dof: DofArgs,
     /// Also write the signed circle-of-confusion view (with --dof; .png false colour of |CoC|
@@ -44,12 +45,14 @@ pub struct RenderArgs {
     pub options: MethodOptions,
     #[command(flatten)]
     pub gaze: GazeArgs,
+    #[command(flatten)]
+    pub frame: FrameOptions,
     /// Sample-space anti-aliasing: auto (the method's own), none, fxaa, gaussian.
-    #[arg(long, default_value = "auto")]
-    pub aa: String,
+    #[arg(long, value_enum, ignore_case = true, default_value_t = Aa::Auto)]
+    pub aa: Aa,
     /// Shading: direct (lights + shadows) or path (path tracing with next-event estimation).
-    #[arg(long, default_value = "direct")]
-    pub shading: String,
+    #[arg(long, value_enum, ignore_case = true, default_value_t = Shading::Direct)]
+    pub shading: Shading,
     /// Indirect bounces of --shading path.
     #[arg(long, default_value_t = 2)]
     pub bounces: u32,
@@ -79,26 +82,26 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = 0.0)]
     pub exposure: f32,
     /// Tone curve for PNG output: clamp or reinhard.
-    #[arg(long, default_value = "reinhard")]
-    pub tonemap: String,
+    #[arg(long, value_enum, ignore_case = true, default_value_t = Tonemap::Reinhard)]
+    pub tonemap: Tonemap,
     /// Refuse frames needing more memory than this (e.g. 8G, 512M; default 80 % of available).
     #[arg(long)]
     pub max_memory: Option<String>,
     /// Eyes: one (--eye) or both (a side-by-side left | right image, each eye with its own
     /// gaze at the fixated world point).
-    #[arg(long, default_value = "one")]
-    pub eyes: String,
+    #[arg(long, value_enum, ignore_case = true, default_value_t = Eyes::One)]
+    pub eyes: Eyes,
     /// Gaze-contingent level of detail (Liu Eq. 14): on keeps objects within 5° of the gaze
     /// and inside the depth of field at full detail and renders the rest simplified.
-    #[arg(long, default_value = "off")]
-    pub lod: String,
+    #[arg(long, value_enum, ignore_case = true, default_value_t = Switch::Off)]
+    pub lod: Switch,
     /// Share of triangles the simplified level keeps (quadric simplification, meshoptimizer).
     #[arg(long, default_value_t = 0.3)]
     pub lod_keep: f32,
     /// With --eyes both: dup (render both eyes) or rep (reproject the left eye's sample
     /// buffer to the right eye and trace only the holes, VaFR_Rep).
-    #[arg(long, default_value = "rep")]
-    pub stereo: String,
+    #[arg(long, value_enum, ignore_case = true, default_value_t = Stereo::Rep)]
+    pub stereo: Stereo,
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
@@ -130,11 +133,11 @@ fn parse_bytes(text: &str) -> Result<u64> {
     Ok((v * mult as f64) as u64)
 }
 
-/// Parses shading options.
-pub fn shading(kind: &str, bounces: u32, spp: u32, seed: u64) -> Result<ShadingMode> {
+/// The shading mode of `--shading` with the path tracer's numbers checked.
+pub fn shading(kind: Shading, bounces: u32, spp: u32, seed: u64) -> Result<ShadingMode> {
     match kind {
-        "direct" => Ok(ShadingMode::Direct),
-        "path" => {
+        Shading::Direct => Ok(ShadingMode::Direct),
+        Shading::Path => {
             if !(1..=16).contains(&bounces) {
                 bail!("invalid parameter `bounces` = {bounces}: expected 1 to 16");
             }
@@ -143,7 +146,6 @@ pub fn shading(kind: &str, bounces: u32, spp: u32, seed: u64) -> Result<ShadingM
             }
             Ok(ShadingMode::Path { bounces, spp, seed })
         }
-        _ => bail!("invalid parameter `shading` = {kind}: expected direct or path"),
     }
 }
 
@@ -172,41 +174,24 @@ pub fn run(args: RenderArgs) -> Result<()> {
     {
         check_image_path(p)?;
     }
-    let display = args.display.display("vive-pro-eye")?;
-    let liu_hybrid = args.method.trim().eq_ignore_ascii_case("liu-hybrid");
-    let method = if liu_hybrid {
-        Method::VisualPolar
-    } else {
-        Method::parse(&args.method)?
-    };
+    let display = args.display.display(Headset::VivePro)?;
+    let liu_hybrid = args.method.is_liu_hybrid();
+    let method = args.method.method();
     let dof = args.dof.settings(liu_hybrid)?;
     if args.coc_out.is_some() && dof.is_none() {
         bail!("--coc-out needs --dof <filter>");
     }
     let config = args.options.frame_config()?;
-    let tone = match args.tonemap.as_str() {
-        "clamp" => ToneCurve::Clamp,
-        "reinhard" => ToneCurve::Reinhard,
-        t => bail!("invalid parameter `tonemap` = {t}: expected clamp or reinhard"),
-    };
-    let shading_mode = shading(&args.shading, args.bounces, args.spp, args.seed)?;
-    let aa = AaMode::parse(&args.aa)?;
-    let both_eyes = match args.eyes.trim().to_ascii_lowercase().as_str() {
-        "one" | "1" => false,
-        "both" | "2" => true,
-        e => bail!("invalid parameter `eyes` = {e}: expected one or both"),
-    };
-    let stereo_mode = fovea_render::stereo::StereoMode::parse(&args.stereo)?;
+    let tone = ToneCurve::from(args.tonemap);
+    let shading_mode = shading(args.shading, args.bounces, args.spp, args.seed)?;
+    let both_eyes = args.eyes == Eyes::Both;
+    let stereo_mode = fovea_render::stereo::StereoMode::from(args.stereo);
     if both_eyes
         && (args.depth_out.is_some() || args.density_out.is_some() || args.coc_out.is_some())
     {
         bail!("--depth-out, --density-out and --coc-out are for one eye (--eyes one)");
     }
-    let lod_on = match args.lod.trim().to_ascii_lowercase().as_str() {
-        "on" => true,
-        "off" => false,
-        l => bail!("invalid parameter `lod` = {l}: expected on or off"),
-    };
+    let lod_on = args.lod.is_on();
     if lod_on {
         fovea_render::lod::LodParams {
             keep_ratio: args.lod_keep,
@@ -220,7 +205,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let mut settings = FrameSettings::new(method);
     settings.mapping = config;
     settings.shading = shading_mode;
-    settings.aa = aa;
+    settings.aa = args.aa.into();
+    args.frame.apply(&mut settings);
     settings.density_view = args.density_out.is_some();
     settings.memory_limit_bytes = memory_limit;
     settings.dof = dof;
@@ -314,14 +300,32 @@ pub fn run(args: RenderArgs) -> Result<()> {
         "bvh_build_ms": prepared.world.build_ms,
         "display": display.name,
         "gaze": [gaze.point.x_px, gaze.point.y_px],
+        "pixel_samples": settings.pixel_samples,
+        // The smoothing asked for; `frame.inset_smoothing` is the one applied.
+        "inset_smoothing": (method == Method::Inset).then(|| settings.inset_smoothing.name()),
         "lod": lod_stats,
         "frame": s,
     });
     std::fs::write(&stats_path, serde_json::to_string_pretty(&json)? + "\n")
         .with_context(|| format!("cannot write {}", stats_path.display()))?;
 
+    // Which boundary smoothing an inset frame got (none where its periphery is not an exact
+    // 2× or 4× subsampling of the screen, whatever was asked).
+    let smoothing = if method == Method::Inset {
+        format!(
+            " (boundary smoothing {})",
+            s.inset_smoothing.as_deref().unwrap_or("none")
+        )
+    } else {
+        String::new()
+    };
+    let per_sample = if settings.pixel_samples > 1 {
+        format!(" × {} rays", settings.pixel_samples)
+    } else {
+        String::new()
+    };
     println!(
-        "{} {}x{} {} | {} samples, {} rays ({} primary, {} shadow, {} bounce) | {:.0} ms",
+        "{} {}x{} {}{smoothing} | {} samples{per_sample}, {} rays ({} primary, {} shadow, {} bounce) | {:.0} ms",
         prepared.world.scene.name,
         s.width,
         s.height,
@@ -423,6 +427,9 @@ fn run_stereo(
         "fixation": [target.x, target.y, target.z],
         "gaze_left": [lg.point.x_px, lg.point.y_px],
         "gaze_right": [rg.point.x_px, rg.point.y_px],
+        "pixel_samples": settings.pixel_samples,
+        "inset_smoothing": (settings.method == Method::Inset)
+            .then(|| settings.inset_smoothing.name()),
         "stereo": frame.stats,
         "lod": lod_stats,
         "left": frame.left.stats,

@@ -13,6 +13,8 @@ use fovea_render::lights::view_lights;
 use fovea_render::scene::{builtin, CameraDesc, Light, Scene};
 use fovea_render::world::World;
 
+use crate::choices::{Bvh, EyeChoice};
+
 /// Where the scene and the viewer come from.
 #[derive(Args, Debug, Clone, serde::Serialize)]
 pub struct SceneArgs {
@@ -34,8 +36,8 @@ pub struct SceneArgs {
     #[arg(long, default_value_t = 0)]
     pub camera_index: usize,
     /// Which eye to render: left, right or centre (the camera position is the head).
-    #[arg(long, default_value = "centre")]
-    pub eye: String,
+    #[arg(long, value_enum, ignore_case = true, default_value_t = EyeChoice::Centre)]
+    pub eye: EyeChoice,
     /// Interpupillary distance in metres for --eye left/right.
     #[arg(long, default_value_t = 0.063)]
     pub ipd: f32,
@@ -44,8 +46,8 @@ pub struct SceneArgs {
     #[arg(long)]
     pub lights: Option<u32>,
     /// Ray-casting backend: obvhs (default build) or embree (`--features embree`).
-    #[arg(long)]
-    pub bvh: Option<String>,
+    #[arg(long, value_enum, ignore_case = true)]
+    pub bvh: Option<Bvh>,
     /// Render even when the camera seems to be inside a closed mesh.
     #[arg(long)]
     pub allow_inside: bool,
@@ -141,18 +143,10 @@ pub struct Loaded {
 /// Loads the scene, builds its BVH and places the head.
 pub fn load(args: &SceneArgs) -> Result<Loaded> {
     let scene = load_scene(args)?;
-    let backend = match &args.bvh {
-        Some(b) => Backend::parse(b)?,
-        None => Backend::best_available(),
-    };
+    let backend = args.bvh.map_or_else(Backend::best_available, Backend::from);
     let desc = camera_desc(args, &scene)?;
     let world = World::new(scene, backend)?;
-    let eye = match args.eye.to_ascii_lowercase().as_str() {
-        "left" => Eye::Left,
-        "right" => Eye::Right,
-        "centre" | "center" | "mono" => Eye::Centre,
-        other => bail!("invalid parameter `eye` = {other}: expected left, right or centre"),
-    };
+    let eye = Eye::from(args.eye);
     let rig = HmdRig::new(desc.position, desc.forward, desc.up, args.ipd)?;
     if args.lights.is_none() && world.lights.is_empty() {
         eprintln!(

@@ -17,7 +17,6 @@ use serde::Serialize;
 use fovea_core::display::DisplayProfile;
 use fovea_core::gaze::csv::{parse_csv, CsvOptions};
 use fovea_core::gaze::GazeTrajectory;
-use fovea_core::mapping::Method;
 use fovea_core::optics::AccommodationParams;
 use fovea_eval::experiments::scenario::GazeScenario;
 use fovea_post::tonemap::ToneCurve;
@@ -28,7 +27,8 @@ use fovea_render::pipeline::FrameSettings;
 use fovea_render::sequence::{Sequence, SequenceDriver, Track};
 use fovea_render::temporal::TemporalSettings;
 
-use crate::common::{DisplayArgs, MethodOptions};
+use crate::choices::{self, Headset, MethodChoice, Scenario, Switch, Video};
+use crate::common::{DisplayArgs, FrameOptions, MethodOptions};
 use crate::dof_args::DofArgs;
 use crate::render::memory_limit;
 use crate::scene_args::{prepare, SceneArgs};
@@ -46,10 +46,12 @@ pub struct SequenceArgs {
     #[command(flatten)]
     pub display: DisplayArgs,
     /// Foveation method (as `fovea render`), or liu-hybrid.
-    #[arg(long, default_value = "vafr")]
-    pub method: String,
+    #[arg(long, value_enum, ignore_case = true, default_value_t = MethodChoice::Vafr)]
+    pub method: MethodChoice,
     #[command(flatten)]
     pub options: MethodOptions,
+    #[command(flatten)]
+    pub frame: FrameOptions,
     #[command(flatten)]
     pub dof: DofArgs,
     /// Frames to render.
@@ -59,8 +61,8 @@ pub struct SequenceArgs {
     /// rebuilds the history from the (up to) 32 frames before the first missing one, without
     /// writing them: identical frames when it falls within the first 32, otherwise history
     /// older than 32 frames (weight ≤ (1 − α_min)³² ≈ 3 %) is lost.
-    #[arg(long, default_value = "off")]
-    pub temporal: String,
+    #[arg(long, value_enum, ignore_case = true, default_value_t = Switch::Off)]
+    pub temporal: Switch,
     #[command(flatten)]
     pub temporal_opts: TemporalArgs,
     /// Frames per second (the gaze trajectory is sampled at these times).
@@ -72,8 +74,8 @@ pub struct SequenceArgs {
     pub gaze_csv: Option<PathBuf>,
     /// Synthesised gaze: demo (fixations, saccades and a pursuit), saccade-pursuit (120
     /// frames' worth of both), random-walk, or fixation (the screen centre).
-    #[arg(long, default_value = "demo")]
-    pub scenario: String,
+    #[arg(long, value_enum, ignore_case = true, default_value_t = Scenario::Demo)]
+    pub scenario: Scenario,
     /// Camera path CSV (`t,x,y,z,look_x,look_y,look_z[,up_x,up_y,up_z]`, seconds and metres,
     /// interpolated linearly); default: the scene's camera, still. Lights stay where they were
     /// set for the first frame.
@@ -87,8 +89,8 @@ pub struct SequenceArgs {
     #[arg(long, default_value = "fovea-out/sequence")]
     pub out: PathBuf,
     /// Video: auto (when ffmpeg is installed), on (fail without ffmpeg) or off.
-    #[arg(long, default_value = "auto")]
-    pub video: String,
+    #[arg(long, value_enum, ignore_case = true, default_value_t = Video::Auto)]
+    pub video: Video,
     /// Start over when the folder holds frames of other settings (otherwise an error).
     #[arg(long)]
     pub overwrite: bool,
@@ -103,7 +105,7 @@ pub struct SequenceArgs {
 /// The gaze of a sequence: an eye-tracker CSV, or a synthesised scenario of `duration_s`.
 pub fn gaze_trajectory(
     gaze_csv: Option<&Path>,
-    scenario: &str,
+    scenario: GazeScenario,
     seed: u64,
     quiet: bool,
     d: &DisplayProfile,
@@ -123,7 +125,7 @@ pub fn gaze_trajectory(
         }
         return Ok(t);
     }
-    Ok(GazeScenario::parse(scenario)?.trajectory(d, seed, duration_s)?)
+    Ok(scenario.trajectory(d, seed, duration_s)?)
 }
 
 pub fn run(args: SequenceArgs) -> Result<()> {
@@ -136,30 +138,22 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     if !(args.fps.is_finite() && (1.0..=1000.0).contains(&args.fps)) {
         bail!("invalid parameter `fps` = {}: expected 1 to 1000", args.fps);
     }
-    let video = match args.video.as_str() {
-        "auto" | "on" | "off" => args.video.as_str(),
-        v => bail!("invalid parameter `video` = {v}: expected auto, on or off"),
-    };
-    let display = args.display.display("vive-pro-eye")?;
-    let liu_hybrid = args.method.trim().eq_ignore_ascii_case("liu-hybrid");
-    let method = if liu_hybrid {
-        Method::VisualPolar
-    } else {
-        Method::parse(&args.method)?
-    };
+    let display = args.display.display(Headset::VivePro)?;
+    let liu_hybrid = args.method.is_liu_hybrid();
+    let method = args.method.method();
     let config = args.options.frame_config()?;
     let dof = args.dof.settings(liu_hybrid)?;
-    let temporal = match args.temporal.trim().to_ascii_lowercase().as_str() {
-        "on" => Some(args.temporal_opts.settings()?),
-        "off" => None,
-        t => bail!("invalid parameter `temporal` = {t}: expected on or off"),
+    let temporal = if args.temporal.is_on() {
+        Some(args.temporal_opts.settings()?)
+    } else {
+        None
     };
     let contrast = args.temporal_opts.contrast()?;
     let memory_limit = memory_limit(args.max_memory.as_deref())?;
     let duration_s = args.frames as f64 / args.fps;
     let traj = gaze_trajectory(
         args.gaze_csv.as_deref(),
-        &args.scenario,
+        args.scenario.into(),
         args.seed,
         args.quiet,
         &display,
@@ -189,13 +183,16 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     settings.memory_limit_bytes = memory_limit;
     settings.contrast = contrast;
     settings.dof = dof;
+    args.frame.apply(&mut settings);
     settings.validate()?;
 
     // The settings the frames depend on: a folder rendered with others is not resumed.
+    let method_name = choices::name(&args.method);
+    let scenario_name = choices::name(&args.scenario);
     let manifest = Manifest {
         scene: &args.scene,
         display: &display,
-        method: &args.method,
+        method: &method_name,
         settings: &settings,
         temporal,
         frames: args.frames,
@@ -205,7 +202,7 @@ pub fn run(args: SequenceArgs) -> Result<()> {
         scenario: if args.gaze_csv.is_some() {
             None
         } else {
-            Some(&args.scenario)
+            Some(&scenario_name)
         },
         seed: args.seed,
         camera_path: &camera_path_text,
@@ -307,7 +304,7 @@ pub fn run(args: SequenceArgs) -> Result<()> {
         counts.rendered,
         counts.skipped
     );
-    make_video(&args.out, args.fps, video)?;
+    make_video(&args.out, args.fps, args.video)?;
     Ok(())
 }
 
@@ -324,7 +321,7 @@ struct Manifest<'a> {
     fps: f64,
     gaze_csv: Option<&'a Path>,
     gaze_csv_fnv1a: Option<String>,
-    scenario: Option<&'a String>,
+    scenario: Option<&'a str>,
     seed: u64,
     camera_path: &'a str,
 }
@@ -414,8 +411,8 @@ fn remove_frames(out: &Path) -> Result<()> {
 }
 
 /// Encodes `frame_%05d.png` to `sequence.mp4` with ffmpeg when asked and available.
-fn make_video(out: &Path, fps: f64, video: &str) -> Result<()> {
-    if video == "off" {
+fn make_video(out: &Path, fps: f64, video: Video) -> Result<()> {
+    if video == Video::Off {
         return Ok(());
     }
     let have = std::process::Command::new("ffmpeg")
@@ -423,7 +420,7 @@ fn make_video(out: &Path, fps: f64, video: &str) -> Result<()> {
         .output()
         .is_ok_and(|o| o.status.success());
     if !have {
-        if video == "on" {
+        if video == Video::On {
             bail!("--video on needs ffmpeg on the PATH (Debian: apt-get install ffmpeg)");
         }
         println!("no ffmpeg on the PATH: PNG frames only (install ffmpeg for sequence.mp4)");

@@ -34,11 +34,14 @@ pub struct TableArgs {
     /// saves.
     #[arg(long, value_delimiter = ',')]
     calibrate: Vec<String>,
+    /// The table only, without the notes that compare it with the paper.
+    #[arg(long, short)]
+    quiet: bool,
 }
 
 pub fn run(a: TableArgs) -> Result<()> {
     if !a.calibrate.is_empty() {
-        return calibrate(&a.calibrate, a.json);
+        return calibrate(&a.calibrate, a.json, a.quiet);
     }
     let displays = a
         .headsets
@@ -65,7 +68,7 @@ pub fn run(a: TableArgs) -> Result<()> {
         println!("{}", serde_json::to_string_pretty(&rows)?);
         return Ok(());
     }
-    print_text(&displays, &entries, &rows);
+    print_text(&displays, &entries, &rows, a.quiet);
     Ok(())
 }
 
@@ -86,6 +89,7 @@ fn print_text(
     displays: &[DisplayProfile],
     entries: &[MethodEntry],
     rows: &[fovea_core::analysis::TableRow],
+    quiet: bool,
 ) {
     println!("Samples (rays) shaded per eye per frame");
     let mut header = format!("{:<14}", "method");
@@ -107,6 +111,9 @@ fn print_text(
         }
         println!("{line}");
     }
+    if quiet {
+        return;
+    }
     println!();
     println!("VaFR Table 1 prints thousands truncated: VaFR_Dup 1,061K at every resolution;");
     println!("LaFR(2.2) 761K…15,423K; LaFR(1.8) 1,137K…23,040K; GT 3,686K…74,649K.");
@@ -114,7 +121,7 @@ fn print_text(
 
 /// VaFR samples per eye with the default curve, the headset-capped curve, the anisotropic
 /// tangential factor, and both, per headset.
-fn calibrate(headsets: &[String], json: bool) -> Result<()> {
+fn calibrate(headsets: &[String], json: bool, quiet: bool) -> Result<()> {
     use fovea_core::acuity::{AcuityModel, TangentialFactor};
     use fovea_core::mapping::{Vafr, VafrParams};
     use fovea_core::units::CyclesPerDegree;
@@ -175,8 +182,10 @@ fn calibrate(headsets: &[String], json: bool) -> Result<()> {
             p("capped_anisotropic_saved_pct"),
         );
     }
-    println!(
-        "VaFR Fig. 3: capping saves 20 % (Vive Pro Eye, 9 cpd) and 8 % (Pimax Crystal, 18 cpd)."
-    );
+    if !quiet {
+        println!(
+            "VaFR Fig. 3: capping saves 20 % (Vive Pro Eye, 9 cpd) and 8 % (Pimax Crystal, 18 cpd)."
+        );
+    }
     Ok(())
 }

@@ -1,11 +1,13 @@
 //! Options of temporal accumulation and peripheral contrast, shared by `fovea sequence` and
 //! `fovea flicker`.
 
-use anyhow::{bail, Result};
+use anyhow::Result;
 use clap::Args;
 
 use fovea_post::contrast::PeripheralContrast;
 use fovea_render::temporal::TemporalSettings;
+
+use crate::choices::Switch;
 
 /// Temporal accumulation options.
 #[derive(Args, Debug, Clone)]
@@ -18,22 +20,14 @@ pub struct TemporalArgs {
     pub depth_tolerance: f32,
     /// Sub-texel jitter of the samples in sample space: on or off (never for weier; off by
     /// default: in motion it adds more peripheral change than accumulation removes).
-    #[arg(long, default_value = "off")]
-    pub jitter: String,
+    #[arg(long, value_enum, ignore_case = true, default_value_t = Switch::Off)]
+    pub jitter: Switch,
     /// Clamp history to the new samples' 3×3 colour range: on or off.
-    #[arg(long, default_value = "on")]
-    pub history_clamp: String,
+    #[arg(long, value_enum, ignore_case = true, default_value_t = Switch::On)]
+    pub history_clamp: Switch,
     /// Peripheral contrast enhancement gain (Weier/Patney; 0 = off; e.g. 0.5).
     #[arg(long, default_value_t = 0.0)]
     pub peripheral_contrast: f32,
-}
-
-fn on_off(name: &str, v: &str) -> Result<bool> {
-    match v.trim().to_ascii_lowercase().as_str() {
-        "on" | "true" | "yes" | "1" => Ok(true),
-        "off" | "false" | "no" | "0" => Ok(false),
-        _ => bail!("invalid parameter `{name}` = {v}: expected on or off"),
-    }
 }
 
 impl TemporalArgs {
@@ -42,8 +36,8 @@ impl TemporalArgs {
         let s = TemporalSettings {
             alpha_min: self.alpha_min,
             depth_tolerance: self.depth_tolerance,
-            jitter: on_off("jitter", &self.jitter)?,
-            clamp: on_off("history-clamp", &self.history_clamp)?,
+            jitter: self.jitter.is_on(),
+            clamp: self.history_clamp.is_on(),
         };
         s.validate()?;
         Ok(s)

@@ -28,8 +28,7 @@ use crate::camera::{Eye, EyeCamera, HmdRig};
 use crate::error::{RenderError, Result};
 use crate::eye::EyeState;
 use crate::pipeline::{
-    render_alone, Frame, FrameInputs, FrameSettings, Prefill, Stage, StageTimes,
-    Stopwatch,
+    render_alone, Frame, FrameInputs, FrameSettings, Prefill, Stage, StageTimes, Stopwatch,
 };
 use crate::plan::FramePlan;
 use crate::world::World;

@@ -38,13 +38,10 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         }
     };
     say("full resolution");
-    let full = render_frame(
-        world,
-        camera,
-        &FrameSettings::new(Method::Full),
-        gaze,
-        &|_, _| {},
-    )?;
+    let rays_per_pixel = ctx.args.reference_pixel_samples;
+    let mut reference = FrameSettings::new(Method::Full);
+    reference.pixel_samples = rays_per_pixel;
+    let full = render_frame(world, camera, &reference, gaze, &|_, _| {})?;
     let dir = ctx.dir("quality")?;
     let tone = fovea_post::tonemap::ToneCurve::Reinhard;
     write_rgb(&dir.join("full.png"), &full.color, 0.0, tone)?;
@@ -135,12 +132,20 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
             "bands": per,
         }));
     }
+    let (reference_rays, reference_flags) = if rays_per_pixel == 1 {
+        ("one sample at each pixel centre".to_string(), String::new())
+    } else {
+        (
+            format!("{rays_per_pixel} stratified rays per pixel"),
+            format!(" --pixel-samples {rays_per_pixel}"),
+        )
+    };
     sec.text(format!(
-        "Every method renders the same view with the gaze at ({:.0}, {:.0}) px; the reference is the full-resolution frame (one sample at each pixel centre). SSIM and ꟻLIP are computed over the whole frame and averaged over each band's pixels; PSNR from the band's pixels.",
+        "Every method renders the same view with the gaze at ({:.0}, {:.0}) px; the reference is the full-resolution frame ({reference_rays}). SSIM and ꟻLIP are computed over the whole frame and averaged over each band's pixels; PSNR from the band's pixels.",
         gaze.point.x_px, gaze.point.y_px
     ));
     sec.text(format!(
-        "Reproduce one row's frames: fovea render {}{} --gaze {:.0},{:.0} --method METHOD --density-out density.png (and --method full for the reference).",
+        "Reproduce one row's frames: fovea render {}{} --gaze {:.0},{:.0} --method METHOD --density-out density.png (and --method full{reference_flags} for the reference).",
         super::scene_flags(&ctx.args.scene),
         super::display_flags(&ctx.args.display),
         gaze.point.x_px,

@@ -160,7 +160,14 @@ pub fn render_frame(
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<Frame> {
     let (plan, times) = plan_frame(world, camera, settings, gaze, [0.0, 0.0])?;
-    render_alone(world, camera, &plan, FrameInputs::default(), times, progress)
+    render_alone(
+        world,
+        camera,
+        &plan,
+        FrameInputs::default(),
+        times,
+        progress,
+    )
 }
 
 /// Renders one frame for a given eye state (gaze and focus already decided, e.g. a frame of a
@@ -176,7 +183,14 @@ pub fn render_for_eye(
     let t = Stopwatch::start();
     let plan = FramePlan::new(world, camera, settings, eye, [0.0, 0.0])?;
     times.add(Stage::Plan, &t);
-    render_alone(world, camera, &plan, FrameInputs::default(), times, progress)
+    render_alone(
+        world,
+        camera,
+        &plan,
+        FrameInputs::default(),
+        times,
+        progress,
+    )
 }
 
 /// [`render_planned`] into a context of its own, the frame handed over.
