@@ -94,6 +94,23 @@ impl FrameContext {
                 ));
             }
         }
+        // Full resolution: the last frame's screen images are this frame's sample buffers (the
+        // reconstruction hands the sample buffer over as the screen), so one pair of
+        // screen-sized buffers serves every frame.
+        let full = plan.method() == Method::Full;
+        if full {
+            let screen = (plan.display.width_px, plan.display.height_px);
+            let last = self.frame.take_if(|f| {
+                (f.color.width(), f.color.height()) == screen
+                    && (f.depth.width(), f.depth.height()) == screen
+            });
+            if let Some(f) = last {
+                self.samples = Some(SampleBuffers {
+                    color: vec![f.color],
+                    depth: vec![f.depth],
+                });
+            }
+        }
         let fits = self.samples.as_ref().is_some_and(|s| {
             s.color.len() == sizes.len()
                 && s.color
@@ -102,6 +119,10 @@ impl FrameContext {
                     .all(|(i, b)| (i.width(), i.height()) == (b.width, b.height))
         });
         if !fits {
+            if full {
+                // Colour and depth of the screen.
+                self.screen_allocations += 2;
+            }
             let mut color = Vec::with_capacity(sizes.len());
             let mut depth = Vec::with_capacity(sizes.len());
             for b in sizes {
@@ -139,12 +160,15 @@ impl FrameContext {
             .expect("samples_for runs before the reconstruction")
     }
 
-    /// Screen-sized colour and depth buffers for `display`: the last frame's when they fit,
-    /// otherwise new (zeroed pages, faulted in where the reconstruction writes them).
-    pub(crate) fn screen_buffers(
-        &mut self,
-        display: &DisplayProfile,
-    ) -> Result<(Image<Rgb>, Image<f32>)> {
+    /// Screen-sized colour and depth buffers for `plan`'s display: the last frame's when they
+    /// fit, otherwise new (zeroed pages, faulted in where the reconstruction writes them).
+    pub(crate) fn screen_buffers(&mut self, plan: &FramePlan) -> Result<(Image<Rgb>, Image<f32>)> {
+        let display: &DisplayProfile = &plan.display;
+        if plan.method() == Method::Full {
+            // The sample buffer is the screen: the reconstruction hands it over as it is
+            // (`samples_for` took the last frame's images as this frame's samples).
+            return Ok((Image::new(1, 1, [0.0; 3])?, Image::new(1, 1, 0.0)?));
+        }
         let (w, h) = (display.width_px, display.height_px);
         let fits = |wh: (u32, u32)| wh == (w, h);
         let last = self.frame.take();

@@ -285,7 +285,7 @@ pub fn render_planned<'c>(
     });
 
     // 6. Reconstruct into the context's screen buffers.
-    let (mut color, mut depth) = ctx.screen_buffers(&plan.display)?;
+    let (mut color, mut depth) = ctx.screen_buffers(plan)?;
     let samples = ctx.samples_for_reconstruct();
     let t = Stopwatch::start();
     let inset_smoothing = reconstruct::reconstruct(plan, samples, &mut color, &mut depth)?;

@@ -25,6 +25,12 @@ pub fn reconstruct(
     color: &mut Image<Rgb>,
     depth: &mut Image<f32>,
 ) -> Result<Option<Smoothing>> {
+    if plan.method() == Method::Full {
+        // The buffer is the screen: handed over, nothing copied.
+        std::mem::swap(&mut samples.color[0], color);
+        std::mem::swap(&mut samples.depth[0], depth);
+        return Ok(None);
+    }
     reconstruct_into(plan.mapping(), &plan.display, samples, color, depth)?;
     let smoothing = plan.settings.inset_smoothing;
     if plan.method() != Method::Inset || smoothing == Smoothing::None {
