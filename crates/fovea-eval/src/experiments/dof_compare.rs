@@ -654,12 +654,7 @@ fn crop_error(r: Region) -> EvalError {
 mod tests {
     use super::*;
 
-    fn invalid(r: Result<()>) -> String {
-        match r {
-            Err(EvalError::InvalidParameter { name, .. }) => name,
-            other => panic!("expected an invalid parameter, got {other:?}"),
-        }
-    }
+    use crate::experiments::invalid_parameter as invalid;
 
     #[test]
     fn default_params_are_valid() {

@@ -528,12 +528,7 @@ mod tests {
     use super::*;
     use fovea_render::dof::{DofSettings, FocusMode};
 
-    fn invalid(r: Result<()>) -> String {
-        match r {
-            Err(EvalError::InvalidParameter { name, .. }) => name,
-            other => panic!("expected an invalid parameter of this crate, got {other:?}"),
-        }
-    }
+    use crate::experiments::invalid_parameter as invalid;
 
     #[test]
     fn default_params_are_valid() {

@@ -15,7 +15,7 @@ use serde::Serialize;
 use fovea_core::display::{DisplayProfile, Gaze};
 use fovea_core::units::ScreenPoint;
 use fovea_core::Image;
-use fovea_post::inset_smoothing::{composite, GaussianKernel, Rect, Smoothing};
+use fovea_post::inset_smoothing::{composite, Rect, Smoothing};
 use fovea_post::Rgb;
 use fovea_render::camera::EyeCamera;
 use fovea_render::shade::ShadingMode;
@@ -172,27 +172,10 @@ impl InsetAnalysis {
     }
 }
 
-/// The composites in table order: the hard one, then each smoothing, with their names.
+/// The composites in table order: the hard one, then each smoothing, with their names
+/// (Liu et al.'s inset paper, Sec. 3: [`Smoothing::ALL`]).
 pub fn smoothings() -> Vec<(&'static str, Smoothing)> {
-    vec![
-        ("none", Smoothing::None),
-        ("alpha-blend", Smoothing::ALPHA_BLEND),
-        ("gaussian-1d", Smoothing::Gaussian1d),
-        ("gaussian-2d", Smoothing::Gaussian2d),
-        (
-            "gaussian-1d-alpha",
-            Smoothing::GaussianAlpha {
-                kernel: GaussianKernel::OneD,
-            },
-        ),
-        (
-            "gaussian-2d-alpha",
-            Smoothing::GaussianAlpha {
-                kernel: GaussianKernel::TwoD,
-            },
-        ),
-        ("laplacian", Smoothing::LAPLACIAN),
-    ]
+    Smoothing::ALL.to_vec()
 }
 
 /// Renders the full frame and the periphery seen by `camera`, composites them around `gaze`
@@ -301,12 +284,7 @@ mod tests {
     use super::*;
     use fovea_core::units::Degrees;
 
-    fn invalid(r: Result<()>) -> String {
-        match r {
-            Err(EvalError::InvalidParameter { name, .. }) => name,
-            other => panic!("expected an invalid parameter, got {other:?}"),
-        }
-    }
+    use crate::experiments::invalid_parameter as invalid;
 
     #[test]
     fn default_params_are_valid_and_centre_a_quarter_inset() {

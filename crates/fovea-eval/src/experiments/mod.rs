@@ -62,3 +62,12 @@ pub(crate) fn median(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
 }
+
+/// The name of the invalid parameter `r` reports (tests of the parameter structs).
+#[cfg(test)]
+pub(crate) fn invalid_parameter(r: crate::error::Result<()>) -> String {
+    match r {
+        Err(crate::error::EvalError::InvalidParameter { name, .. }) => name,
+        other => panic!("expected an invalid parameter, got {other:?}"),
+    }
+}
