@@ -108,6 +108,7 @@ pub fn params(args: &BenchArgs) -> Result<BenchParams> {
         .collect::<std::result::Result<_, _>>()?;
     let mut frame = FrameSettings::new(Method::Full);
     frame.mapping = args.options.frame_config()?;
+    args.options.warn_inapplicable(&methods);
     frame.shading = shading(args.shading, args.bounces, args.spp, 1)?;
     args.frame.apply(&mut frame);
     frame.memory_limit_bytes = memory_limit(args.max_memory.as_deref())?;

@@ -4,6 +4,7 @@ use anyhow::{Context, Result};
 use clap::Args;
 use fovea_core::acuity::AcuityModel;
 use fovea_core::display::{parse_resolution, DisplayProfile, Gaze};
+use fovea_core::mapping::Method;
 use fovea_core::units::Degrees;
 
 use fovea_render::pipeline::FrameSettings;
@@ -138,6 +139,55 @@ pub struct MethodOptions {
 }
 
 impl MethodOptions {
+    /// One warning per option set here that none of `methods` uses (`--weier` without
+    /// weier, `--delta` without kfr/lafr, …): the option is ignored, not an error.
+    pub fn inapplicable(&self, methods: &[Method]) -> Vec<String> {
+        let uses = |wanted: &[Method]| methods.iter().any(|m| wanted.contains(m));
+        let checks: [(&str, bool, &[Method], &str); 7] = [
+            (
+                "delta",
+                self.delta.is_some(),
+                &[Method::Kfr, Method::Lafr],
+                "kfr or lafr",
+            ),
+            ("kfr-alpha", self.kfr_alpha.is_some(), &[Method::Kfr], "kfr"),
+            (
+                "tangential",
+                self.tangential.is_some(),
+                &[Method::Vafr],
+                "vafr",
+            ),
+            (
+                "vafr-emax",
+                self.vafr_emax.is_some(),
+                &[Method::Vafr],
+                "vafr",
+            ),
+            (
+                "vp-inverse",
+                self.vp_inverse.is_some(),
+                &[Method::VisualPolar],
+                "visual-polar",
+            ),
+            ("inset", self.inset.is_some(), &[Method::Inset], "inset"),
+            ("weier", self.weier.is_some(), &[Method::Weier], "weier"),
+        ];
+        checks
+            .iter()
+            .filter(|(_, set, wanted, _)| *set && !uses(wanted))
+            .map(|(flag, _, _, names)| {
+                format!("warning: --{flag} applies to --method {names} only; ignored")
+            })
+            .collect()
+    }
+
+    /// Prints [`Self::inapplicable`]'s warnings on stderr.
+    pub fn warn_inapplicable(&self, methods: &[Method]) {
+        for w in self.inapplicable(methods) {
+            eprintln!("{w}");
+        }
+    }
+
     /// The mapping configuration of one frame: the defaults with these options, `--delta`
     /// setting both KFR's and LaFR's ratio (`table` and `curves` instead add rows per δ).
     pub fn frame_config(&self) -> Result<fovea_core::mapping::MappingConfig> {

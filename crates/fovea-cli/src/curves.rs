@@ -21,7 +21,7 @@ pub struct CurvesArgs {
     #[command(flatten)]
     display: DisplayArgs,
     /// Gaze point X,Y in pixels (default: screen centre).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     gaze: Option<String>,
     /// Methods to plot, comma-separated.
     #[arg(long, value_delimiter = ',',

@@ -124,6 +124,7 @@ pub fn params(args: &FlickerArgs) -> Result<FlickerParams> {
         })?;
     let mut frame = FrameSettings::new(Method::Vafr);
     frame.mapping = args.options.frame_config()?;
+    args.options.warn_inapplicable(&methods);
     frame.memory_limit_bytes = memory_limit(args.max_memory.as_deref())?;
     frame.contrast = args.temporal_opts.contrast()?;
     args.inset.apply(&mut frame);

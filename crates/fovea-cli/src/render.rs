@@ -78,8 +78,8 @@ pub struct RenderArgs {
     /// spacing tables, AA, culling limits, tiles, memory): what the frame was decided to be.
     #[arg(long)]
     pub plan_out: Option<PathBuf>,
-    /// Exposure in stops for PNG output.
-    #[arg(long, default_value_t = 0.0)]
+    /// Exposure in stops for PNG output, -20 to 20.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     pub exposure: f32,
     /// Tone curve for PNG output: clamp or reinhard.
     #[arg(long, value_enum, ignore_case = true, default_value_t = Tonemap::Reinhard)]
@@ -133,6 +133,21 @@ fn parse_bytes(text: &str) -> Result<u64> {
     Ok((v * mult as f64) as u64)
 }
 
+/// The largest `--exposure` magnitude in stops (±20 stops is a factor of about 10⁶).
+pub const MAX_EXPOSURE_STOPS: f32 = 20.0;
+
+/// Refuses a non-finite `--exposure` or one beyond ±[`MAX_EXPOSURE_STOPS`] (which would
+/// write an all-black or all-white image).
+pub fn check_exposure(stops: f32) -> Result<()> {
+    if !(stops.is_finite() && stops.abs() <= MAX_EXPOSURE_STOPS) {
+        bail!(
+            "invalid parameter `exposure` = {stops}: expected a finite number of stops from \
+             -{MAX_EXPOSURE_STOPS} to {MAX_EXPOSURE_STOPS}"
+        );
+    }
+    Ok(())
+}
+
 /// The shading mode of `--shading` with the path tracer's numbers checked.
 pub fn shading(kind: Shading, bounces: u32, spp: u32, seed: u64) -> Result<ShadingMode> {
     match kind {
@@ -167,6 +182,7 @@ pub fn progress_bar(quiet: bool, label: &str) -> ProgressBar {
 }
 
 pub fn run(args: RenderArgs) -> Result<()> {
+    check_exposure(args.exposure)?;
     check_image_path(&args.out)?;
     for p in [&args.depth_out, &args.density_out, &args.coc_out]
         .into_iter()
@@ -182,6 +198,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         bail!("--coc-out needs --dof <filter>");
     }
     let config = args.options.frame_config()?;
+    args.options.warn_inapplicable(&[method]);
     let tone = ToneCurve::from(args.tonemap);
     let shading_mode = shading(args.shading, args.bounces, args.spp, args.seed)?;
     let both_eyes = args.eyes == Eyes::Both;
@@ -348,6 +365,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
     .map(|&k| format!("{k} {:.1}", s.stages_ms.get(k)))
     .collect();
     println!("stages (ms): {}", stages.join(", "));
+    if let Some(note) = oversampling_note(method, s.samples, s.width, s.height) {
+        eprintln!("{note}");
+    }
     if let Some(l) = &lod_stats {
         println!(
             "lod: {} of {} objects at full detail | {} of {} triangles traced ({:.1} % fewer)",
@@ -382,6 +402,28 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     println!("wrote {} and {}", args.out.display(), stats_path.display());
     Ok(())
+}
+
+/// A `note:` line when a method shades more samples than the display has pixels (VaFR at
+/// low resolutions: its log-polar buffer is sized by the acuity model, not the display).
+pub fn oversampling_note(method: Method, samples: u64, width: u32, height: u32) -> Option<String> {
+    let pixels = u64::from(width) * u64::from(height);
+    if pixels == 0 || samples <= pixels {
+        return None;
+    }
+    let why = if method == Method::Vafr {
+        "VaFR's buffer is sized for visual acuity, not the display, so at low resolutions it \
+         shades more than full resolution (use --method full or a higher --res)"
+    } else {
+        "the method's buffer is larger than the display at this resolution"
+    };
+    Some(format!(
+        "note: {} shades {} samples, {:.1}× the {width}×{height} display's {} pixels: {why}",
+        method.name(),
+        thousands(samples),
+        samples as f64 / pixels as f64,
+        thousands(pixels),
+    ))
 }
 
 /// `--eyes both`: each eye's gaze at the fixated point, the binocular frame, one side-by-side

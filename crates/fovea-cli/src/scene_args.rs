@@ -110,6 +110,13 @@ fn camera_desc(args: &SceneArgs, scene: &Scene) -> Result<CameraDesc> {
                 )
             });
     }
+    if args.camera_index != 0 {
+        bail!(
+            "invalid parameter `camera-index` = {}: the scene has no cameras (its view is \
+             framed automatically; use --camera-pos/--look-at to place one)",
+            args.camera_index
+        );
+    }
     let b = scene
         .bounds()
         .ok_or_else(|| anyhow!("the scene is empty"))?;
@@ -202,8 +209,9 @@ pub fn prepare(args: &SceneArgs, display: &DisplayProfile) -> Result<Prepared> {
 /// Where the eye looks: a screen point or a world point.
 #[derive(Args, Debug, Clone, Default)]
 pub struct GazeArgs {
-    /// Gaze point X,Y in screen pixels (default: the screen centre).
-    #[arg(long, conflicts_with = "gaze_at")]
+    /// Gaze point X,Y in screen pixels (default: the screen centre; negative values allowed,
+    /// e.g. --gaze -10,20, within the screen's margin).
+    #[arg(long, conflicts_with = "gaze_at", allow_hyphen_values = true)]
     pub gaze: Option<String>,
     /// Gaze at a world point X,Y,Z (metres) instead of a screen point.
     #[arg(long)]

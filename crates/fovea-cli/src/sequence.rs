@@ -142,6 +142,7 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     let liu_hybrid = args.method.is_liu_hybrid();
     let method = args.method.method();
     let config = args.options.frame_config()?;
+    args.options.warn_inapplicable(&[method]);
     let dof = args.dof.settings(liu_hybrid)?;
     let temporal = if args.temporal.is_on() {
         Some(args.temporal_opts.settings()?)
@@ -376,9 +377,13 @@ fn frame_path(out: &Path, i: usize) -> PathBuf {
     out.join(format!("frame_{i:05}.png"))
 }
 
-/// A frame counts as done when its PNG decodes to the display's size.
+/// A frame counts as done when its header gives the display's size and the whole PNG
+/// decodes (a frame cut short, e.g. by a full disk, has an intact header but truncated
+/// data and is rendered again). Frames are display-sized, so decoding them is cheap.
 fn frame_is_complete(path: &Path, d: &DisplayProfile) -> bool {
     image::image_dimensions(path).is_ok_and(|(w, h)| (w, h) == (d.width_px, d.height_px))
+        && image::open(path)
+            .is_ok_and(|img| (img.width(), img.height()) == (d.width_px, d.height_px))
 }
 
 /// Writes 8-bit sRGB PNG (Reinhard tone curve, as `fovea render`) whatever the extension.

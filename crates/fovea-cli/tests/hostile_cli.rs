@@ -1,0 +1,250 @@
+//! Hostile and careless command lines (issue 21): every case exits 0 with a documented
+//! fallback (a `warning:` or `note:` line) or 2 with one `error:` line, never a panic.
+
+use std::path::Path;
+
+use assert_cmd::Command;
+
+fn fovea() -> Command {
+    Command::cargo_bin("fovea").unwrap()
+}
+
+/// `fovea render ARGS --res 64x72 --lights 1 -q --out DIR/r.png`.
+fn render(dir: &Path, args: &[&str]) -> std::process::Output {
+    fovea()
+        .arg("render")
+        .args(["--res", "64x72", "--lights", "1", "-q", "--out"])
+        .arg(dir.join("r.png"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// The one-line error of a refused command, checked for exit code 2 and no panic.
+fn refused(o: &std::process::Output, args: &[&str]) -> String {
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
+    assert!(
+        err.starts_with("error: ") && !err.contains("panicked"),
+        "{args:?}: {err}"
+    );
+    err
+}
+
+/// The stderr of a command that succeeded.
+fn accepted(o: &std::process::Output, args: &[&str]) -> String {
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(o.status.success(), "{args:?}: {err}");
+    err
+}
+
+/// A unit cube as OBJ: a scene with no camera and a single object.
+fn cube_obj(dir: &Path) -> std::path::PathBuf {
+    let p = dir.join("cube.obj");
+    let mut s = String::new();
+    for z in [-0.5, 0.5] {
+        for y in [-0.5, 0.5] {
+            for x in [-0.5, 0.5] {
+                s += &format!("v {x} {y} {z}\n");
+            }
+        }
+    }
+    // Vertices 1..8: index = 1 + x + 2y + 4z.
+    for f in [
+        "1 3 4 2", "5 6 8 7", "1 2 6 5", "3 7 8 4", "1 5 7 3", "2 4 8 6",
+    ] {
+        s += &format!("f {f}\n");
+    }
+    std::fs::write(&p, s).unwrap();
+    p
+}
+
+#[test]
+fn exposures_that_are_not_finite_or_sane_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    for e in ["nan", "inf", "-inf", "-1e9", "21", "-20.5"] {
+        let args = ["--exposure", e];
+        let err = refused(&render(dir.path(), &args), &args);
+        assert!(
+            err.contains("`exposure`") && err.contains("-20 to 20"),
+            "{err}"
+        );
+    }
+    for e in ["-3", "2.5", "20"] {
+        let args = ["--exposure", e, "--method", "full"];
+        accepted(&render(dir.path(), &args), &args);
+    }
+}
+
+#[test]
+fn options_of_another_method_are_ignored_with_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = ["--method", "kfr", "--weier", "10,20,0.2"];
+    let err = accepted(&render(dir.path(), &args), &args);
+    assert!(
+        err.contains("warning: --weier applies to --method weier only; ignored"),
+        "{err}"
+    );
+    let args = [
+        "--method",
+        "full",
+        "--vafr-emax",
+        "60",
+        "--tangential",
+        "isotropic",
+        "--delta",
+        "2",
+        "--kfr-alpha",
+        "0.5",
+        "--inset",
+        "fixed",
+    ];
+    let err = accepted(&render(dir.path(), &args), &args);
+    for flag in ["vafr-emax", "tangential", "delta", "kfr-alpha", "inset"] {
+        assert!(
+            err.contains(&format!("warning: --{flag} applies to --method ")),
+            "{flag}: {err}"
+        );
+    }
+    // The method's own options: no warning.
+    for args in [
+        ["--method", "weier", "--weier", "10,20,0.2"],
+        ["--method", "lafr", "--delta", "2"],
+        ["--method", "vafr", "--vafr-emax", "60"],
+    ] {
+        let err = accepted(&render(dir.path(), &args), &args);
+        assert!(!err.contains("warning:"), "{args:?}: {err}");
+    }
+}
+
+#[test]
+fn a_camera_index_on_a_scene_without_cameras_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let cube = cube_obj(dir.path());
+    let scene = cube.to_str().unwrap();
+    let args = ["--scene", scene, "--camera-index", "99"];
+    let err = refused(&render(dir.path(), &args), &args);
+    assert!(
+        err.contains("`camera-index` = 99") && err.contains("no cameras"),
+        "{err}"
+    );
+    // Index 0 (the default) still frames the scene.
+    let args = ["--scene", scene, "--method", "full"];
+    accepted(&render(dir.path(), &args), &args);
+}
+
+#[test]
+fn negative_gazes_parse_and_off_screen_ones_get_the_range_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = ["--gaze", "-100,-100"];
+    let err = refused(&render(dir.path(), &args), &args);
+    assert!(
+        err.contains("invalid parameter `gaze` = -100,-100") && err.contains("x in ["),
+        "{err}"
+    );
+    // A gaze a pixel left of the screen is within the margin.
+    let args = ["--gaze", "-1,36", "--method", "full"];
+    accepted(&render(dir.path(), &args), &args);
+    // `curves` reads the same way.
+    let o = fovea()
+        .args(["curves", "--res", "64x72", "--gaze", "-100,-100", "--out"])
+        .arg(dir.path().join("curves"))
+        .output()
+        .unwrap();
+    let err = refused(&o, &["curves"]);
+    assert!(err.contains("`gaze` = -100,-100"), "{err}");
+}
+
+#[test]
+fn vafr_shading_more_samples_than_pixels_is_noted() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = ["--method", "vafr"];
+    let err = accepted(&render(dir.path(), &args), &args);
+    let notes: Vec<&str> = err.lines().filter(|l| l.starts_with("note:")).collect();
+    assert_eq!(notes.len(), 1, "{err}");
+    assert!(
+        notes[0].contains("64×72 display's 4,608 pixels")
+            && notes[0].contains("× the")
+            && notes[0].contains("acuity"),
+        "{err}"
+    );
+    let args = ["--method", "full"];
+    let err = accepted(&render(dir.path(), &args), &args);
+    assert!(!err.contains("note:"), "{err}");
+}
+
+#[test]
+fn a_truncated_frame_is_rendered_again_on_resume() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("seq");
+    let run = || {
+        fovea()
+            .args([
+                "sequence", "--res", "120x90", "--lights", "1", "--frames", "3",
+            ])
+            .args(["--video", "off", "-q", "--out"])
+            .arg(&out)
+            .output()
+            .unwrap()
+    };
+    let first = run();
+    accepted(&first, &["first"]);
+    let frame = out.join("frame_00001.png");
+    let good = std::fs::read(&frame).unwrap();
+    // Header intact, data cut short (as a full disk would leave it).
+    std::fs::write(&frame, &good[..good.len() / 2]).unwrap();
+    assert!(image::image_dimensions(&frame).is_ok());
+    let again = run();
+    accepted(&again, &["again"]);
+    let text = String::from_utf8_lossy(&again.stdout);
+    assert!(text.contains("1 rendered, 2 already there"), "{text}");
+    assert_eq!(std::fs::read(&frame).unwrap(), good);
+}
+
+#[test]
+fn report_verify_passes_a_single_object_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let cube = cube_obj(dir.path());
+    let out = dir.path().join("report");
+    let o = fovea()
+        .args([
+            "report", "--quick", "--res", "160x180", "--vfov", "100", "-q",
+        ])
+        .args(["--sections", "quality", "--scene"])
+        .arg(&cube)
+        // The cube covers the gaze's surroundings; beyond 30° there is only background.
+        .args([
+            "--camera-pos",
+            "0,0,3",
+            "--look-at",
+            "0.2,0.1,0",
+            "--lights",
+            "1",
+        ])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    accepted(&o, &["report"]);
+    let o = fovea()
+        .args(["report", "--verify"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = accepted(&o, &["verify"]);
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    let check = json["sections"][0]["checks"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["claim"].as_str().unwrap().starts_with("Quality falls"))
+        .unwrap_or_else(|| panic!("{err}\n{json}"));
+    assert_eq!(check["pass"], true, "{check}");
+    let detail = check["detail"].as_str().unwrap();
+    assert!(
+        detail.contains("skipped > 30°") && detail.contains("background only"),
+        "{detail}"
+    );
+}
