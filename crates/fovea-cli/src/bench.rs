@@ -104,8 +104,8 @@ pub fn params(args: &BenchArgs) -> Result<BenchParams> {
     let methods: Vec<Method> = args
         .methods
         .split(',')
-        .map(Method::parse)
-        .collect::<std::result::Result<_, _>>()?;
+        .map(crate::common::parse_list_method)
+        .collect::<Result<_>>()?;
     let mut frame = FrameSettings::new(Method::Full);
     frame.mapping = args.options.frame_config()?;
     args.options.warn_inapplicable(&methods);
@@ -117,8 +117,16 @@ pub fn params(args: &BenchArgs) -> Result<BenchParams> {
         Some("all") => FilterKind::ALL.to_vec(),
         Some(list) => list
             .split(',')
-            .map(FilterKind::parse)
-            .collect::<Result<_, _>>()?,
+            .map(|s| {
+                FilterKind::parse(s).map_err(|_| {
+                    anyhow::anyhow!(
+                        "invalid parameter `dof` = {s}: expected `all` or a comma-separated \
+                         list of {}",
+                        FilterKind::ALL.map(|k| k.name()).join(", ")
+                    )
+                })
+            })
+            .collect::<Result<_>>()?,
     };
     let stereo = args.eyes == Eyes::Both;
     let params = BenchParams {

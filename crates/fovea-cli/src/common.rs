@@ -278,3 +278,17 @@ impl InsetSmoothingArgs {
         settings.inset_smoothing = self.inset_smoothing.into();
     }
 }
+
+/// A sampling method of a list option (`--methods` of bench, table, curves, flicker):
+/// [`Method::parse`], with `liu-hybrid` — a render/sequence `--method` that is visual-polar
+/// sampling plus the eye's depth of field — pointed at the name these lists take.
+pub fn parse_list_method(name: &str) -> Result<fovea_core::mapping::Method> {
+    if name.trim().eq_ignore_ascii_case("liu-hybrid") {
+        anyhow::bail!(
+            "invalid parameter `method` = liu-hybrid: here methods are sampling methods only \
+             (full, vafr, kfr, lafr, visual-polar, guenter, inset, weier); liu-hybrid samples \
+             as visual-polar, so name that"
+        );
+    }
+    Ok(fovea_core::mapping::Method::parse(name)?)
+}

@@ -211,20 +211,13 @@ pub fn run(a: CurvesArgs) -> Result<()> {
             let methods = a
                 .methods
                 .iter()
-                .map(|m| Method::parse(m))
+                .map(|m| crate::common::parse_list_method(m))
                 .collect::<Result<Vec<_>, _>>()?;
             let specs = method_specs(&d, g, &methods, &acuity, &a.options)?;
             if specs.is_empty() {
                 bail!("invalid parameter `methods`: name at least one method");
             }
-            (
-                format!(
-                    "{} {}×{}, gaze ({:.0}, {:.0})",
-                    d.name, d.width_px, d.height_px, g.point.x_px, g.point.y_px
-                ),
-                specs,
-                "curves".to_string(),
-            )
+            (display_title(&d, g), specs, "curves".to_string())
         }
     };
     let plot = PlotRange {
@@ -305,11 +298,21 @@ pub fn write_display_curves(
 ) -> Result<Vec<PathBuf>> {
     let acuity = AcuityModel::vafr_default();
     let specs = method_specs(display, gaze, methods, &acuity, &MethodOptions::default())?;
-    let title = format!(
-        "{} {}×{}, gaze ({:.0}, {:.0})",
-        display.name, display.width_px, display.height_px, gaze.point.x_px, gaze.point.y_px
-    );
+    let title = display_title(display, gaze);
     write_curves(&title, &specs, stem, &acuity, PlotRange::DEFAULT, out)
+}
+
+/// A plot title: the display (its resolution once, even when its name is the resolution,
+/// as with `--res 1920x1080`) and the gaze.
+fn display_title(d: &DisplayProfile, g: Gaze) -> String {
+    let res = format!("{}×{}", d.width_px, d.height_px);
+    let plain = format!("{}x{}", d.width_px, d.height_px);
+    let name = if d.name.eq_ignore_ascii_case(&plain) || d.name == res {
+        res
+    } else {
+        format!("{} {res}", d.name)
+    };
+    format!("{name}, gaze ({:.0}, {:.0})", g.point.x_px, g.point.y_px)
 }
 
 /// Radial and tangential plots and the CSV of `specs`.

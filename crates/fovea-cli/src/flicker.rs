@@ -109,7 +109,7 @@ pub fn params(args: &FlickerArgs) -> Result<FlickerParams> {
         .methods
         .split(',')
         .filter(|m| !m.trim().is_empty())
-        .map(|m| Method::parse(m.trim()))
+        .map(|m| crate::common::parse_list_method(m.trim()))
         .collect::<std::result::Result<_, _>>()?;
     let bands_deg: Vec<f64> = args
         .bands

@@ -1,6 +1,6 @@
 //! `fovea render`: one frame of a scene through one foveation method.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -269,9 +269,11 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let t = Stopwatch::start();
     let plan = FramePlan::new(world, &prepared.camera, &settings, &eye, [0.0, 0.0])?;
     times.add(Stage::Plan, &t);
+    let mut written: Vec<&Path> = Vec::new();
     if let Some(p) = &args.plan_out {
         std::fs::write(p, plan.to_json()? + "\n")
             .with_context(|| format!("cannot write {}", p.display()))?;
+        written.push(p);
     }
     let pb = progress_bar(args.quiet, method.name());
     let mut ctx = FrameContext::new();
@@ -291,11 +293,14 @@ pub fn run(args: RenderArgs) -> Result<()> {
     pb.finish_and_clear();
 
     write_rgb(&args.out, &frame.color, args.exposure, tone)?;
+    written.insert(0, &args.out);
     if let Some(p) = &args.depth_out {
         write_scalar(p, &frame.depth, 0.1, 100.0)?;
+        written.push(p);
     }
     if let (Some(p), Some(d)) = (&args.density_out, &frame.density) {
         write_scalar(p, d, 1e-3, 10.0)?;
+        written.push(p);
     }
     if let (Some(p), Some(c)) = (&args.coc_out, &frame.coc) {
         if p.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
@@ -303,6 +308,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         } else {
             write_scalar(p, &c.map(|v| v.abs().max(0.01)), 0.01, 64.0)?;
         }
+        written.push(p);
     }
     let s = &frame.stats;
     let stats_path = args
@@ -400,7 +406,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
             s.stages_ms.get(Stage::Dof),
         );
     }
-    println!("wrote {} and {}", args.out.display(), stats_path.display());
+    written.push(&stats_path);
+    println!("{}", wrote_line(&written));
     Ok(())
 }
 
@@ -492,8 +499,18 @@ fn run_stereo(
         thousands(st.holes_traced),
         st.total_ms
     );
-    println!("wrote {} and {}", args.out.display(), stats_path.display());
+    println!("{}", wrote_line(&[&args.out, &stats_path]));
     Ok(())
+}
+
+/// "wrote a, b and c": every file a render wrote, in the order written.
+fn wrote_line(paths: &[&Path]) -> String {
+    let names: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
+    match names.split_last() {
+        None => "wrote nothing".into(),
+        Some((last, [])) => format!("wrote {last}"),
+        Some((last, rest)) => format!("wrote {} and {last}", rest.join(", ")),
+    }
 }
 
 /// The frame's world with gaze-contingent level of detail: the eye state's gaze and focus (the

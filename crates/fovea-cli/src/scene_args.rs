@@ -122,8 +122,32 @@ fn camera_desc(args: &SceneArgs, scene: &Scene) -> Result<CameraDesc> {
         .ok_or_else(|| anyhow!("the scene is empty"))?;
     let c = b.centre();
     let ext = b.extent();
-    let pos = c + Vec3::new(0.0, 0.25 * ext.y, 1.2 * ext.max_element());
-    Ok(CameraDesc::look_at("framing", pos, c, None)?)
+    Ok(CameraDesc::look_at(
+        "framing",
+        framing_position(c, ext),
+        c,
+        None,
+    )?)
+}
+
+/// Where the automatic framing puts the camera (looking at the centre `c` of a scene with
+/// bounding-box extent `ext`): in front and a little above, or, for a flat scene (its
+/// smallest extent under 1 % of its largest: a ground plane, a single quad), along its thin
+/// axis — from above a ground plane, in front of a wall — where an edge-on view would be
+/// empty. [`CameraDesc::look_at`] picks an up vector that is not parallel to the view.
+fn framing_position(c: Vec3, ext: Vec3) -> Vec3 {
+    let max = ext.max_element();
+    let (min, thin) = [(ext.x, Vec3::X), (ext.y, Vec3::Y), (ext.z, Vec3::Z)]
+        .into_iter()
+        .fold(
+            (f32::INFINITY, Vec3::Z),
+            |a, b| if b.0 < a.0 { b } else { a },
+        );
+    if max > 0.0 && min < 0.01 * max {
+        c + thin * (1.2 * max)
+    } else {
+        c + Vec3::new(0.0, 0.25 * ext.y, 1.2 * max)
+    }
 }
 
 /// Scene + world + eye camera, ready to render `display`.

@@ -4,7 +4,6 @@ use anyhow::Result;
 use clap::Args;
 use fovea_core::analysis::{default_entries, sample_table, MethodEntry};
 use fovea_core::display::{DisplayProfile, VAFR_TEST_PRESETS};
-use fovea_core::mapping::Method;
 
 use crate::common::{thousands, MethodOptions};
 
@@ -51,7 +50,7 @@ pub fn run(a: TableArgs) -> Result<()> {
     let wanted = a
         .methods
         .iter()
-        .map(|m| Method::parse(m))
+        .map(|m| crate::common::parse_list_method(m))
         .collect::<Result<Vec<_>, _>>()?;
     let mut entries = default_entries();
     // δ adds KFR/LaFR rows at that ratio beside Table 1's.
@@ -85,6 +84,17 @@ fn parse_frac(t: &str) -> Result<(f64, f64)> {
     Ok((v[0], v[1]))
 }
 
+/// A display's column header: its name and resolution, the resolution once when the name
+/// is the resolution (`--res 1920x1080`).
+fn display_label(d: &DisplayProfile) -> String {
+    let res = format!("{}x{}", d.width_px, d.height_px);
+    if d.name.eq_ignore_ascii_case(&res) {
+        res
+    } else {
+        format!("{} {res}", d.name)
+    }
+}
+
 fn print_text(
     displays: &[DisplayProfile],
     entries: &[MethodEntry],
@@ -92,22 +102,38 @@ fn print_text(
     quiet: bool,
 ) {
     println!("Samples (rays) shaded per eye per frame");
-    let mut header = format!("{:<14}", "method");
-    for d in displays {
-        header.push_str(&format!(
-            "{:>20}",
-            format!("{} {}x{}", d.name, d.width_px, d.height_px)
-        ));
+    // Each column as wide as its header or its numbers, two spaces apart, so that long
+    // headset names (`pimax-crystal 2880x2880`) never run into their neighbours.
+    let heads: Vec<String> = displays.iter().map(display_label).collect();
+    let label_w = entries
+        .iter()
+        .map(|e| e.label.chars().count())
+        .max()
+        .unwrap_or(0)
+        .max("method".len());
+    let cell = |d: &DisplayProfile| {
+        let n = rows
+            .iter()
+            .filter(|r| r.display == d.name)
+            .map(|r| thousands(r.samples).chars().count())
+            .max()
+            .unwrap_or(0);
+        n.max(display_label(d).chars().count())
+    };
+    let widths: Vec<usize> = displays.iter().map(cell).collect();
+    let mut header = format!("{:<label_w$}", "method");
+    for (h, w) in heads.iter().zip(&widths) {
+        header.push_str(&format!("  {h:>w$}"));
     }
-    println!("{header}");
+    println!("{}", header.trim_end());
     for e in entries {
-        let mut line = format!("{:<14}", e.label);
-        for d in displays {
+        let mut line = format!("{:<label_w$}", e.label);
+        for (d, w) in displays.iter().zip(&widths) {
             let r = rows
                 .iter()
                 .find(|r| r.label == e.label && r.display == d.name)
                 .expect("one row per entry and display");
-            line.push_str(&format!("{:>20}", thousands(r.samples)));
+            line.push_str(&format!("  {:>w$}", thousands(r.samples)));
         }
         println!("{line}");
     }

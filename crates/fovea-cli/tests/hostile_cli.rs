@@ -248,3 +248,57 @@ fn report_verify_passes_a_single_object_scene() {
         "{detail}"
     );
 }
+
+/// The fraction of pixels of PNG `a` that differ from those of PNG `b` (same size).
+fn fraction_differing(a: &Path, b: &Path) -> f64 {
+    let a = image::open(a).unwrap().to_rgb8();
+    let b = image::open(b).unwrap().to_rgb8();
+    assert_eq!(a.dimensions(), b.dimensions());
+    let n = a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count();
+    n as f64 / (a.width() * a.height()) as f64
+}
+
+#[test]
+fn flat_scenes_are_framed_face_on_not_edge_on() {
+    let dir = tempfile::tempdir().unwrap();
+    // A ground quad in XZ (seen from above) and a wall quad in XY (seen from the front).
+    let quads = [
+        (
+            "ground.obj",
+            "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 4 3 2 1\n",
+        ),
+        (
+            "wall.obj",
+            "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3 4\n",
+        ),
+    ];
+    for (name, obj) in quads {
+        let scene = dir.path().join(name);
+        std::fs::write(&scene, obj).unwrap();
+        let scene = scene.to_str().unwrap();
+        let args = ["--scene", scene, "--method", "full"];
+        accepted(&render(dir.path(), &args), &args);
+        let framed = dir.path().join(format!("{name}.png"));
+        std::fs::rename(dir.path().join("r.png"), &framed).unwrap();
+        // The environment alone: a camera looking away from the quad.
+        let away = [
+            "--scene",
+            scene,
+            "--method",
+            "full",
+            "--camera-pos",
+            "0,5,5",
+            "--look-at",
+            "0,10,10",
+        ];
+        accepted(&render(dir.path(), &away), &away);
+        let f = fraction_differing(&framed, &dir.path().join("r.png"));
+        // From 1.2× its width the quad spans ±22.6° of the 90° × 83° view: about 20 % of
+        // the pixels (edge-on, as before issue 21: none).
+        assert!(
+            f > 0.15,
+            "{name}: {:.1} % of the pixels show the quad",
+            f * 100.0
+        );
+    }
+}

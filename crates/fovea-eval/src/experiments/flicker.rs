@@ -494,6 +494,18 @@ impl FlickerResult {
     }
 }
 
+/// How `after` compares with `before` as a factor above 1: "×1.12 lower" for a fall,
+/// "×1.12 higher" for a rise, "unchanged" when equal.
+fn ratio_change(before: f64, after: f64) -> String {
+    if before == after {
+        "unchanged".into()
+    } else if after < before {
+        format!("×{:.2} lower", before / after)
+    } else {
+        format!("×{:.2} higher", after / before)
+    }
+}
+
 /// One sentence per method measured both ways: what accumulation did to its peripheral
 /// flicker, temporal energy and PSNR.
 pub fn accumulation_lines(reports: &[VariantReport]) -> Vec<String> {
@@ -509,10 +521,10 @@ pub fn accumulation_lines(reports: &[VariantReport]) -> Vec<String> {
                 on.flicker.periphery.temporal_energy,
             );
             lines.push(format!(
-                "{}: accumulation changes peripheral flicker RMS {a:.3} → {b:.3} % (×{:.2} lower), peripheral temporal energy ×{:.2} lower, PSNR ≤ 10° {:.2} → {:.2} dB, whole frame {:.2} → {:.2} dB",
+                "{}: accumulation changes peripheral flicker RMS {a:.3} → {b:.3} % ({}), peripheral temporal energy {}, PSNR ≤ 10° {:.2} → {:.2} dB, whole frame {:.2} → {:.2} dB",
                 r.method,
-                a / b,
-                ea / eb,
+                ratio_change(a, b),
+                ratio_change(ea, eb),
                 r.mean_central_psnr_db,
                 on.mean_central_psnr_db,
                 r.mean_psnr_db,
@@ -526,6 +538,13 @@ pub fn accumulation_lines(reports: &[VariantReport]) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ratio_changes_read_as_rises_or_falls() {
+        assert_eq!(ratio_change(1.0, 1.12), "×1.12 higher");
+        assert_eq!(ratio_change(1.12, 1.0), "×1.12 lower");
+        assert_eq!(ratio_change(0.5, 0.5), "unchanged");
+    }
     use fovea_render::dof::{DofSettings, FocusMode};
 
     use crate::experiments::invalid_parameter as invalid;
