@@ -12,7 +12,6 @@ use fovea_eval::experiments::dof_compare::{
     fmt_db, run as run_dof_compare, DofCompareParams, DofComparison, FocusSpec,
 };
 use fovea_post::dof::FilterKind;
-use fovea_post::tonemap::{to_srgb8, ToneCurve};
 
 use crate::choices::{Headset, Shading};
 use crate::common::DisplayArgs;
@@ -223,7 +222,7 @@ fn contact_sheet(r: &DofComparison, path: &std::path::Path) -> Result<()> {
     }
     let mut buf = vec![255u8; (w * h * 3) as usize];
     let blit = |buf: &mut [u8], img: &fovea_core::Image<fovea_post::Rgb>, cx: u32, cy: u32| {
-        let rgb = to_srgb8(img, 0.0, ToneCurve::Clamp);
+        let rgb = fovea_eval::metrics::display_srgb8(img);
         for y in 0..th {
             let src = &rgb[(y * tw * 3) as usize..((y + 1) * tw * 3) as usize];
             let o = (((cy + label_h + y) * w + cx) * 3) as usize;

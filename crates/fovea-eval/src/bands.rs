@@ -5,7 +5,8 @@
 //!
 //! PSNR is computed from the band's pixels only; SSIM (11×11 Gaussian window, σ = 1.5 px) and
 //! ꟻLIP (at the display's pixels per degree) are computed over the whole frame, so windows see
-//! their full neighbourhood, and their maps are averaged over the band's pixels.
+//! their full neighbourhood, and their maps are averaged over the band's pixels. All three see
+//! the frames through the output's tone curve (Reinhard, then sRGB), as [`crate::metrics`].
 
 use serde::Serialize;
 
@@ -227,7 +228,10 @@ mod tests {
         let q = band_quality(&reference, &test, Some(&density), &d, &g, &REPORT_BANDS_DEG).unwrap();
         assert_eq!(q[0].psnr_db, Some(f64::INFINITY));
         assert_eq!(q[3].pixels, n);
-        let enc = |v: f32| (fovea_post::tonemap::linear_to_srgb(v) * 255.0).round() as f64 / 255.0;
+        // Encoded as the metrics see it: Reinhard tone curve, then 8-bit sRGB.
+        let enc = |v: f32| {
+            (fovea_post::tonemap::linear_to_srgb(v / (1.0 + v)) * 255.0).round() as f64 / 255.0
+        };
         let d2 = (enc(0.8) - enc(0.2)).powi(2);
         assert!((q[3].psnr_db.unwrap() - 10.0 * (1.0 / d2).log10()).abs() < 1e-9);
         assert!(q[3].flip.unwrap() > q[0].flip.unwrap());

@@ -3,8 +3,8 @@
 //!
 //! Peripheral vision is most sensitive to temporal change, so the visible artifact of sparse
 //! or log-polar sampling in motion is the change from frame to frame that the scene itself does
-//! not make. For frame `t ≥ 1` with display-encoded luma `Y` (8-bit sRGB, clamped, Rec. 601, in
-//! [0, 1]) of the test sequence and `R` of the full-resolution reference, the temporal
+//! not make. For frame `t ≥ 1` with display-encoded luma `Y` (Reinhard tone curve, 8-bit sRGB,
+//! Rec. 601, in [0, 1]; see [`crate::metrics`]) of the test sequence and `R` of the full-resolution reference, the temporal
 //! differences are `ΔY = Y_t − Y_{t−1}` and `ΔR = R_t − R_{t−1}`, and per band `b` of
 //! eccentricity (from frame `t`'s gaze)
 //!
@@ -275,7 +275,10 @@ mod tests {
         // Inner band: untouched.
         assert_eq!(r.bands[0].flicker, 0.0);
         // Outer band: Δ in encoded luma, fraction of the band's pixels.
-        let enc = |v: f32| (fovea_post::tonemap::linear_to_srgb(v) * 255.0).round() as f64 / 255.0;
+        // Encoded as the metrics see it: Reinhard tone curve, then 8-bit sRGB.
+        let enc = |v: f32| {
+            (fovea_post::tonemap::linear_to_srgb(v / (1.0 + v)) * 255.0).round() as f64 / 255.0
+        };
         let delta = enc(1.0) - enc(0.5);
         let mut outer = 0u64;
         for y in 0..48u32 {

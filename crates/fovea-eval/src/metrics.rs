@@ -1,6 +1,13 @@
-//! Image-difference metrics on linear RGB frames. Both metrics first encode the frames for
-//! display the same way (clamp to [0, 1], sRGB transfer function), so they judge what a viewer
-//! would see on an SDR display.
+//! Image-difference metrics on linear RGB frames.
+//!
+//! Every metric here (luma PSNR, ꟻLIP) and every one built on [`encoded_luma`] (SSIM, the
+//! eccentricity bands, flicker) first encodes the frames for display exactly as `fovea render`,
+//! `dof-compare` and the report write their PNGs: the output tone curve [`DISPLAY_CURVE`]
+//! (Reinhard `x / (1 + x)`, no exposure) and then the 8-bit sRGB transfer function. So they
+//! judge what a viewer sees. Linear values are *not* clipped at 1 first: clipping made every
+//! highlight above 1 (a bright window, a light) the same white, so a pair differing only
+//! there scored as identical. ꟻLIP gets the same 8-bit sRGB images: its LDR mode expects
+//! display-encoded sRGB in [0, 1], which the tone-mapped frame is.
 
 use fovea_core::Image;
 use fovea_post::tonemap::{to_srgb8, ToneCurve};
@@ -69,15 +76,27 @@ pub fn crop<T: Clone>(img: &Image<T>, r: Region) -> Option<Image<T>> {
     Image::from_vec(r.width(), r.height(), data).ok()
 }
 
-/// Display-encoded (8-bit sRGB, clamped) Rec. 601 luma in [0, 1], per pixel.
+/// The tone curve every metric applies before sRGB encoding: the default of `fovea render
+/// --tonemap` and the curve of the PNGs the experiments write.
+pub const DISPLAY_CURVE: ToneCurve = ToneCurve::Reinhard;
+
+/// `img` encoded for display as the metrics see it: [`DISPLAY_CURVE`], then 8-bit sRGB,
+/// interleaved RGB bytes.
+pub fn display_srgb8(img: &Image<Rgb>) -> Vec<u8> {
+    to_srgb8(img, 0.0, DISPLAY_CURVE)
+}
+
+/// Display-encoded ([`display_srgb8`]: Reinhard tone curve, 8-bit sRGB) Rec. 601 luma in
+/// [0, 1], per pixel.
 pub(crate) fn encoded_luma(img: &Image<Rgb>) -> Vec<f64> {
-    to_srgb8(img, 0.0, ToneCurve::Clamp)
+    display_srgb8(img)
         .chunks_exact(3)
         .map(|c| (0.299 * c[0] as f64 + 0.587 * c[1] as f64 + 0.114 * c[2] as f64) / 255.0)
         .collect()
 }
 
-/// Luma PSNR in dB over `region`: `10 log10(1 / MSE)` of display-encoded luma in [0, 1].
+/// Luma PSNR in dB over `region`: `10 log10(1 / MSE)` of display-encoded luma in [0, 1]
+/// (through the tone curve, see the module header).
 /// `None` when the sizes differ or the region is empty or outside; `f64::INFINITY` for
 /// identical images.
 pub fn luma_psnr(reference: &Image<Rgb>, test: &Image<Rgb>, region: Region) -> Option<f64> {
@@ -126,8 +145,8 @@ pub fn flip_map(
     }
     let (a, b) = (crop(reference, region)?, crop(test, region)?);
     let (w, h) = (a.width(), a.height());
-    let fa = nv_flip::FlipImageRgb8::with_data(w, h, &to_srgb8(&a, 0.0, ToneCurve::Clamp));
-    let fb = nv_flip::FlipImageRgb8::with_data(w, h, &to_srgb8(&b, 0.0, ToneCurve::Clamp));
+    let fa = nv_flip::FlipImageRgb8::with_data(w, h, &display_srgb8(&a));
+    let fb = nv_flip::FlipImageRgb8::with_data(w, h, &display_srgb8(&b));
     let map = nv_flip::flip(fa, fb, pixels_per_degree);
     Image::from_vec(w, h, map.to_vec()).ok()
 }
@@ -150,15 +169,77 @@ mod tests {
     #[test]
     fn psnr_of_a_known_offset() {
         // Every pixel's encoded value differs by exactly 10/255 → PSNR = 20 log10(25.5).
+        // Encoded = sRGB(Reinhard(x)); Reinhard's inverse is y / (1 − y).
         let a = Image::new(16, 8, [0.2f32; 3]).unwrap();
-        let enc = fovea_post::tonemap::linear_to_srgb(0.2);
+        let enc = fovea_post::tonemap::linear_to_srgb(0.2 / 1.2);
         let target = ((enc * 255.0 + 0.5).floor() + 10.0) / 255.0;
-        let lin = srgb_to_linear(target);
+        let y = srgb_to_linear(target);
+        let lin = y / (1.0 - y);
         let b = Image::new(16, 8, [lin; 3]).unwrap();
         let p = luma_psnr(&a, &b, Region::full(16, 8)).unwrap();
         assert!((p - 20.0 * 25.5f64.log10()).abs() < 0.05, "{p}");
         assert_eq!(luma_psnr(&a, &a, Region::full(16, 8)), Some(f64::INFINITY));
         assert!(luma_psnr(&a, &ramp(8, 8, 1.0), Region::full(8, 8)).is_none());
+    }
+
+    #[test]
+    fn highlights_above_one_are_scored_not_clipped() {
+        // A grey wall with a bright window: the pair differs only in the window, at 3.0 vs
+        // 4.0 linear. Clipping at 1 made both white (an infinite PSNR); through the tone
+        // curve they are 0.75 vs 0.8 and score finite, below identical.
+        let window = |v: f32| {
+            Image::from_vec(
+                32,
+                32,
+                (0..32 * 32)
+                    .map(|i| {
+                        let (x, y) = (i % 32, i / 32);
+                        if (8..24).contains(&x) && (8..24).contains(&y) {
+                            [v; 3]
+                        } else {
+                            [0.18; 3]
+                        }
+                    })
+                    .collect(),
+            )
+            .unwrap()
+        };
+        let (a, b) = (window(3.0), window(4.0));
+        let r = Region::full(32, 32);
+        let p = luma_psnr(&a, &b, r).unwrap();
+        assert!(p.is_finite() && p > 10.0, "{p}");
+        assert_eq!(luma_psnr(&a, &a, r), Some(f64::INFINITY));
+        // A larger highlight error scores lower.
+        assert!(luma_psnr(&a, &window(8.0), r).unwrap() < p);
+        // SSIM and ꟻLIP see it too.
+        assert!(crate::ssim::ssim(&a, &b, r).unwrap() < 1.0 - 1e-6);
+        assert!(flip_mean(&a, &b, r, 30.0).unwrap() > 0.0);
+        // The encoding is the output's: Reinhard then sRGB, as the PNGs.
+        assert_eq!(
+            display_srgb8(&a),
+            to_srgb8(&a, 0.0, ToneCurve::Reinhard),
+            "metrics must encode like the PNGs"
+        );
+    }
+
+    #[test]
+    fn psnr_within_unit_range_is_monotone_in_the_error() {
+        // Within [0, 1] linear the scores still order errors: a larger uniform offset of a
+        // ramp scores a lower PSNR, and every score is finite.
+        let a = ramp(64, 32, 0.8);
+        let r = Region::full(64, 32);
+        let shifted = |d: f32| {
+            Image::from_vec(64, 32, a.data().iter().map(|p| p.map(|c| c + d)).collect()).unwrap()
+        };
+        let ps: Vec<f64> = [0.01f32, 0.03, 0.1, 0.2]
+            .iter()
+            .map(|&d| luma_psnr(&a, &shifted(d), r).unwrap())
+            .collect();
+        assert!(ps.iter().all(|p| p.is_finite()), "{ps:?}");
+        assert!(ps.windows(2).all(|w| w[0] > w[1]), "{ps:?}");
+        // And a dark frame against black is far from identical.
+        let black = Image::new(64, 32, [0.0f32; 3]).unwrap();
+        assert!(luma_psnr(&black, &a, r).unwrap() < ps[3]);
     }
 
     fn srgb_to_linear(c: f32) -> f32 {

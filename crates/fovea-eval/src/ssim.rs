@@ -13,8 +13,9 @@
 //!
 //! and the reported value is the mean of `SSIM(p)` over the pixels of a [`Region`] (MSSIM,
 //! Eq. 17). The images are compared as display-encoded luma in [0, 1], exactly as
-//! [`crate::metrics::luma_psnr`] does: clamp linear RGB to [0, 1], sRGB transfer function to
-//! 8 bits, then Rec.601 weights `0.299 R' + 0.587 G' + 0.114 B'` over 255.
+//! [`crate::metrics::luma_psnr`] does: the output tone curve (Reinhard `x / (1 + x)`, not a
+//! clip at 1; see [`crate::metrics`]), sRGB transfer function to 8 bits, then Rec.601 weights
+//! `0.299 R' + 0.587 G' + 0.114 B'` over 255.
 //!
 //! Border handling: the window of a pixel reads the full image, not just the region, so a small
 //! foveal region is judged with its real surroundings. Where the window sticks out of the
@@ -365,9 +366,13 @@ mod tests {
         )
         .unwrap();
         assert_eq!(via_rgb, via_luma);
-        // The encoded luma is the sRGB-encoded Rec.601 value.
+        // The encoded luma is the Rec.601 value of the tone-mapped (Reinhard), sRGB-encoded
+        // channels.
         let px = encoded_luma(&lin).unwrap();
-        let enc = |v: f32| (fovea_post::tonemap::linear_to_srgb(v.clamp(0.0, 1.0)) * 255.0).round();
+        let enc = |v: f32| {
+            let v = v.max(0.0);
+            (fovea_post::tonemap::linear_to_srgb(v / (1.0 + v)) * 255.0).round()
+        };
         let c = lin.get(7, 3);
         let expect = (0.299 * enc(c[0]) + 0.587 * enc(c[1]) + 0.114 * enc(c[2])) / 255.0;
         assert!((*px.get(7, 3) - expect).abs() < 1.5 / 255.0);

@@ -624,10 +624,7 @@ pub fn run(
             focus: spec.label(),
             focus_m: focus_m.min(1e308),
             max_coc_px: max_coc,
-            reference_noise_floor_db: reference
-                .noise_floor_psnr_db()
-                .unwrap_or(f64::INFINITY)
-                .min(1e308),
+            reference_noise_floor_db: noise_floor_db(&reference).min(1e308),
             reference_ms: reference.ms,
             filters: scores,
             reference: reference.color,
@@ -648,6 +645,18 @@ fn crop_error(r: Region) -> EvalError {
         format!("{:?}", r),
         "a region inside the rendered window",
     ))
+}
+
+/// The reference's noise floor as luma PSNR, on the same display encoding as the scores
+/// (tone curve, sRGB; [`crate::metrics`]): the two half-sample estimates against each other,
+/// plus `10·log10(4)` (their difference has four times the variance of the whole estimate's
+/// error). `∞` without halves or when they agree.
+fn noise_floor_db(reference: &fovea_render::thin_lens::WindowRender) -> f64 {
+    let Some((a, b)) = reference.halves.as_ref() else {
+        return f64::INFINITY;
+    };
+    crate::metrics::luma_psnr(a, b, Region::full(a.width(), a.height()))
+        .map_or(f64::INFINITY, |p| p + 10.0 * 4f64.log10())
 }
 
 #[cfg(test)]
