@@ -211,8 +211,7 @@ mod tests {
         assert_eq!(luma_psnr(&a, &a, r), Some(f64::INFINITY));
         // A larger highlight error scores lower.
         assert!(luma_psnr(&a, &window(8.0), r).unwrap() < p);
-        // SSIM and ꟻLIP see it too.
-        assert!(crate::ssim::ssim(&a, &b, r).unwrap() < 1.0 - 1e-6);
+        // ꟻLIP sees it too (and SSIM: `ssim::tests`).
         assert!(flip_mean(&a, &b, r, 30.0).unwrap() > 0.0);
         // The encoding is the output's: Reinhard then sRGB, as the PNGs.
         assert_eq!(

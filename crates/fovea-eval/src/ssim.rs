@@ -177,6 +177,27 @@ fn encoded_luma(img: &Image<Rgb>) -> Option<Image<f32>> {
 mod tests {
     use super::*;
 
+    #[test]
+    fn highlights_above_one_are_not_clipped_away() {
+        // A 0.18 wall with a window at 3.0 or 4.0 linear: different once tone-mapped.
+        let window = |v: f32| {
+            let data = (0..32 * 32)
+                .map(|i| {
+                    let (x, y) = (i % 32, i / 32);
+                    if (8..24).contains(&x) && (8..24).contains(&y) {
+                        [v; 3]
+                    } else {
+                        [0.18; 3]
+                    }
+                })
+                .collect();
+            Image::from_vec(32, 32, data).unwrap()
+        };
+        let r = Region::full(32, 32);
+        assert!(ssim(&window(3.0), &window(4.0), r).unwrap() < 1.0 - 1e-6);
+        assert!((ssim(&window(3.0), &window(3.0), r).unwrap() - 1.0).abs() < 1e-9);
+    }
+
     /// Deterministic texture in [0, 1].
     fn texture(w: u32, h: u32, seed: u32) -> Image<f32> {
         let data = (0..w * h)
