@@ -124,7 +124,9 @@ pub struct MethodOptions {
     /// Tangential factor Δ(e) of VaFR: isotropic, radial2x30, or ECC:RATIO pairs.
     #[arg(long)]
     pub tangential: Option<String>,
-    /// VaFR's largest covered eccentricity in degrees (paper: 60).
+    /// VaFR's largest covered eccentricity in degrees. Default: out to the farthest screen
+    /// corner from the gaze, so every pixel has samples. The paper's 60 leaves the pixels
+    /// beyond it without samples: they render black.
     #[arg(long)]
     pub vafr_emax: Option<f64>,
     /// Visual-polar inverse CDF: exact (Lambert W) or paper-fit (Liu Eq. 3).
@@ -211,7 +213,7 @@ impl MethodOptions {
             config.vafr.tangential = TangentialFactor::parse(t)?;
         }
         if let Some(e) = self.vafr_emax {
-            config.vafr.max_eccentricity = Degrees(e);
+            config.vafr.max_eccentricity = fovea_core::mapping::Coverage::Fixed(Degrees(e));
         }
         if let Some(v) = self.vp_inverse {
             config.visual_polar.inverse = v.into();

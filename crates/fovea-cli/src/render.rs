@@ -371,8 +371,20 @@ pub fn run(args: RenderArgs) -> Result<()> {
     .map(|&k| format!("{k} {:.1}", s.stages_ms.get(k)))
     .collect();
     println!("stages (ms): {}", stages.join(", "));
+    let (ppd_x, ppd_y) = display.centre_ppd_axes();
+    println!(
+        "display {} {:.1}°×{:.1}°: {ppd_x:.2} px/deg across, {ppd_y:.2} down at the centre",
+        display.name, display.hfov.0, display.vfov.0
+    );
     if let Some(note) = oversampling_note(method, s.samples, s.width, s.height) {
         eprintln!("{note}");
+    }
+    if !s.covers_screen {
+        eprintln!(
+            "warning: the {method} buffer stops short of the screen's corners at this gaze \
+             (a fixed maximum eccentricity): the pixels beyond have no sample and are black; \
+             leave --vafr-emax unset to cover the whole screen"
+        );
     }
     if let Some(l) = &lod_stats {
         println!(

@@ -141,6 +141,22 @@ fn print_text(
         return;
     }
     println!();
+    println!("Pixels per degree at the centre of the rectilinear target, across / down:");
+    let name_w = displays
+        .iter()
+        .map(|d| d.name.chars().count())
+        .max()
+        .unwrap_or(0);
+    for d in displays {
+        let (x, y) = d.centre_ppd_axes();
+        println!(
+            "  {:<name_w$}  {x:>6.2} / {y:>6.2} px/deg ({:.1}°×{:.1}°)",
+            d.name, d.hfov.0, d.vfov.0
+        );
+    }
+    println!();
+    println!("vafr covers the screen out to the farthest corner from the gaze; vafr(60°) is the");
+    println!("paper's buffer (Sec. 3.2.2), whose pixels beyond 60° have no sample.");
     println!("VaFR Table 1 prints thousands truncated: VaFR_Dup 1,061K at every resolution;");
     println!("LaFR(2.2) 761K…15,423K; LaFR(1.8) 1,137K…23,040K; GT 3,686K…74,649K.");
 }

@@ -58,14 +58,14 @@ fn quick_report_of_the_builtin_scene_has_every_table_and_passes_verify() {
             assert!(html.contains(&format!("<table id=\"{id}\">")), "{id}");
         }
     }
-    // The numbers are the measurements: Table 1's VaFR row is the constant 1,061,630 samples,
+    // The numbers are the measurements: Table 1's VaFR(60°) row is the constant 1,061,630 samples,
     // and the quality table holds one whole-frame row per foveation method.
     let t1 = &section(&j, "samples")["tables"][0];
     let vafr = t1["rows"]
         .as_array()
         .unwrap()
         .iter()
-        .find(|r| r[0] == "vafr")
+        .find(|r| r[0] == "vafr(60°)")
         .unwrap();
     assert!(vafr.as_array().unwrap()[1..].iter().all(|c| c == 1_061_630));
     let q = section(&j, "quality");

@@ -30,6 +30,19 @@ impl MethodEntry {
         }
     }
 
+    /// VaFR as the paper sizes it: a fixed 60° buffer (Sec. 3.2.2), 1,061,735 samples per
+    /// eye (Fig. 4), leaving screen points beyond 60° without samples.
+    pub fn vafr_paper() -> Self {
+        Self {
+            method: Method::Vafr,
+            config: MappingConfig {
+                vafr: crate::mapping::VafrParams::paper(),
+                ..Default::default()
+            },
+            label: "vafr(60°)".into(),
+        }
+    }
+
     /// KFR/LMFR with reduction ratio `delta`.
     pub fn kfr(delta: f64) -> Self {
         let mut config = MappingConfig::default();
@@ -53,12 +66,14 @@ impl MethodEntry {
     }
 }
 
-/// The methods of the default table: the ground truth, VaFR, LMFR(1.8), LaFR(1.8), LaFR(2.2)
-/// (VaFR Table 1's columns) and the other mappings with their defaults.
+/// The methods of the default table: the ground truth, VaFR (covering the whole screen, and
+/// the paper's 60° buffer), LMFR(1.8), LaFR(1.8), LaFR(2.2) (VaFR Table 1's columns) and the
+/// other mappings with their defaults.
 pub fn default_entries() -> Vec<MethodEntry> {
     vec![
         MethodEntry::plain(Method::Full),
         MethodEntry::plain(Method::Vafr),
+        MethodEntry::vafr_paper(),
         MethodEntry::kfr(1.8),
         MethodEntry::lafr(1.8),
         MethodEntry::lafr(2.2),
@@ -204,12 +219,15 @@ mod tests {
             .collect();
         let rows = sample_table(&displays, &default_entries(), (0.5, 0.5)).unwrap();
         assert_eq!(rows.len(), 2 * default_entries().len());
-        let vafr: Vec<u64> = rows
-            .iter()
-            .filter(|r| r.method == "vafr")
-            .map(|r| r.samples)
-            .collect();
-        assert_eq!(vafr[0], vafr[1]);
+        for label in ["vafr", "vafr(60°)"] {
+            let vafr: Vec<u64> = rows
+                .iter()
+                .filter(|r| r.label == label)
+                .map(|r| r.samples)
+                .collect();
+            assert_eq!(vafr.len(), 2);
+            assert_eq!(vafr[0], vafr[1], "{label}");
+        }
         let full = rows.iter().find(|r| r.method == "full").unwrap();
         assert_eq!(full.samples, 3_686_400);
     }

@@ -127,47 +127,40 @@ impl DisplayProfile {
         Ok(())
     }
 
-    /// A named preset (see [`PRESET_NAMES`]).
+    /// A named preset (see [`PRESET_NAMES`]). Every preset has square pixels: one focal
+    /// length across and down, so pixels per degree and eccentricities agree on both axes.
     ///
-    /// * `vive-pro-eye`: HTC Vive Pro Eye, 1440×1600 per eye, about 100°×110° per eye; VaFR
-    ///   (Sec. 3.3, Fig. 3) states its display at 9 cpd, i.e. 18 ppd at the lens centre.
-    /// * `pimax-crystal`: 2880×2880 per eye, about 35 ppd at the centre (VaFR Fig. 3: 18 cpd),
-    ///   about 105°×105° per eye.
-    /// * `varjo-xr4`: 3840×3744 per eye, 120°×105°.
+    /// * `vive-pro-eye`: HTC Vive Pro Eye, 1440×1600 per eye; its published per-eye field of
+    ///   about 100°×110° would need 604 px of focal length across and 560 down (non-square
+    ///   pixels), so the target keeps 110° down and is 104.2° across (it covers the published
+    ///   field on both axes). VaFR (Sec. 3.3, Fig. 3) states its display at 9 cpd, i.e. 18 ppd
+    ///   at the lens centre.
+    /// * `pimax-crystal`: 2880×2880 per eye, about 105°×105° per eye, about 35 ppd at the
+    ///   centre (VaFR Fig. 3: 18 cpd).
+    /// * `varjo-xr4`: 3840×3744 per eye, published 120°×105°; square pixels with 120° across
+    ///   give 118.7° down (again covering the published field on both axes).
     /// * `2k` … `retinal`: the VaFR test resolutions 2560×1440, 3840×2160, 5760×3240,
     ///   7680×4320 and 11520×6480 on a flat display with a 90° vertical field of view
     ///   (square pixels, so about 121° horizontally: the paper's "120° horizontally").
     pub fn preset(name: &str) -> Result<Self> {
         let lower = name.to_ascii_lowercase();
         let flat = |w: u32, h: u32| Self::with_vertical_fov(lower.clone(), w, h, Degrees(90.0));
+        let headset = |name: &str, w: u32, h: u32, hfov: f64, vfov: f64, peak_ppd| {
+            Ok(Self {
+                peak_ppd,
+                ..Self::covering(name, w, h, Degrees(hfov), Degrees(vfov))?
+            })
+        };
         match lower.as_str() {
-            "vive-pro-eye" | "vive" => Ok(Self {
-                name: "vive-pro-eye".into(),
-                width_px: 1440,
-                height_px: 1600,
-                hfov: Degrees(100.0),
-                vfov: Degrees(110.0),
-                lens_centre_px: None,
-                peak_ppd: Some(18.0),
-            }),
-            "pimax-crystal" | "pimax" => Ok(Self {
-                name: "pimax-crystal".into(),
-                width_px: 2880,
-                height_px: 2880,
-                hfov: Degrees(105.0),
-                vfov: Degrees(105.0),
-                lens_centre_px: None,
-                peak_ppd: Some(35.0),
-            }),
-            "varjo-xr4" | "varjo-xr-4" | "xr4" => Ok(Self {
-                name: "varjo-xr4".into(),
-                width_px: 3840,
-                height_px: 3744,
-                hfov: Degrees(120.0),
-                vfov: Degrees(105.0),
-                lens_centre_px: None,
-                peak_ppd: None,
-            }),
+            "vive-pro-eye" | "vive" => {
+                headset("vive-pro-eye", 1440, 1600, 100.0, 110.0, Some(18.0))
+            }
+            "pimax-crystal" | "pimax" => {
+                headset("pimax-crystal", 2880, 2880, 105.0, 105.0, Some(35.0))
+            }
+            "varjo-xr4" | "varjo-xr-4" | "xr4" => {
+                headset("varjo-xr4", 3840, 3744, 120.0, 105.0, None)
+            }
             "2k" => flat(2560, 1440),
             "4k" => flat(3840, 2160),
             "6k" => flat(5760, 3240),
@@ -179,6 +172,26 @@ impl DisplayProfile {
                 format!("one of {}", PRESET_NAMES.join(", ")),
             )),
         }
+    }
+
+    /// A display of `width_px × height_px` with square pixels whose rectilinear field of view
+    /// covers at least `hfov` across and `vfov` down: the shorter of the two focal lengths
+    /// those angles need, so one axis has exactly its angle and the other at least its own.
+    pub fn covering(
+        name: impl Into<String>,
+        width_px: u32,
+        height_px: u32,
+        hfov: Degrees,
+        vfov: Degrees,
+    ) -> Result<Self> {
+        check_range_open_lo("hfov", hfov.0, 0.0, 179.0)?;
+        check_range_open_lo("vfov", vfov.0, 0.0, 179.0)?;
+        check_resolution(width_px, height_px)?;
+        let fx = width_px as f64 / 2.0 / (hfov.0 / 2.0).to_radians().tan();
+        let fy = height_px as f64 / 2.0 / (vfov.0 / 2.0).to_radians().tan();
+        let f = fx.min(fy);
+        let angle = |px: u32| Degrees(2.0 * (px as f64 / 2.0 / f).atan().to_degrees());
+        Self::new(name, width_px, height_px, angle(width_px), angle(height_px))
     }
 
     /// All presets, in the order of [`PRESET_NAMES`].
@@ -208,6 +221,13 @@ impl DisplayProfile {
     /// Vertical focal length in pixels (`1 / c_r`).
     pub fn focal_y_px(&self) -> f64 {
         1.0 / self.c_r()
+    }
+
+    /// Pixels per degree at the centre of the rectilinear target along each axis,
+    /// `(f_x, f_y)·π/180`: equal for square pixels.
+    pub fn centre_ppd_axes(&self) -> (f64, f64) {
+        let k = std::f64::consts::PI / 180.0;
+        (self.focal_x_px() * k, self.focal_y_px() * k)
     }
 
     /// Where the optical axis meets the screen.
@@ -379,6 +399,31 @@ mod tests {
         assert_eq!(retinal.pixel_count(), 74_649_600);
         // 90° vertical with square pixels gives about 121° horizontally.
         assert!((retinal.hfov.0 - 121.28).abs() < 0.05, "{}", retinal.hfov.0);
+    }
+
+    #[test]
+    fn presets_have_square_pixels() {
+        for p in DisplayProfile::presets() {
+            let (x, y) = p.centre_ppd_axes();
+            assert!((x / y - 1.0).abs() < 0.01, "{}: {x} vs {y} px/deg", p.name);
+        }
+        // The headsets cover their published per-eye fields on both axes, one exactly.
+        for (name, h, v) in [
+            ("vive-pro-eye", 100.0, 110.0),
+            ("pimax-crystal", 105.0, 105.0),
+            ("varjo-xr4", 120.0, 105.0),
+        ] {
+            let p = DisplayProfile::preset(name).unwrap();
+            assert!(p.hfov.0 >= h - 1e-9 && p.vfov.0 >= v - 1e-9, "{name}");
+            assert!(
+                (p.hfov.0 - h).abs() < 1e-9 || (p.vfov.0 - v).abs() < 1e-9,
+                "{name}"
+            );
+        }
+        let vive = DisplayProfile::preset("vive-pro-eye").unwrap();
+        assert!((vive.hfov.0 - 104.23).abs() < 0.01, "{}", vive.hfov.0);
+        let xr4 = DisplayProfile::preset("varjo-xr4").unwrap();
+        assert!((xr4.vfov.0 - 118.74).abs() < 0.01, "{}", xr4.vfov.0);
     }
 
     #[test]

@@ -9,8 +9,10 @@
 //!   interpolated linearly), the angle from `atan2`. Colour is bilinear across the two nearest
 //!   columns, each read at its own angle (`v = θ/360°·period[i]`) with rows wrapping, so there is
 //!   no seam at the angular wrap; pixels nearer the gaze than the first column's centre read
-//!   column 0 around the full circle, so there is no hole at the gaze point; pixels beyond the
-//!   last column (past the mapping's maximum eccentricity) take the outermost ring.
+//!   column 0 around the full circle, so there is no hole at the gaze point. Pixels up to one
+//!   texel past the last column's centre read the last column; pixels the mapping does not
+//!   cover at all (past a fixed maximum eccentricity) have no sample and are black at infinite
+//!   depth — never the outermost ring stretched over the rest of the screen.
 //! * **Screen-aligned layers** (Guenter, insets): the pixel's layer from the forward map,
 //!   bilinear inside that layer, clamped to the layer's shaded rectangle.
 //! * **Sparse screen masks** (Weier): see [`crate::pull_push`].
@@ -179,7 +181,7 @@ fn polar(
             let r = k as f64 * LUT_STEP_PX;
             match mapping.forward(ScreenPoint::new(c.x_px + r, c.y_px)) {
                 Some(s) => s.u as f32,
-                None => cols_end,
+                None => f32::INFINITY,
             }
         })
         .collect();
@@ -205,13 +207,29 @@ fn polar(
                     let t = (dx * dx + dy * dy).sqrt() * inv_step;
                     let k = (t as usize).min(n - 2);
                     let f = (t - k as f32).min(1.0);
-                    let u = (lut[k] + (lut[k + 1] - lut[k]) * f - 0.5).clamp(0.0, lastf);
+                    // (`f > 0` keeps a covered entry next to an uncovered one finite.)
+                    let u = if f > 0.0 {
+                        lut[k] + (lut[k + 1] - lut[k]) * f
+                    } else {
+                        lut[k]
+                    } - 0.5;
+                    // Beyond the buffer (infinite: no sample covers it) or past the last
+                    // column's outer edge: uncovered.
+                    let u = if u <= cols_end {
+                        u.clamp(0.0, lastf)
+                    } else {
+                        f32::INFINITY
+                    };
                     (u, turn_of(dy, dx))
                 };
                 coordinates_of_row(us, turns, exact, turn_tolerance);
                 // Pass 2: bilinear across the two nearest columns, each read at its angle.
                 for x in 0..wu {
                     let uc = us[x];
+                    if !uc.is_finite() {
+                        (row_c[x], row_d[x]) = ([0.0; 3], f32::INFINITY);
+                        continue;
+                    }
                     let i0 = uc as usize;
                     let i1 = (i0 + 1).min(last);
                     let fu = uc - i0 as f32;

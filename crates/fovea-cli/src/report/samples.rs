@@ -14,7 +14,7 @@ use super::Ctx;
 /// VaFR Table 1 (thousands of pixels per eye, truncated as printed): label, then 2K, 4K, 6K,
 /// 8K, retinal.
 const PAPER_TABLE1_K: [(&str, [u64; 5]); 4] = [
-    ("vafr", [1_061, 1_061, 1_061, 1_061, 1_061]),
+    ("vafr(60°)", [1_061, 1_061, 1_061, 1_061, 1_061]),
     ("lafr(2.2)", [761, 1_713, 3_855, 6_854, 15_423]),
     ("lafr(1.8)", [1_137, 2_560, 5_760, 10_240, 23_040]),
     ("full", [3_686, 8_294, 18_662, 33_177, 74_649]),

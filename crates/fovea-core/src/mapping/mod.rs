@@ -18,7 +18,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::units::ScreenPoint;
+use crate::display::{eccentricity_deg, DisplayProfile, Gaze};
+use crate::units::{Degrees, ScreenPoint};
 
 pub mod footprint;
 pub mod full;
@@ -241,6 +242,46 @@ pub(crate) fn screen_rate_cpd(c_r: f64, e_deg: f64) -> f64 {
 #[inline]
 pub(crate) fn tangential_denominator(e_deg: f64) -> f64 {
     360.0 * (2.0 * e_deg).to_radians().sin()
+}
+
+/// How far out a polar mapping's buffer reaches.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Coverage {
+    /// Out to the farthest screen corner from the gaze (VaFR Eq. 3), at most
+    /// [`MAX_COVERAGE_DEG`]: every screen pixel has samples at every gaze.
+    #[default]
+    Screen,
+    /// Out to this eccentricity and no farther, whatever the gaze.
+    Fixed(Degrees),
+}
+
+/// Largest eccentricity a polar buffer may reach: the log-polar mappings divide by
+/// `cos e`, which vanishes at 90°.
+pub const MAX_COVERAGE_DEG: f64 = 89.0;
+
+impl Coverage {
+    /// The eccentricity the buffer reaches for `display` and `gaze`, degrees: for
+    /// [`Coverage::Screen`] the farthest corner's plus one pixel of radius, so the last
+    /// column's texels reach past the corner pixel's centre.
+    pub fn resolve(self, display: &DisplayProfile, gaze: &Gaze) -> f64 {
+        match self {
+            Coverage::Fixed(e) => e.0,
+            Coverage::Screen => {
+                let r = display.farthest_corner_px(gaze) + 1.0;
+                eccentricity_deg(display.c_r(), r).min(MAX_COVERAGE_DEG)
+            }
+        }
+    }
+}
+
+impl std::fmt::Display for Coverage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Coverage::Screen => f.write_str("screen"),
+            Coverage::Fixed(e) => write!(f, "{}°", e.0),
+        }
+    }
 }
 
 /// Parameters of every method, with each method's documented defaults.

@@ -8,16 +8,24 @@
 //! half-ellipse inside a constant-size rectangle, independent of display resolution and gaze.
 //! Inverse mapping: Eq. 10 for `e(u)`, Eq. 11 for the screen point.
 //!
+//! Coverage: the paper sizes the buffer for `e_max = 60°` (Sec. 3.2.2), which leaves screen
+//! points beyond 60° without a sample — the corners of most HMD targets even at a centred gaze,
+//! and a large part of the screen at an off-centre one. By default the buffer therefore reaches
+//! the farthest screen corner from the gaze ([`Coverage::Screen`]): `e_max` follows from the
+//! gaze and the display, and the buffer's width from the acuity out to it. A fixed `e_max`
+//! ([`Coverage::Fixed`]) reproduces the paper's buffer.
+//!
 //! Sample count: buffer pixel `(i, j)` is shaded when its centre lies in the shaded region,
 //! i.e. `i + ½ ≤ u(e_max)` and `j + ½ < l(e(i + ½))`. With the default pivots and
 //! `e_max = 60°` this is 1,061,7xx samples, within 0.01 % of the integral
-//! `∫₀⁶⁰ l(e)·du/de de = 1,061,734` (the paper: 1,061,735).
+//! `∫₀⁶⁰ l(e)·du/de de = 1,061,734` (the paper: 1,061,735). Covering the screen costs more:
+//! 64° (a centred gaze on a 16:9 90°-vertical display, the paper's own figure) adds ~3.5 %.
 
 use serde::{Deserialize, Serialize};
 
 use super::{
-    from_polar_deg, polar_deg, tangential_denominator, BufferSize, FoveationMapping, Method,
-    SamplePoint,
+    from_polar_deg, polar_deg, tangential_denominator, BufferSize, Coverage, FoveationMapping,
+    Method, SamplePoint, MAX_COVERAGE_DEG,
 };
 use crate::acuity::{AcuityModel, TangentialFactor};
 use crate::display::{eccentricity_deg, DisplayProfile, Gaze};
@@ -31,11 +39,10 @@ pub struct VafrParams {
     pub acuity: AcuityModel,
     /// Tangential-to-radial rate factor `Δ(e)` (Eq. 19); default isotropic.
     pub tangential: TangentialFactor,
-    /// Largest eccentricity the buffer covers. The paper uses 60° (Sec. 3.2.2); screen points
-    /// beyond it have no sample. An off-centre gaze puts screen corners farther out (up to
-    /// [`DisplayProfile::farthest_corner_eccentricity`]); a renderer that must cover them
-    /// raises this (64° costs about 3.5 % more samples).
-    pub max_eccentricity: Degrees,
+    /// How far out the buffer reaches: the farthest screen corner from the gaze (default), or
+    /// a fixed eccentricity (the paper's 60°, Sec. 3.2.2: screen points beyond it then have
+    /// no sample and reconstruct black).
+    pub max_eccentricity: Coverage,
 }
 
 impl Default for VafrParams {
@@ -43,7 +50,17 @@ impl Default for VafrParams {
         Self {
             acuity: AcuityModel::vafr_default(),
             tangential: TangentialFactor::isotropic(),
-            max_eccentricity: Degrees(60.0),
+            max_eccentricity: Coverage::Screen,
+        }
+    }
+}
+
+impl VafrParams {
+    /// The paper's configuration: default pivots, isotropic, a fixed 60° buffer.
+    pub fn paper() -> Self {
+        Self {
+            max_eccentricity: Coverage::Fixed(Degrees(60.0)),
+            ..Self::default()
         }
     }
 }
@@ -52,6 +69,8 @@ impl Default for VafrParams {
 #[derive(Clone, Debug)]
 pub struct Vafr {
     params: VafrParams,
+    /// The resolved `e_max`, degrees.
+    e_max: f64,
     c_r: f64,
     gaze: ScreenPoint,
     u_max: f64,
@@ -62,11 +81,15 @@ pub struct Vafr {
 }
 
 impl Vafr {
-    /// Builds the mapping. Its buffer and sample count depend only on `params`.
+    /// Builds the mapping. Its buffer and sample count depend on `params` and, with
+    /// [`Coverage::Screen`], on how far the farthest screen corner lies from the gaze.
     pub fn new(display: &DisplayProfile, gaze: Gaze, params: VafrParams) -> Result<Self> {
         display.validate()?;
-        check_range_open_lo("max_eccentricity", params.max_eccentricity.0, 0.0, 89.0)?;
-        let u_max = params.acuity.u_of_e(params.max_eccentricity.0);
+        if let Coverage::Fixed(e) = params.max_eccentricity {
+            check_range_open_lo("max_eccentricity", e.0, 0.0, MAX_COVERAGE_DEG)?;
+        }
+        let e_max = params.max_eccentricity.resolve(display, &gaze);
+        let u_max = params.acuity.u_of_e(e_max);
         let n_cols = if u_max >= 0.5 {
             (u_max - 0.5).floor() as u32 + 1
         } else {
@@ -87,6 +110,7 @@ impl Vafr {
         let count = rows.iter().map(|&r| r as u64).sum();
         Ok(Self {
             params,
+            e_max,
             c_r: display.c_r(),
             gaze: gaze.point,
             u_max,
@@ -99,6 +123,11 @@ impl Vafr {
     /// The parameters.
     pub fn params(&self) -> &VafrParams {
         &self.params
+    }
+
+    /// The eccentricity the buffer reaches, degrees (the resolved [`VafrParams::max_eccentricity`]).
+    pub fn max_eccentricity_deg(&self) -> f64 {
+        self.e_max
     }
 
     /// `u(e_max)`: the continuous buffer width.
@@ -114,7 +143,7 @@ impl Vafr {
     /// The exact integral `∫₀^{e_max} l(e)·(du/de) de` that the pixel count approximates.
     pub fn sample_integral(&self) -> f64 {
         // Composite Simpson per acuity segment (the integrand is smooth inside each).
-        let e_max = self.params.max_eccentricity.0;
+        let e_max = self.e_max;
         let mut knots: Vec<f64> = self
             .params
             .acuity
@@ -153,7 +182,8 @@ impl FoveationMapping for Vafr {
         serde_json::json!({
             "pivots": self.params.acuity.pivots().iter()
                 .map(|p| [p.eccentricity_deg, p.cpd]).collect::<Vec<_>>(),
-            "max_eccentricity_deg": self.params.max_eccentricity.0,
+            "coverage": self.params.max_eccentricity.to_string(),
+            "max_eccentricity_deg": self.e_max,
             "tangential_isotropic": self.params.tangential.is_isotropic(),
         })
     }
@@ -179,7 +209,7 @@ impl FoveationMapping for Vafr {
         }
         let (r, theta) = polar_deg(p, self.gaze);
         let e = eccentricity_deg(self.c_r, r); // Eq. 3
-        if e > self.params.max_eccentricity.0 {
+        if e > self.e_max {
             return None;
         }
         let u = self.params.acuity.u_of_e(e); // Eq. 5 / 12
@@ -241,7 +271,7 @@ mod tests {
                 let g = d
                     .gaze(gx * d.width_px as f64, gy * d.height_px as f64)
                     .unwrap();
-                let v = Vafr::new(&d, g, VafrParams::default()).unwrap();
+                let v = Vafr::new(&d, g, VafrParams::paper()).unwrap();
                 let n = v.sample_count() as f64;
                 assert!(
                     (n - 1_061_734.0).abs() / 1_061_734.0 < 1e-3,
@@ -255,7 +285,7 @@ mod tests {
     #[test]
     fn integral_matches_design_figure() {
         let d = DisplayProfile::preset("2k").unwrap();
-        let v = Vafr::new(&d, d.centre_gaze(), VafrParams::default()).unwrap();
+        let v = Vafr::new(&d, d.centre_gaze(), VafrParams::paper()).unwrap();
         let i = v.sample_integral();
         assert!((i - 1_061_734.0).abs() < 1.0, "{i}");
         // max l(e) = 1638 at e ≈ 38.7° (DESIGN.md).
@@ -292,7 +322,7 @@ mod tests {
     fn wider_coverage_costs_more_samples() {
         let d = DisplayProfile::preset("2k").unwrap();
         let p = VafrParams {
-            max_eccentricity: Degrees(64.0),
+            max_eccentricity: Coverage::Fixed(Degrees(64.0)),
             ..Default::default()
         };
         let v = Vafr::new(&d, d.centre_gaze(), p).unwrap();
@@ -308,7 +338,7 @@ mod tests {
         // reproduces both within 2 percentage points.
         use crate::units::CyclesPerDegree;
         let d = DisplayProfile::preset("2k").unwrap();
-        let base = Vafr::new(&d, d.centre_gaze(), VafrParams::default())
+        let base = Vafr::new(&d, d.centre_gaze(), VafrParams::paper())
             .unwrap()
             .sample_integral();
         for (cap, paper) in [(9.0, 0.20), (18.0, 0.08)] {
@@ -316,7 +346,7 @@ mod tests {
                 acuity: AcuityModel::vafr_default()
                     .headset_capped(CyclesPerDegree(cap))
                     .unwrap(),
-                ..Default::default()
+                ..VafrParams::paper()
             };
             let v = Vafr::new(&d, d.centre_gaze(), p).unwrap();
             let saved = 1.0 - v.sample_integral() / base;
@@ -337,5 +367,41 @@ mod tests {
                 .nyquist_cpd(),
             17.5
         );
+    }
+
+    #[test]
+    fn screen_coverage_reaches_the_farthest_corner_at_every_gaze() {
+        // A centred gaze on the 16:9 90°-vertical displays: the corners lie at 63.9°, the
+        // paper's own 64° buffer (Sec. 3.2.2); the sample count is then ~3.5 % above the
+        // paper's 1,061,735.
+        let d = DisplayProfile::preset("8k").unwrap();
+        let g = d.centre_gaze();
+        let v = Vafr::new(&d, g, VafrParams::default()).unwrap();
+        let corner = d.farthest_corner_eccentricity(&g).0;
+        assert!((corner - 63.9).abs() < 0.05, "{corner}");
+        assert!(v.max_eccentricity_deg() > corner && v.max_eccentricity_deg() < corner + 0.02);
+        let extra = v.sample_count() as f64 / 1_061_735.0 - 1.0;
+        assert!((extra - 0.035).abs() < 0.005, "{extra}");
+        // A corner gaze reaches the opposite corner; the corner pixel has a column.
+        for (gx, gy) in [(0.0, 0.0), (7680.0, 4320.0), (-300.0, 2000.0)] {
+            let g = d.gaze(gx, gy).unwrap();
+            let v = Vafr::new(&d, g, VafrParams::default()).unwrap();
+            let far = d.farthest_corner_eccentricity(&g).0;
+            assert!(v.max_eccentricity_deg() > far, "{gx},{gy}");
+            let (w, h) = (d.width_px as f64, d.height_px as f64);
+            for (x, y) in [
+                (0.5, 0.5),
+                (w - 0.5, 0.5),
+                (0.5, h - 0.5),
+                (w - 0.5, h - 0.5),
+            ] {
+                let s = v.forward(ScreenPoint::new(x, y)).expect("covered");
+                assert!(s.u <= v.u_max() && (s.u - 0.5).floor() < v.buffers()[0].width as f64);
+            }
+        }
+        // A fixed 60° buffer leaves the corner of an off-centre gaze uncovered.
+        let g = d.gaze(1000.0, 800.0).unwrap();
+        let v = Vafr::new(&d, g, VafrParams::paper()).unwrap();
+        assert!(v.forward(ScreenPoint::new(7679.5, 4319.5)).is_none());
     }
 }

@@ -17,13 +17,13 @@
 use serde::{Deserialize, Serialize};
 
 use super::{
-    from_polar_deg, polar_deg, tangential_denominator, BufferSize, FoveationMapping, Method,
-    SamplePoint,
+    from_polar_deg, polar_deg, tangential_denominator, BufferSize, Coverage, FoveationMapping,
+    Method, SamplePoint, MAX_COVERAGE_DEG,
 };
 use crate::display::{eccentricity_deg, DisplayProfile, Gaze};
 use crate::error::{check_range_open_lo, FoveaError, Result};
 use crate::math::lambert_w0;
-use crate::units::{Degrees, ScreenPoint};
+use crate::units::ScreenPoint;
 
 /// Foveal boundary of Eq. 1, degrees.
 pub const FOVEA_DEG: f64 = 5.79;
@@ -51,9 +51,11 @@ pub struct VisualPolarParams {
     /// Polar buffer size; `None` = the display resolution (Liu's Algorithm 1 transforms the
     /// G-buffer into a P-buffer of the same size).
     pub buffer: Option<BufferSize>,
-    /// Largest eccentricity `α_M` the buffer covers (the paper normalises to 80°, see module
-    /// docs). Screen points beyond it have no sample.
-    pub max_eccentricity: Degrees,
+    /// Largest eccentricity `α_M` the buffer covers: by default the farthest screen corner
+    /// from the gaze, so every pixel has samples at every gaze; the paper normalises to a fixed
+    /// 80° (see module docs), and its polynomial inverse always uses 80°. Screen points beyond
+    /// `α_M` have no sample.
+    pub max_eccentricity: Coverage,
     /// Inverse CDF used.
     pub inverse: VisualPolarInverse,
 }
@@ -62,7 +64,7 @@ impl Default for VisualPolarParams {
     fn default() -> Self {
         Self {
             buffer: None,
-            max_eccentricity: Degrees(FIT_MAX_ECCENTRICITY_DEG),
+            max_eccentricity: Coverage::Screen,
             inverse: VisualPolarInverse::Exact,
         }
     }
@@ -180,28 +182,35 @@ pub struct VisualPolar {
     buffer: BufferSize,
     c_r: f64,
     gaze: ScreenPoint,
+    /// The resolved `α_M`, degrees.
+    alpha_max: f64,
     g_max: f64,
 }
 
 impl VisualPolar {
-    /// Builds the mapping. `PaperFit` needs `max_eccentricity` = 80°, the range Eq. 3 fits.
+    /// Builds the mapping. `PaperFit` needs `max_eccentricity` = 80° (or [`Coverage::Screen`],
+    /// which it reads as 80°), the range Eq. 3 fits.
     pub fn new(display: &DisplayProfile, gaze: Gaze, params: VisualPolarParams) -> Result<Self> {
         display.validate()?;
-        check_range_open_lo(
-            "max_eccentricity",
-            params.max_eccentricity.0,
-            FOVEA_DEG,
-            89.0,
-        )?;
-        if params.inverse == VisualPolarInverse::PaperFit
-            && params.max_eccentricity.0 != FIT_MAX_ECCENTRICITY_DEG
-        {
-            return Err(FoveaError::invalid(
-                "max_eccentricity",
-                params.max_eccentricity.0,
-                "80 with the paper's polynomial inverse (Eq. 3 was fitted for α_M = 80°)",
-            ));
-        }
+        let alpha_max = match (params.max_eccentricity, params.inverse) {
+            (Coverage::Fixed(e), inverse) => {
+                check_range_open_lo("max_eccentricity", e.0, FOVEA_DEG, MAX_COVERAGE_DEG)?;
+                if inverse == VisualPolarInverse::PaperFit && e.0 != FIT_MAX_ECCENTRICITY_DEG {
+                    return Err(FoveaError::invalid(
+                        "max_eccentricity",
+                        e.0,
+                        "80 with the paper's polynomial inverse (Eq. 3 was fitted for α_M = 80°)",
+                    ));
+                }
+                e.0
+            }
+            (Coverage::Screen, VisualPolarInverse::PaperFit) => FIT_MAX_ECCENTRICITY_DEG,
+            // At least just beyond the fovea, so the peripheral branch of Eq. 1 exists.
+            (Coverage::Screen, VisualPolarInverse::Exact) => params
+                .max_eccentricity
+                .resolve(display, &gaze)
+                .max(FOVEA_DEG + 0.01),
+        };
         let buffer = params.buffer.unwrap_or(BufferSize {
             width: display.width_px,
             height: display.height_px,
@@ -222,8 +231,14 @@ impl VisualPolar {
             buffer,
             c_r: display.c_r(),
             gaze: gaze.point,
-            g_max: cdf(params.max_eccentricity.0),
+            alpha_max,
+            g_max: cdf(alpha_max),
         })
+    }
+
+    /// The eccentricity `α_M` the buffer reaches, degrees.
+    pub fn max_eccentricity_deg(&self) -> f64 {
+        self.alpha_max
     }
 
     /// Normalised CDF `ρ(α)` used by the forward map.
@@ -282,7 +297,8 @@ impl FoveationMapping for VisualPolar {
     fn params(&self) -> serde_json::Value {
         serde_json::json!({
             "buffer_width": self.buffer.width, "buffer_height": self.buffer.height,
-            "max_eccentricity_deg": self.params.max_eccentricity.0,
+            "coverage": self.params.max_eccentricity.to_string(),
+            "max_eccentricity_deg": self.alpha_max,
             "inverse": match self.params.inverse {
                 VisualPolarInverse::Exact => "exact",
                 VisualPolarInverse::PaperFit => "paper-fit",
@@ -304,7 +320,7 @@ impl FoveationMapping for VisualPolar {
         }
         let (r, phi) = polar_deg(p, self.gaze);
         let alpha = eccentricity_deg(self.c_r, r);
-        if alpha > self.params.max_eccentricity.0 {
+        if alpha > self.alpha_max {
             return None;
         }
         Some(SamplePoint::new(
@@ -329,7 +345,7 @@ impl FoveationMapping for VisualPolar {
         })
     }
     fn radial_rate_cpd(&self, e_deg: f64) -> f64 {
-        if e_deg > self.params.max_eccentricity.0 {
+        if e_deg > self.alpha_max {
             return 0.0;
         }
         0.5 * self.buffer.width as f64 * self.drho_dalpha(e_deg)
@@ -346,6 +362,7 @@ impl FoveationMapping for VisualPolar {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::units::Degrees;
 
     #[test]
     fn eq2_constants_match_the_paper() {
@@ -385,7 +402,7 @@ mod tests {
     fn fit_needs_80_degrees() {
         let d = DisplayProfile::preset("2k").unwrap();
         let p = VisualPolarParams {
-            max_eccentricity: Degrees(70.0),
+            max_eccentricity: Coverage::Fixed(Degrees(70.0)),
             inverse: VisualPolarInverse::PaperFit,
             ..Default::default()
         };

@@ -101,6 +101,8 @@ pub struct FrameStats {
     /// The inset boundary smoothing applied (inset frames whose periphery is an exact 2× or 4×
     /// subsampling of the screen; `null` otherwise).
     pub inset_smoothing: Option<String>,
+    /// Whether every screen pixel had samples (see [`FramePlan::covers_screen`]).
+    pub covers_screen: bool,
 }
 
 /// A rendered frame.
@@ -369,6 +371,7 @@ fn frame_stats(
             .and_then(|d| d.filter.map(|k| k.name().to_string())),
         temporal,
         inset_smoothing: None,
+        covers_screen: plan.covers_screen,
     }
 }
 
