@@ -195,7 +195,7 @@ pub fn run(
         params.periphery_factor,
         params.band_px,
     );
-    let shading = ShadingMode::Direct;
+    let shading = ShadingMode::DIRECT;
     // The reference, and the periphery on a display of 1/f of the pixels per side with the
     // same field of view.
     let full = render_window(
