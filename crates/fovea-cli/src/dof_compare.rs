@@ -170,7 +170,7 @@ pub fn params(args: &DofCompareArgs, display: &DisplayProfile) -> Result<DofComp
         margin_px: args.margin,
         lens_samples: args.lens_samples,
         pixel_samples: args.pixel_samples,
-        shading: shading(args.shading, 2, 4, 1, &args.env, EnvLightChoice::Occluded)?,
+        shading: shading(args.shading, 2, 4, 1, &args.env, EnvLightChoice::Unshadowed)?,
         eye: args.eye.eye()?,
         coc_model: args.eye.coc_model()?,
         max_coc_px: args.eye.settings(None)?.max_coc_px,

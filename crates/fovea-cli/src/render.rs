@@ -158,7 +158,8 @@ pub struct EnvLightArgs {
     /// Environment light in direct shading: occluded (shadow rays towards the sky or the
     /// environment map, so closed rooms stay dark and interiors are lit through their
     /// openings) or unshadowed (the environment's mean as an ambient term, no rays, no noise;
-    /// lights rooms through their walls). Default: occluded.
+    /// lights rooms through their walls). Default: occluded; unshadowed for dof-compare, whose
+    /// comparison with its reference would otherwise measure Monte Carlo noise.
     #[arg(long, value_enum, ignore_case = true)]
     pub env_light: Option<EnvLightChoice>,
     /// Environment rays per shading sample with --env-light occluded, 0 to 256 (0: no

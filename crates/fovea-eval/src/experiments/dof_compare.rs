@@ -107,7 +107,8 @@ pub struct DofCompareParams {
     /// area (see [`fovea_render::thin_lens`]) so the scores isolate the blur from aliasing.
     /// 1 to [`MAX_PIXEL_SAMPLES`] and at most `lens_samples`. Default: 16.
     pub pixel_samples: u32,
-    /// Shading of both renders. Default: direct.
+    /// Shading of both renders. Default: `ShadingMode::NOISE_FREE` (the comparison measures
+    /// the blur, not the environment light's Monte Carlo noise).
     #[serde(skip)]
     pub shading: ShadingMode,
     /// The eye (pupil 0 to 12 mm; 0 is a pinhole). Default: [`EyeModel::default`].
@@ -134,7 +135,7 @@ impl Default for DofCompareParams {
             margin_px: 32,
             lens_samples: 128,
             pixel_samples: 16,
-            shading: ShadingMode::DIRECT,
+            shading: ShadingMode::NOISE_FREE,
             eye: EyeModel::default(),
             coc_model: CocModel::ThinLens,
             max_coc_px: 64.0,
