@@ -22,10 +22,10 @@ use fovea_render::pipeline::{FrameSettings, Stage};
 use fovea_render::world::World;
 use fovea_render::RenderError;
 
-use crate::choices::{Eyes, Shading};
+use crate::choices::{EnvLightChoice, Eyes, Shading};
 use crate::common::{display_of, thousands, FrameOptions, MethodOptions};
 use crate::dof_args::EyeArgs;
-use crate::render::{memory_limit, progress_bar, shading};
+use crate::render::{memory_limit, progress_bar, shading, EnvLightArgs};
 use crate::scene_args::{load, Loaded, SceneArgs};
 
 /// Options of `fovea bench`.
@@ -56,6 +56,8 @@ pub struct BenchArgs {
     /// Paths per sample of --shading path.
     #[arg(long, default_value_t = 1)]
     pub spp: u32,
+    #[command(flatten)]
+    pub env: EnvLightArgs,
     /// Primary rays per backend for the BVH throughput test (0 to skip).
     #[arg(long, default_value_t = 2_000_000)]
     pub bvh_rays: u64,
@@ -109,7 +111,14 @@ pub fn params(args: &BenchArgs) -> Result<BenchParams> {
     let mut frame = FrameSettings::new(Method::Full);
     frame.mapping = args.options.frame_config()?;
     args.options.warn_inapplicable(&methods);
-    frame.shading = shading(args.shading, args.bounces, args.spp, 1)?;
+    frame.shading = shading(
+        args.shading,
+        args.bounces,
+        args.spp,
+        1,
+        &args.env,
+        EnvLightChoice::Occluded,
+    )?;
     args.frame.apply(&mut frame);
     frame.memory_limit_bytes = memory_limit(args.max_memory.as_deref())?;
     let dof_filters: Vec<FilterKind> = match args.dof.as_deref().map(str::trim) {

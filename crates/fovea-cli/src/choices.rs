@@ -120,6 +120,14 @@ pub enum Shading {
     Path,
 }
 
+/// `--env-light`: how direct shading lights surfaces with the environment (the ray count is
+/// `--env-samples`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum EnvLightChoice {
+    Occluded,
+    Unshadowed,
+}
+
 /// `--tonemap`: the tone curve of PNG output.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Tonemap {

@@ -13,10 +13,10 @@ use fovea_eval::experiments::dof_compare::{
 };
 use fovea_post::dof::FilterKind;
 
-use crate::choices::{Headset, Shading};
+use crate::choices::{EnvLightChoice, Headset, Shading};
 use crate::common::DisplayArgs;
 use crate::dof_args::EyeArgs;
-use crate::render::shading;
+use crate::render::{shading, EnvLightArgs};
 use crate::scene_args::{prepare, GazeArgs, SceneArgs};
 use fovea_core::display::DisplayProfile;
 
@@ -63,6 +63,8 @@ pub struct DofCompareArgs {
     /// Shading: direct or path.
     #[arg(long, value_enum, ignore_case = true, default_value_t = Shading::Direct)]
     pub shading: Shading,
+    #[command(flatten)]
+    pub env: EnvLightArgs,
     /// Output folder: contact-sheet.png, dof-compare.md, dof-compare.json.
     #[arg(long, default_value = "fovea-out/dof-compare")]
     pub out: PathBuf,
@@ -168,7 +170,7 @@ pub fn params(args: &DofCompareArgs, display: &DisplayProfile) -> Result<DofComp
         margin_px: args.margin,
         lens_samples: args.lens_samples,
         pixel_samples: args.pixel_samples,
-        shading: shading(args.shading, 2, 4, 1)?,
+        shading: shading(args.shading, 2, 4, 1, &args.env, EnvLightChoice::Unshadowed)?,
         eye: args.eye.eye()?,
         coc_model: args.eye.coc_model()?,
         max_coc_px: args.eye.settings(None)?.max_coc_px,

@@ -21,6 +21,7 @@ use fovea_eval::flicker::PERIPHERY_DEG;
 use fovea_render::camera::EyeCamera;
 use fovea_render::pipeline::FrameSettings;
 use fovea_render::sequence::Sequence;
+use fovea_render::shade::ShadingMode;
 use fovea_render::world::World;
 
 use crate::choices::{self, AccumulationChoice, Headset, Scenario};
@@ -123,6 +124,8 @@ pub fn params(args: &FlickerArgs) -> Result<FlickerParams> {
             )
         })?;
     let mut frame = FrameSettings::new(Method::Vafr);
+    // Flicker is measured between frames whose samples move: without Monte Carlo noise.
+    frame.shading = ShadingMode::NOISE_FREE;
     frame.mapping = args.options.frame_config()?;
     args.options.warn_inapplicable(&methods);
     frame.memory_limit_bytes = memory_limit(args.max_memory.as_deref())?;

@@ -14,9 +14,11 @@ use fovea_render::pipeline::{
     StageTimes, Stopwatch,
 };
 use fovea_render::plan::FramePlan;
-use fovea_render::shade::ShadingMode;
+use fovea_render::shade::{EnvLight, ShadingMode, DEFAULT_ENV_SAMPLES};
 
-use crate::choices::{Aa, Eyes, Headset, MethodChoice, Shading, Stereo, Switch, Tonemap};
+use crate::choices::{
+    Aa, EnvLightChoice, Eyes, Headset, MethodChoice, Shading, Stereo, Switch, Tonemap,
+};
 use crate::common::{thousands, DisplayArgs, FrameOptions, MethodOptions};
 use crate::dof_args::DofArgs;
 use crate::output::{check_image_path, write_rgb, write_scalar};
@@ -62,6 +64,8 @@ pub struct RenderArgs {
     /// Random seed of --shading path.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    #[command(flatten)]
+    pub env: EnvLightArgs,
     /// Output image: .png (8-bit sRGB) or .exr (linear float).
     #[arg(long, default_value = "fovea-out/render.png")]
     pub out: PathBuf,
@@ -148,10 +152,77 @@ pub fn check_exposure(stops: f32) -> Result<()> {
     Ok(())
 }
 
-/// The shading mode of `--shading` with the path tracer's numbers checked.
-pub fn shading(kind: Shading, bounces: u32, spp: u32, seed: u64) -> Result<ShadingMode> {
+/// `--env-light` and `--env-samples`: the environment light of direct shading.
+#[derive(Args, Debug, Clone, Copy)]
+pub struct EnvLightArgs {
+    /// Environment light in direct shading: occluded (shadow rays towards the sky or the
+    /// environment map, so closed rooms stay dark and interiors are lit through their
+    /// openings) or unshadowed (the environment's mean as an ambient term, no rays, no noise;
+    /// lights rooms through their walls). Default: occluded; unshadowed for dof-compare, whose
+    /// comparison with its reference would otherwise measure Monte Carlo noise.
+    #[arg(long, value_enum, ignore_case = true)]
+    pub env_light: Option<EnvLightChoice>,
+    /// Environment rays per shading sample with --env-light occluded, 0 to 256 (0: no
+    /// environment light; default 4).
+    #[arg(long)]
+    pub env_samples: Option<u32>,
+}
+
+impl EnvLightArgs {
+    /// `--env-light`, or `default` when it is not given.
+    fn choice(&self, default: EnvLightChoice) -> EnvLightChoice {
+        self.env_light.unwrap_or(default)
+    }
+
+    /// The library's setting (range-checked by `ShadingMode::validate`).
+    pub fn env_light(&self, default: EnvLightChoice) -> EnvLight {
+        match self.choice(default) {
+            EnvLightChoice::Occluded => EnvLight::Occluded {
+                samples: self.env_samples.unwrap_or(DEFAULT_ENV_SAMPLES),
+            },
+            EnvLightChoice::Unshadowed => EnvLight::Unshadowed,
+        }
+    }
+
+    /// Warns about options that `kind` of shading ignores.
+    pub fn warn_inapplicable(&self, kind: Shading, default: EnvLightChoice) {
+        if kind == Shading::Path && self.env_light.is_some() {
+            eprintln!(
+                "warning: --env-light applies to --shading direct only (path tracing sees the \
+                 environment through its bounces); ignored"
+            );
+        }
+        if self.env_samples.is_some()
+            && (kind == Shading::Path || self.choice(default) == EnvLightChoice::Unshadowed)
+        {
+            eprintln!(
+                "warning: --env-samples applies to --shading direct with --env-light occluded \
+                 only; ignored"
+            );
+        }
+    }
+}
+
+/// The shading mode of `--shading` with the path tracer's numbers and the environment rays
+/// checked (`default_env`: the command's environment light when `--env-light` is not given);
+/// warns about environment options the mode ignores.
+pub fn shading(
+    kind: Shading,
+    bounces: u32,
+    spp: u32,
+    seed: u64,
+    env: &EnvLightArgs,
+    default_env: EnvLightChoice,
+) -> Result<ShadingMode> {
+    env.warn_inapplicable(kind, default_env);
     match kind {
-        Shading::Direct => Ok(ShadingMode::Direct),
+        Shading::Direct => {
+            let mode = ShadingMode::Direct {
+                env_light: env.env_light(default_env),
+            };
+            mode.validate()?;
+            Ok(mode)
+        }
         Shading::Path => {
             if !(1..=16).contains(&bounces) {
                 bail!("invalid parameter `bounces` = {bounces}: expected 1 to 16");
@@ -200,7 +271,14 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let config = args.options.frame_config()?;
     args.options.warn_inapplicable(&[method]);
     let tone = ToneCurve::from(args.tonemap);
-    let shading_mode = shading(args.shading, args.bounces, args.spp, args.seed)?;
+    let shading_mode = shading(
+        args.shading,
+        args.bounces,
+        args.spp,
+        args.seed,
+        &args.env,
+        EnvLightChoice::Occluded,
+    )?;
     let both_eyes = args.eyes == Eyes::Both;
     let stereo_mode = fovea_render::stereo::StereoMode::from(args.stereo);
     if both_eyes
@@ -348,7 +426,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         String::new()
     };
     println!(
-        "{} {}x{} {}{smoothing} | {} samples{per_sample}, {} rays ({} primary, {} shadow, {} bounce) | {:.0} ms",
+        "{} {}x{} {}{smoothing} | {} samples{per_sample}, {} rays ({} primary, {} shadow, {} environment, {} bounce) | {:.0} ms",
         prepared.world.scene.name,
         s.width,
         s.height,
@@ -357,6 +435,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         thousands(s.rays),
         thousands(s.rays_primary),
         thousands(s.rays_shadow),
+        thousands(s.rays_environment),
         thousands(s.rays_bounce),
         s.total_ms
     );

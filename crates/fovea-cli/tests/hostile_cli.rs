@@ -302,3 +302,39 @@ fn flat_scenes_are_framed_face_on_not_edge_on() {
         );
     }
 }
+
+#[test]
+fn environment_light_options_are_range_checked_and_warned_where_they_do_not_apply() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = ["--env-samples", "257"];
+    let err = refused(&render(dir.path(), &args), &args);
+    assert!(
+        err.contains("`env-samples`") && err.contains("0 to 256"),
+        "{err}"
+    );
+    let args = ["--env-light", "sometimes"];
+    let err = refused(&render(dir.path(), &args), &args);
+    assert!(
+        err.contains("occluded") && err.contains("unshadowed"),
+        "{err}"
+    );
+    for args in [
+        ["--shading", "path", "--env-samples", "8"],
+        ["--env-light", "unshadowed", "--env-samples", "8"],
+    ] {
+        let mut a = args.to_vec();
+        a.extend(["--method", "full"]);
+        let err = accepted(&render(dir.path(), &a), &a);
+        assert!(err.contains("warning: --env-samples applies to"), "{err}");
+    }
+    // Environment rays are counted apart, and the unshadowed term casts none.
+    let rays = |args: &[&str]| {
+        accepted(&render(dir.path(), args), args);
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.path().join("r.json")).unwrap()).unwrap();
+        json["frame"]["rays_environment"].as_u64().unwrap()
+    };
+    assert!(rays(&["--method", "full"]) > 0);
+    assert_eq!(rays(&["--method", "full", "--env-light", "unshadowed"]), 0);
+    assert_eq!(rays(&["--method", "full", "--env-samples", "0"]), 0);
+}

@@ -65,6 +65,7 @@ fn render_writes_image_stats_depth_and_density() {
         f["rays"].as_u64().unwrap(),
         f["rays_primary"].as_u64().unwrap()
             + f["rays_shadow"].as_u64().unwrap()
+            + f["rays_environment"].as_u64().unwrap()
             + f["rays_bounce"].as_u64().unwrap()
     );
     for stage in ["plan", "trace", "shade", "aa", "reconstruct"] {

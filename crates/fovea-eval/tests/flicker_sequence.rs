@@ -57,7 +57,7 @@ fn accumulation_lowers_vafr_peripheral_flicker() {
             Window::full(d.width_px, d.height_px),
             None,
             4,
-            ShadingMode::Direct,
+            ShadingMode::NOISE_FREE,
             &|_, _| {},
         )
         .unwrap();

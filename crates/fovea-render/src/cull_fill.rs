@@ -19,7 +19,10 @@
 //! every light (no rays), and a culled sample gets `offset + Σ_l U_l · v̄_l`, with `v̄_l` the
 //! weighted share of its same-surface neighbours that light `l` reached. A scalar ratio mixes
 //! the lights, which is wrong on glossy surfaces where one light's highlight dominates and
-//! another light is occluded; per light it is not.
+//! another light is occluded; per light it is not. The occluded environment light is one more
+//! term with a fractional visibility: a shaded sample records the ratio (per channel) of its
+//! environment light to the no-ray estimate `E_u` (`crate::shade::culled_env_basis`), and a
+//! culled sample adds `E_u · ē`, with `ē` its same-surface neighbours' weighted mean ratio.
 //!
 //! Texture and shading detail therefore survive culling; only shadow edges are interpolated.
 
@@ -34,7 +37,8 @@ use fovea_post::Rgb;
 
 use crate::error::Result;
 use crate::shade::{
-    culled_basis, direct_per_light, direct_with_visibility, shade, RayCounts, ShadingMode,
+    culled_basis, culled_env_basis, direct_per_light, direct_with_visibility, environment_light,
+    shade, EnvLight, RayCounts, ShadingMode,
 };
 use crate::trace::GSample;
 use crate::world::World;
@@ -50,6 +54,10 @@ pub struct SampleCull {
     pub visible: u64,
     /// Culled samples: each light's unshadowed contribution (direct shading, ≤ 64 lights).
     pub lights: Option<Vec<(u32, Vec3)>>,
+    /// Direct shading, ≤ 64 lights, occluded environment light: for a shaded sample its
+    /// environment light over the no-ray estimate (per channel), for a culled sample the
+    /// no-ray estimate itself.
+    pub env: Vec3,
 }
 
 /// Shades `g` (when `keep`) or records what rebuilds it later; returns the radiance of a
@@ -63,21 +71,43 @@ pub fn shade_or_cull(
     counts: &mut RayCounts,
 ) -> (Option<Vec3>, SampleCull) {
     let (offset, basis) = culled_basis(world, g, mode);
-    let per_light = mode == ShadingMode::Direct && world.lights.len() <= 64;
-    let info = |visible, lights| SampleCull {
+    let per_light = mode.is_direct() && world.lights.len() <= 64;
+    let env_basis = culled_env_basis(world, g, mode);
+    let info = |visible, lights, env| SampleCull {
         offset,
         basis,
         visible,
         lights,
+        env,
     };
     if !keep {
-        return (None, info(0, per_light.then(|| direct_per_light(world, g))));
+        return (
+            None,
+            info(0, per_light.then(|| direct_per_light(world, g)), env_basis),
+        );
     }
     if per_light {
         let (direct, visible) = direct_with_visibility(world, g, counts);
-        return (Some(offset + direct), info(visible, None));
+        // The unshadowed ambient term is part of `offset` already.
+        let env = match mode {
+            ShadingMode::Direct {
+                env_light: l @ EnvLight::Occluded { .. },
+            } => environment_light(world, g, l, key, counts),
+            _ => Vec3::ZERO,
+        };
+        let ratio = Vec3::from_array([0, 1, 2].map(|ch| {
+            if env_basis[ch] > 0.0 {
+                env[ch] / env_basis[ch].max(MIN_BASIS)
+            } else {
+                0.0
+            }
+        }));
+        return (Some(offset + direct + env), info(visible, None, ratio));
     }
-    (Some(shade(world, g, mode, key, counts)), info(0, None))
+    (
+        Some(shade(world, g, mode, key, counts)),
+        info(0, None, Vec3::ZERO),
+    )
 }
 
 /// Smallest basis value (per channel) a shaded sample's radiance is divided by.
@@ -99,6 +129,8 @@ pub struct CullBuffers {
     pub visible: Image<u64>,
     /// Per culled sample (by index in the buffer), each light's unshadowed contribution.
     pub lights: HashMap<usize, Vec<(u32, Vec3)>>,
+    /// Per sample, the environment term of [`SampleCull::env`].
+    pub env: Image<Rgb>,
 }
 
 impl CullBuffers {
@@ -110,6 +142,7 @@ impl CullBuffers {
             basis: Image::new(w, h, [0.0f32; 3])?,
             visible: Image::new(w, h, 0u64)?,
             lights: HashMap::new(),
+            env: Image::new(w, h, [0.0f32; 3])?,
         })
     }
 
@@ -119,6 +152,7 @@ impl CullBuffers {
         self.offset.data_mut()[index] = info.offset.to_array();
         self.basis.data_mut()[index] = info.basis.to_array();
         self.visible.data_mut()[index] = info.visible;
+        self.env.data_mut()[index] = info.env.to_array();
         if let Some(l) = info.lights {
             self.lights.insert(index, l);
         }
@@ -160,12 +194,16 @@ pub fn fill_culled(color: &Image<Rgb>, depth: &Image<f32>, cb: &CullBuffers) -> 
                 let off = cb.offset.get(x, y);
                 let index = y as usize * w as usize + x as usize;
                 if let Some(lights) = cb.lights.get(&index) {
-                    if let Some(v) = per_light_visibility(cb, depth, x, y, d, lights) {
+                    if let Some((v, env)) = per_light_visibility(cb, depth, x, y, d, lights) {
                         *o = *off;
                         for ((_, u), v) in lights.iter().zip(v) {
                             for ch in 0..3 {
                                 o[ch] += u[ch] * v;
                             }
+                        }
+                        let env_basis = cb.env.get(x, y);
+                        for ch in 0..3 {
+                            o[ch] += env_basis[ch] * env[ch];
                         }
                         continue;
                     }
@@ -180,7 +218,8 @@ pub fn fill_culled(color: &Image<Rgb>, depth: &Image<f32>, cb: &CullBuffers) -> 
 }
 
 /// For each of `lights`, the weighted share of the shaded same-surface samples near `(x, y)`
-/// that it reached (weights `1/(1 + distance²)`); `None` when there is no such sample.
+/// that it reached, and their weighted mean environment ratio (weights `1/(1 + distance²)`);
+/// `None` when there is no such sample.
 fn per_light_visibility(
     cb: &CullBuffers,
     depth: &Image<f32>,
@@ -188,9 +227,10 @@ fn per_light_visibility(
     y: u32,
     d: f32,
     lights: &[(u32, Vec3)],
-) -> Option<Vec<f32>> {
+) -> Option<(Vec<f32>, Rgb)> {
     let (w, h) = (cb.state.width() as i32, cb.state.height() as i32);
     let mut acc = vec![0.0f32; lights.len()];
+    let mut env = [0.0f32; 3];
     let mut wsum = 0.0f32;
     for dy in -NEIGHBOUR_RADIUS..=NEIGHBOUR_RADIUS {
         for dx in -NEIGHBOUR_RADIUS..=NEIGHBOUR_RADIUS {
@@ -209,10 +249,19 @@ fn per_light_visibility(
                     *a += wt;
                 }
             }
+            let r = cb.env.get(nx, ny);
+            for ch in 0..3 {
+                env[ch] += wt * r[ch];
+            }
             wsum += wt;
         }
     }
-    (wsum > 0.0).then(|| acc.into_iter().map(|a| a / wsum).collect())
+    (wsum > 0.0).then(|| {
+        (
+            acc.into_iter().map(|a| a / wsum).collect(),
+            env.map(|e| e / wsum),
+        )
+    })
 }
 
 /// The mean ratio of the usable samples near `(x, y)` whose depth is within

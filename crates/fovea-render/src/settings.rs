@@ -91,13 +91,14 @@ pub struct FrameSettings {
 }
 
 impl FrameSettings {
-    /// Defaults: direct shading, the method's own AA, a memory limit from
+    /// Defaults: direct shading (the environment through shadow rays,
+    /// [`crate::shade::EnvLight::DEFAULT`]), the method's own AA, a memory limit from
     /// [`default_memory_limit`].
     pub fn new(method: Method) -> Self {
         Self {
             method,
             mapping: MappingConfig::default(),
-            shading: ShadingMode::Direct,
+            shading: ShadingMode::DIRECT,
             aa: AaMode::Auto,
             density_view: false,
             memory_limit_bytes: default_memory_limit(),

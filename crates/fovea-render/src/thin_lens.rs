@@ -136,7 +136,7 @@ pub struct WindowRender {
     pub depth: Image<f32>,
     /// Half-estimates from the even and the odd lens samples (thin lens with ≥ 2 samples).
     pub halves: Option<(Image<Rgb>, Image<Rgb>)>,
-    /// Rays cast (primary + shadow + bounce).
+    /// Rays cast (primary + shadow + environment + bounce).
     pub rays: u64,
     /// Wall time, milliseconds.
     pub ms: f64,
@@ -337,7 +337,7 @@ pub fn render_window(
                 }
             }
             rays.fetch_add(
-                primary + counts.shadow + counts.bounce,
+                primary + counts.total(),
                 std::sync::atomic::Ordering::Relaxed,
             );
             let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;

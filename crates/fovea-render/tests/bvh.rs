@@ -117,3 +117,36 @@ fn embree_is_refused_clearly_when_not_built_in() {
     let err = build(Backend::Embree, &Triangles::default()).err().unwrap();
     assert!(err.to_string().contains("--features embree"), "{err}");
 }
+
+/// Axis-aligned and signed-zero directions: `-(0, -1.5, -1)` has a `-0.0` component, which
+/// `obvhs` 0.4 alone would send down the wrong octant (the ray missed everything). Every
+/// component of `±0.0` and its neighbours must hit what the brute-force scan hits.
+#[test]
+fn signed_zero_direction_components_hit_like_positive_zero() {
+    let mut rng = Pcg64::seed_from_u64(17);
+    let tris = soup(400, &mut rng);
+    let brute = build(Backend::BruteForce, &tris).unwrap();
+    let obvhs = build(Backend::Obvhs, &tris).unwrap();
+    let mut checked = 0;
+    for _ in 0..400 {
+        let o = Vec3::new(rng.random(), rng.random(), rng.random());
+        let d = Vec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - 1.0;
+        for axis in 0..3 {
+            for zero in [0.0f32, -0.0] {
+                let mut dir = d.normalize();
+                dir[axis] = zero;
+                let ray = Ray {
+                    origin: o,
+                    dir: dir.normalize(),
+                    t_min: 0.0,
+                    t_max: f32::INFINITY,
+                };
+                let want = brute.intersect(&ray).map(|h| h.tri);
+                assert_eq!(obvhs.intersect(&ray).map(|h| h.tri), want, "{ray:?}");
+                assert_eq!(obvhs.occluded(&ray), want.is_some(), "{ray:?}");
+                checked += want.is_some() as u32;
+            }
+        }
+    }
+    assert!(checked > 500, "{checked} hits checked");
+}

@@ -513,11 +513,8 @@ fn sunsky_gives_a_sun_and_a_sky() {
         }
         l => panic!("{l:?}"),
     }
-    assert!(
-        s.environment.z > s.environment.x,
-        "sky blue: {}",
-        s.environment
-    );
+    let sky = s.environment.as_constant().expect("the sky is a constant");
+    assert!(sky.z > sky.x, "sky blue: {sky}");
 
     // Without a direction the sun position is computed (Mitsuba's default date and place).
     let s = load(&format!(r#"<emitter type="sun"/>{CUBE}"#)).unwrap();
@@ -529,7 +526,101 @@ fn sunsky_gives_a_sun_and_a_sky() {
         r#"<emitter type="constant"><rgb name="radiance" value="0.1, 0.2, 0.3"/></emitter>{CUBE}"#
     ))
     .unwrap();
-    assert_eq!(s.environment, Vec3::new(0.1, 0.2, 0.3));
+    assert_eq!(s.environment.as_constant(), Some(Vec3::new(0.1, 0.2, 0.3)));
+}
+
+/// An 8 × 4 latitude-longitude map with a different colour in every pixel.
+fn small_map() -> image::Rgb32FImage {
+    let (w, h) = (8u32, 4u32);
+    let px: Vec<f32> = (0..w * h)
+        .flat_map(|k| [0.25 + k as f32, 1.0, 0.5 + 0.125 * (k % 4) as f32])
+        .collect();
+    image::Rgb32FImage::from_raw(w, h, px).unwrap()
+}
+
+#[test]
+fn envmap_files_become_maps_with_scale_and_to_world() {
+    use fovea_render::scene::environment::envmap::uv_to_direction;
+    let dir = tempfile::tempdir().unwrap();
+    let img = small_map();
+    for ext in ["exr", "hdr"] {
+        image::DynamicImage::ImageRgb32F(img.clone())
+            .save(dir.path().join(format!("sky.{ext}")))
+            .unwrap();
+        let s = load_in(
+            dir.path(),
+            &format!(
+                r#"<emitter type="envmap">
+                    <string name="filename" value="sky.{ext}"/>
+                    <float name="scale" value="2"/>
+                </emitter>{CUBE}"#
+            ),
+        )
+        .unwrap();
+        let map = s.environment.as_map().expect("a map, not its mean");
+        assert_eq!((map.width(), map.height()), (8, 4));
+        assert!(
+            !s.warnings.iter().any(|w| w.contains("environment map")),
+            "{:?}",
+            s.warnings
+        );
+        // Pixel (5, 2) seen from its centre's direction, times the scale (RGBE: ~1 %).
+        let d = uv_to_direction(glam::Vec2::new(5.5 / 8.0, 2.5 / 4.0));
+        let want = 2.0 * Vec3::from_array(img.get_pixel(5, 2).0);
+        let got = s.environment.radiance(d);
+        assert!(
+            near(got, want, 0.02 * want.max_element()),
+            "{ext}: {got} vs {want}"
+        );
+
+        // A toWorld rotation turns the map.
+        let s = load_in(
+            dir.path(),
+            &format!(
+                r#"<emitter type="envmap">
+                    <string name="filename" value="sky.{ext}"/>
+                    <transform name="toWorld"><rotate y="1" angle="90"/></transform>
+                </emitter>{CUBE}"#
+            ),
+        )
+        .unwrap();
+        let turned = glam::Mat3::from_rotation_y(90f32.to_radians()) * d;
+        let got = s.environment.radiance(turned);
+        assert!(
+            near(got, want / 2.0, 0.01 * want.max_element()),
+            "{ext}: {got}"
+        );
+    }
+
+    // A missing or corrupt file: a warning naming it and a constant 0.5 × scale, as for a
+    // missing texture.
+    std::fs::write(dir.path().join("broken.exr"), b"not an exr").unwrap();
+    for file in ["missing.hdr", "broken.exr"] {
+        let s = load_in(
+            dir.path(),
+            &format!(
+                r#"<emitter type="envmap">
+                    <string name="filename" value="{file}"/>
+                    <float name="scale" value="3"/>
+                </emitter>{CUBE}"#
+            ),
+        )
+        .unwrap();
+        assert_eq!(s.environment.as_constant(), Some(Vec3::splat(1.5)));
+        assert!(
+            s.warnings.iter().any(|w| w.contains(file)),
+            "{file}: {:?}",
+            s.warnings
+        );
+    }
+    // A negative scale is refused.
+    let e = load_in(
+        dir.path(),
+        r#"<emitter type="envmap"><string name="filename" value="sky.exr"/>
+           <float name="scale" value="-1"/></emitter><shape type="cube"/>"#,
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("scale"), "{e}");
 }
 
 #[test]
@@ -733,5 +824,5 @@ fn japanese_classroom_loads() {
         .lights
         .iter()
         .any(|l| matches!(l, Light::Directional { direction, .. } if direction.y < 0.0)));
-    assert!(s.environment.max_element() > 0.0);
+    assert!(s.environment.mean().max_element() > 0.0);
 }

@@ -10,7 +10,17 @@ use fovea_render::bvh::Backend;
 use fovea_render::camera::EyeCamera;
 use fovea_render::pipeline::{render_frame, FrameSettings};
 use fovea_render::scene::builtin;
+use fovea_render::shade::ShadingMode;
 use fovea_render::world::World;
+
+/// [`FrameSettings::new`] with [`ShadingMode::NOISE_FREE`] shading: this file compares frames
+/// pixel by pixel whose samples draw different random numbers, so the noise of the occluded
+/// environment light (tested on its own in `env_light.rs`) would swamp what is measured here.
+fn settings(method: Method) -> FrameSettings {
+    let mut s = FrameSettings::new(method);
+    s.shading = ShadingMode::NOISE_FREE;
+    s
+}
 
 fn setup(display: &DisplayProfile) -> (World, EyeCamera) {
     let scene = builtin::depth_range().unwrap();
@@ -20,7 +30,7 @@ fn setup(display: &DisplayProfile) -> (World, EyeCamera) {
 
 fn render(world: &World, cam: &EyeCamera, method: Method, gx: f64, gy: f64) -> Image<Rgb> {
     let gaze = cam.display.gaze(gx, gy).unwrap();
-    let s = FrameSettings::new(method);
+    let s = settings(method);
     let f = render_frame(world, cam, &s, gaze, &|_, _| {}).unwrap();
     // Count, independently of the pipeline, the shaded buffer pixels whose centre maps back
     // onto the screen: each must get exactly one primary ray.
@@ -187,7 +197,7 @@ fn retinal_frames_fit_the_machine_and_oversized_requests_are_refused_first() {
 
     // A budget below the estimate is refused before anything is traced.
     let (world, cam) = setup(&d);
-    let mut s = FrameSettings::new(Method::Full);
+    let mut s = settings(Method::Full);
     s.memory_limit_bytes = mf - 1;
     let t = std::time::Instant::now();
     let err = render_frame(&world, &cam, &s, d.centre_gaze(), &|_, _| {

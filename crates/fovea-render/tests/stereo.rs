@@ -9,9 +9,19 @@ use fovea_render::camera::{Eye, EyeCamera, HmdRig};
 use fovea_render::eye::EyeState;
 use fovea_render::pipeline::FrameSettings;
 use fovea_render::scene::builtin;
+use fovea_render::shade::ShadingMode;
 use fovea_render::stereo::{render_stereo, StereoMode};
 use fovea_render::world::World;
 use glam::Vec3;
+
+/// [`FrameSettings::new`] with [`ShadingMode::NOISE_FREE`] shading: this file compares frames
+/// pixel by pixel whose samples draw different random numbers, so the noise of the occluded
+/// environment light (tested on its own in `env_light.rs`) would swamp what is measured here.
+fn settings(method: Method) -> FrameSettings {
+    let mut s = FrameSettings::new(method);
+    s.shading = ShadingMode::NOISE_FREE;
+    s
+}
 
 /// Each eye's gaze at a world point.
 fn gaze_at(cam: &EyeCamera, p: Vec3) -> Gaze {
@@ -32,7 +42,7 @@ fn rep_traces_at_most_60_percent_of_dup_and_matches_the_direct_right_eye() {
     );
     // Both eyes converge on a point 2 m ahead.
     let target = rig.head + 2.0 * rig.forward;
-    let s = FrameSettings::new(Method::Vafr);
+    let s = settings(Method::Vafr);
     let eyes = [
         EyeState::looking_at(gaze_at(&lc, target)),
         EyeState::looking_at(gaze_at(&rc, target)),
@@ -91,7 +101,7 @@ fn disocclusions_behind_a_thin_pole_are_traced_not_smeared() {
         rig.eye(Eye::Right, &d).unwrap(),
     );
     let target = rig.head + 0.6 * rig.forward;
-    let s = FrameSettings::new(Method::Vafr);
+    let s = settings(Method::Vafr);
     let eyes = [
         EyeState::looking_at(gaze_at(&lc, target)),
         EyeState::looking_at(gaze_at(&rc, target)),
@@ -151,7 +161,7 @@ fn rep_on_a_real_scene() {
     // Fixate the first surface at the screen centre of the cyclopean eye.
     let (_, [(lc, lg), (rc, rg)]) =
         fovea_render::stereo::fixating_eyes(&world, &rig, &d, &d.centre_gaze()).unwrap();
-    let s = FrameSettings::new(Method::Vafr);
+    let s = settings(Method::Vafr);
     let eyes = [EyeState::looking_at(lg), EyeState::looking_at(rg)];
     let dup = render_stereo(&world, &lc, &rc, &s, eyes, StereoMode::Dup, &|_, _| {}).unwrap();
     let rep = render_stereo(&world, &lc, &rc, &s, eyes, StereoMode::Rep, &|_, _| {}).unwrap();

@@ -10,8 +10,18 @@ use fovea_render::bvh::Backend;
 use fovea_render::camera::EyeCamera;
 use fovea_render::pipeline::{render_frame, render_frame_temporal, FrameSettings};
 use fovea_render::scene::builtin;
+use fovea_render::shade::ShadingMode;
 use fovea_render::temporal::{TemporalAccumulator, TemporalSettings};
 use fovea_render::world::World;
+
+/// [`FrameSettings::new`] with [`ShadingMode::NOISE_FREE`] shading: this file compares frames
+/// pixel by pixel whose samples draw different random numbers, so the noise of the occluded
+/// environment light (tested on its own in `env_light.rs`) would swamp what is measured here.
+fn settings(method: Method) -> FrameSettings {
+    let mut s = FrameSettings::new(method);
+    s.shading = ShadingMode::NOISE_FREE;
+    s
+}
 
 fn setup(d: &DisplayProfile) -> (World, EyeCamera) {
     let scene = builtin::depth_range().unwrap();
@@ -39,7 +49,7 @@ fn a_still_frame_is_a_fixed_point_of_the_accumulation() {
     // `weier_fovea_is_a_fixed_point`.
     for method in [Method::Vafr, Method::Kfr, Method::Inset, Method::Full] {
         let gaze = d.gaze(150.0, 110.0).unwrap();
-        let s = FrameSettings::new(method);
+        let s = settings(method);
         let plain = render_frame(&world, &cam, &s, gaze, &|_, _| {}).unwrap();
         let mut acc = TemporalAccumulator::new(TemporalSettings {
             jitter: false,
@@ -107,7 +117,7 @@ fn reprojected_history_matches_a_fresh_render_on_a_moving_camera() {
     let d = display();
     let (world, cam) = setup(&d);
     let gaze = d.gaze(160.0, 120.0).unwrap();
-    let s = FrameSettings::new(Method::Full);
+    let s = settings(Method::Full);
     let mut acc = TemporalAccumulator::new(TemporalSettings {
         jitter: false,
         ..Default::default()
@@ -163,7 +173,7 @@ fn weier_fovea_is_a_fixed_point() {
     let (world, cam) = setup(&d);
     let (gx, gy) = (150.0, 110.0);
     let gaze = d.gaze(gx, gy).unwrap();
-    let s = FrameSettings::new(Method::Weier);
+    let s = settings(Method::Weier);
     let plain = render_frame(&world, &cam, &s, gaze, &|_, _| {}).unwrap();
     let mut acc = TemporalAccumulator::new(TemporalSettings::default()).unwrap();
     let mut last = None;
@@ -231,7 +241,7 @@ fn accumulation_leaves_no_ghosts_on_a_moving_camera() {
         for k in 0..12 {
             let c = moved(&cam, k);
             let gaze = d.gaze(130.0 + 3.0 * k as f64, 112.0).unwrap();
-            let s = FrameSettings::new(method);
+            let s = settings(method);
             let f = render_frame_temporal(&world, &c, &s, gaze, &mut acc, &|_, _| {}).unwrap();
             if k < 4 {
                 continue;
@@ -265,7 +275,7 @@ fn without_depth_rejection_the_test_sees_ghosts() {
     for k in 0..12 {
         let c = moved(&cam, 2 * k);
         let gaze = d.gaze(150.0, 112.0).unwrap();
-        let s = FrameSettings::new(Method::Vafr);
+        let s = settings(Method::Vafr);
         let f = render_frame_temporal(&world, &c, &s, gaze, &mut acc, &|_, _| {}).unwrap();
         if k == 11 {
             let plain = render_frame(&world, &c, &s, gaze, &|_, _| {}).unwrap();

@@ -10,8 +10,18 @@ use fovea_render::bvh::Backend;
 use fovea_render::camera::EyeCamera;
 use fovea_render::pipeline::{render_frame, render_frame_temporal, FrameSettings};
 use fovea_render::scene::builtin;
+use fovea_render::shade::ShadingMode;
 use fovea_render::temporal::{TemporalAccumulator, TemporalSettings};
 use fovea_render::world::World;
+
+/// [`FrameSettings::new`] with [`ShadingMode::NOISE_FREE`] shading: this file compares frames
+/// pixel by pixel whose samples draw different random numbers, so the noise of the occluded
+/// environment light (tested on its own in `env_light.rs`) would swamp what is measured here.
+fn settings(method: Method) -> FrameSettings {
+    let mut s = FrameSettings::new(method);
+    s.shading = ShadingMode::NOISE_FREE;
+    s
+}
 
 /// The FOVE 0 of Weier et al.: 1280×1440 per eye, 100° field of view (taken as vertical).
 fn fove() -> DisplayProfile {
@@ -56,22 +66,8 @@ fn weier_frame_matches_full_resolution_in_the_central_10_degrees() {
     let gaze = d.gaze(gx, gy).unwrap();
     let region = central(&d, gx, gy, 10.0);
     let ppd = d.ppd() as f32;
-    let full = render_frame(
-        &world,
-        &cam,
-        &FrameSettings::new(Method::Full),
-        gaze,
-        &|_, _| {},
-    )
-    .unwrap();
-    let weier = render_frame(
-        &world,
-        &cam,
-        &FrameSettings::new(Method::Weier),
-        gaze,
-        &|_, _| {},
-    )
-    .unwrap();
+    let full = render_frame(&world, &cam, &settings(Method::Full), gaze, &|_, _| {}).unwrap();
+    let weier = render_frame(&world, &cam, &settings(Method::Weier), gaze, &|_, _| {}).unwrap();
     let share = weier.stats.rays_primary as f64 / d.pixel_count() as f64;
     let psnr = luma_psnr(&full.color, &weier.color, region).unwrap();
     let flip = flip_mean(&full.color, &weier.color, region, ppd).unwrap();
@@ -99,18 +95,11 @@ fn weier_frame_matches_full_resolution_in_the_central_10_degrees() {
             &d,
         )
         .unwrap();
-        let s = FrameSettings::new(Method::Weier);
+        let s = settings(Method::Weier);
         last = Some(render_frame_temporal(&world, &cam_k, &s, gaze, &mut acc, &|_, _| {}).unwrap());
     }
     let last = last.unwrap();
-    let full_k = render_frame(
-        &world,
-        &cam_k,
-        &FrameSettings::new(Method::Full),
-        gaze,
-        &|_, _| {},
-    )
-    .unwrap();
+    let full_k = render_frame(&world, &cam_k, &settings(Method::Full), gaze, &|_, _| {}).unwrap();
     let psnr_t = luma_psnr(&full_k.color, &last.color, region).unwrap();
     let flip_t = flip_mean(&full_k.color, &last.color, region, ppd).unwrap();
     println!("with accumulation, frame 6: central 10° PSNR {psnr_t:.2} dB, FLIP {flip_t:.4}");

@@ -13,6 +13,7 @@ use fovea_eval::bands::{
 };
 use fovea_post::Rgb;
 use fovea_render::pipeline::{render_frame, FrameSettings};
+use fovea_render::shade::ShadingMode;
 
 use crate::output::{side_by_side, write_rgb, write_scalar};
 use crate::plot::{line_plot, Series, Style};
@@ -44,7 +45,10 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
     };
     say("full resolution");
     let rays_per_pixel = ctx.args.reference_pixel_samples;
+    // Foveated frames are scored against this one pixel by pixel: shade without Monte Carlo
+    // noise (the occluded environment light's noise would be scored instead of the methods).
     let mut reference = FrameSettings::new(Method::Full);
+    reference.shading = ShadingMode::NOISE_FREE;
     reference.pixel_samples = rays_per_pixel;
     let full = render_frame(world, camera, &reference, gaze, &|_, _| {})?;
     let dir = ctx.dir("quality")?;
@@ -84,6 +88,7 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
     for m in Method::ALL.into_iter().filter(|&m| m != Method::Full) {
         say(m.name());
         let mut s = FrameSettings::new(m);
+        s.shading = ShadingMode::NOISE_FREE;
         s.density_view = true;
         let frame = render_frame(world, camera, &s, gaze, &|_, _| {})?;
         let per = band_quality(

@@ -466,6 +466,7 @@ impl BenchResult {
                     "rays": s.rays,
                     "rays_primary": s.rays_primary,
                     "rays_shadow": s.rays_shadow,
+                    "rays_environment": s.rays_environment,
                     "rays_bounce": s.rays_bounce,
                     "total_ms": s.total_ms,
                     "stages_ms": s.stages_ms,

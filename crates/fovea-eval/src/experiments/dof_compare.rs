@@ -107,7 +107,8 @@ pub struct DofCompareParams {
     /// area (see [`fovea_render::thin_lens`]) so the scores isolate the blur from aliasing.
     /// 1 to [`MAX_PIXEL_SAMPLES`] and at most `lens_samples`. Default: 16.
     pub pixel_samples: u32,
-    /// Shading of both renders. Default: direct.
+    /// Shading of both renders. Default: `ShadingMode::NOISE_FREE` (the comparison measures
+    /// the blur, not the environment light's Monte Carlo noise).
     #[serde(skip)]
     pub shading: ShadingMode,
     /// The eye (pupil 0 to 12 mm; 0 is a pinhole). Default: [`EyeModel::default`].
@@ -134,7 +135,7 @@ impl Default for DofCompareParams {
             margin_px: 32,
             lens_samples: 128,
             pixel_samples: 16,
-            shading: ShadingMode::Direct,
+            shading: ShadingMode::NOISE_FREE,
             eye: EyeModel::default(),
             coc_model: CocModel::ThinLens,
             max_coc_px: 64.0,
@@ -258,7 +259,7 @@ pub struct CullingScore {
     pub samples_culled: u64,
     /// `culled / (shaded + culled)`.
     pub saved_fraction: f64,
-    /// Shadow rays without and with culling.
+    /// Shadow rays (towards lights and the environment) without and with culling.
     pub shadow_rays: [u64; 2],
     /// Luma PSNR in the window against the reference, without culling, dB.
     pub psnr_without_db: f64,
@@ -611,7 +612,10 @@ pub fn run(
                     samples_shaded: st.samples_shaded,
                     samples_culled: st.samples_culled,
                     saved_fraction: st.samples_culled as f64 / total as f64,
-                    shadow_rays: [plain.stats.rays_shadow, st.rays_shadow],
+                    shadow_rays: [
+                        plain.stats.rays_shadow + plain.stats.rays_environment,
+                        st.rays_shadow + st.rays_environment,
+                    ],
                     psnr_without_db: a,
                     psnr_with_db: b,
                     cost_db: a - b,

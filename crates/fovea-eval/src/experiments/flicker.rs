@@ -22,6 +22,7 @@ use fovea_core::mapping::Method;
 use fovea_core::units::Degrees;
 use fovea_render::pipeline::FrameSettings;
 use fovea_render::sequence::{Sequence, SequenceDriver, Track};
+use fovea_render::shade::ShadingMode;
 use fovea_render::temporal::TemporalSettings;
 use fovea_render::thin_lens::{render_window, Window};
 use fovea_render::world::World;
@@ -93,7 +94,8 @@ pub struct FlickerParams {
     pub reference_spp: u32,
     /// What every track renders with besides its method: mapping parameters, shading (the
     /// reference's too), AA, peripheral contrast (`contrast`), memory limit. Its `method` is
-    /// replaced per track; it must have no depth of field. Default: `FrameSettings::new(vafr)`.
+    /// replaced per track; it must have no depth of field. Default: `FrameSettings::new(vafr)`
+    /// with `ShadingMode::NOISE_FREE` (flicker of the method, not of Monte Carlo noise).
     pub frame: FrameSettings,
     /// Also write every frame as PNG into this folder: `reference/` and one folder per variant
     /// (`METHOD-on`, `METHOD-off`), `frame_00000.png` …. Default: none.
@@ -115,7 +117,10 @@ impl Default for FlickerParams {
             bands_deg: DEFAULT_BANDS_DEG.to_vec(),
             periphery_deg: PERIPHERY_DEG,
             reference_spp: 4,
-            frame: FrameSettings::new(Method::Vafr),
+            frame: FrameSettings {
+                shading: ShadingMode::NOISE_FREE,
+                ..FrameSettings::new(Method::Vafr)
+            },
             save_frames: None,
         }
     }

@@ -179,7 +179,8 @@ pub fn smoothings() -> Vec<(&'static str, Smoothing)> {
 }
 
 /// Renders the full frame and the periphery seen by `camera`, composites them around `gaze`
-/// with every smoothing and analyses each composite (direct shading, pixel centres).
+/// with every smoothing and analyses each composite (noise-free direct shading,
+/// `ShadingMode::NOISE_FREE`, pixel centres).
 pub fn run(
     world: &World,
     camera: &EyeCamera,
@@ -195,7 +196,8 @@ pub fn run(
         params.periphery_factor,
         params.band_px,
     );
-    let shading = ShadingMode::Direct;
+    // Noise-free: the gradient metric would measure the environment light's noise.
+    let shading = ShadingMode::NOISE_FREE;
     // The reference, and the periphery on a display of 1/f of the pixels per side with the
     // same field of view.
     let full = render_window(

@@ -45,11 +45,18 @@ impl ObvhsCaster {
         }
     }
 
+    /// The ray in `obvhs`' type. A direction component of `-0.0` is made `+0.0` first:
+    /// `obvhs` 0.4 takes the traversal octant from the component's comparison with 0 (`-0.0`
+    /// counts as positive) but its inverse from `signum` (`-0.0` gives `-1/ε`), and with the
+    /// two disagreeing the ray misses every triangle. A sun straight overhead or a light
+    /// direction negated from an axis-aligned one (`-(0, -1.5, -1)`) has such a component.
     #[inline]
     fn to_obvhs(ray: &Ray) -> obvhs::ray::Ray {
+        // IEEE 754: -0.0 + 0.0 = +0.0; every other value is unchanged.
+        let dir = ray.dir + glam::Vec3::ZERO;
         obvhs::ray::Ray::new(
             Vec3A::from(ray.origin),
-            Vec3A::from(ray.dir),
+            Vec3A::from(dir),
             ray.t_min,
             ray.t_max,
         )

@@ -64,8 +64,11 @@ pub struct FrameStats {
     pub samples: u64,
     /// Primary rays.
     pub rays_primary: u64,
-    /// Shadow rays.
+    /// Shadow rays towards lights.
     pub rays_shadow: u64,
+    /// Shadow rays towards the environment (direct shading with the occluded environment
+    /// light).
+    pub rays_environment: u64,
     /// Bounce rays (path-traced mode).
     pub rays_bounce: u64,
     /// All rays.
@@ -352,8 +355,9 @@ fn frame_stats(
         samples: plan.sample_count,
         rays_primary: counts.primary,
         rays_shadow: counts.secondary.shadow,
+        rays_environment: counts.secondary.environment,
         rays_bounce: counts.secondary.bounce,
-        rays: counts.primary + counts.secondary.shadow + counts.secondary.bounce,
+        rays: counts.primary + counts.secondary.total(),
         total_ms: total_ms + times.wall.get(Stage::Plan),
         total_cpu_ms: total_cpu_ms + times.cpu.get(Stage::Plan),
         stages_ms: times.wall,

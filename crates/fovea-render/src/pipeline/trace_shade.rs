@@ -38,7 +38,7 @@ use crate::world::World;
 pub struct TraceCounts {
     /// Primary rays cast.
     pub primary: u64,
-    /// Shadow and bounce rays.
+    /// Shadow (lights and environment) and bounce rays.
     pub secondary: RayCounts,
     /// Samples that hit a surface and were shaded.
     pub shaded: u64,

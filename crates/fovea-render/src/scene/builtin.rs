@@ -263,7 +263,7 @@ pub fn depth_range() -> Result<Scene> {
         textures,
         lights,
         cameras: vec![camera],
-        environment: Vec3::new(0.25, 0.32, 0.45),
+        environment: Vec3::new(0.25, 0.32, 0.45).into(),
         metres_per_unit: 1.0,
         warnings: vec![],
     };

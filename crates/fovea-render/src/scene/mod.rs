@@ -30,6 +30,7 @@ use serde::Serialize;
 use crate::error::{RenderError, Result};
 
 pub mod builtin;
+pub mod environment;
 pub(crate) mod files;
 pub mod gltf;
 pub mod limits;
@@ -39,6 +40,7 @@ pub mod ply;
 mod primitives;
 pub mod texture;
 
+pub use environment::{EnvMap, Environment};
 pub use limits::LoadLimits;
 pub use texture::{Texture, TextureId};
 
@@ -262,9 +264,10 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// Cameras from the file; the first is the default view.
     pub cameras: Vec<CameraDesc>,
-    /// Constant environment radiance seen by rays that miss (Mitsuba `constant`/sky,
-    /// otherwise a dim grey), linear RGB.
-    pub environment: Vec3,
+    /// Radiance from infinitely far away, seen by rays that miss and gathered by direct
+    /// shading through shadow rays: a constant (Mitsuba `constant`/`sky`/`sunsky`, otherwise
+    /// a dim grey) or a latitude-longitude map (Mitsuba `envmap`), linear RGB.
+    pub environment: Environment,
     /// Metres per scene unit as read (1 for glTF, whose unit is the metre).
     pub metres_per_unit: f32,
     /// Non-fatal problems met while loading (missing texture → flat colour, ignored
@@ -552,6 +555,15 @@ impl Scene {
                     Some(t) if dropped == 0 => format!("the scene has no usable triangles: {t}"),
                     _ => "the scene has no (non-degenerate) triangles".into(),
                 },
+            });
+        }
+        if !self.environment.is_valid() {
+            return Err(RenderError::BadInput {
+                path: source,
+                what: format!(
+                    "the environment ({}) is not finite and non-negative",
+                    self.environment.describe()
+                ),
             });
         }
         for l in &self.lights {

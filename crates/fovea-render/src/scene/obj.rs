@@ -61,7 +61,8 @@ use super::limits::LoadLimits;
 use super::{Material, MaterialId, Mesh, Scene, Texture, TextureId};
 use crate::error::{RenderError, Result};
 
-/// Environment radiance given to scenes whose file defines none (a dim grey).
+/// Environment radiance given to scenes whose file defines none (a dim grey constant,
+/// [`crate::scene::Environment::Constant`]).
 pub const DEFAULT_ENVIRONMENT: Vec3 = Vec3::splat(0.05);
 
 // `..Default::default()` keeps this compiling if feature unification turns on `tobj`'s
@@ -242,7 +243,7 @@ pub fn load_with_limits(path: &Path, limits: &LoadLimits) -> Result<Scene> {
         textures,
         lights: Vec::new(),
         cameras: Vec::new(),
-        environment: DEFAULT_ENVIRONMENT,
+        environment: DEFAULT_ENVIRONMENT.into(),
         metres_per_unit: 1.0,
         warnings,
     })

@@ -286,7 +286,7 @@ pub fn load_scene_with_limits(path: &Path, limits: &LoadLimits) -> Result<Scene>
         textures: Vec::new(),
         lights: Vec::new(),
         cameras: Vec::new(),
-        environment: super::obj::DEFAULT_ENVIRONMENT,
+        environment: super::obj::DEFAULT_ENVIRONMENT.into(),
         metres_per_unit: 1.0,
         warnings: Vec::new(),
     })

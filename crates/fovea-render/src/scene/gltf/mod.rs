@@ -37,7 +37,8 @@
 //!   cameras take their field of view from the display profile, so a warning says that the
 //!   default view's `yfov` is recorded but not used.
 //! * **Units**: the glTF unit is the metre, so `metres_per_unit = 1`. glTF has no
-//!   environment, so `environment` is the dim grey `0.05` every loader uses by default.
+//!   environment, so `environment` is the dim grey constant `0.05` every loader uses by
+//!   default (direct shading gathers it through shadow rays, so closed rooms stay dark).
 //!
 //! # Not read (ignored, warned where it changes the picture)
 //!
@@ -94,7 +95,6 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use ::gltf::json;
-use glam::Vec3;
 
 use super::files::SceneFiles;
 use super::limits::LoadLimits;
@@ -229,7 +229,7 @@ fn load_bytes_in(files: &SceneFiles, path: &Path, bytes: &[u8]) -> Result<Scene>
         // The name comes from `Scene::load`, as for every format.
         scene: Scene {
             source: Some(path.to_path_buf()),
-            environment: Vec3::splat(0.05),
+            environment: super::obj::DEFAULT_ENVIRONMENT.into(),
             metres_per_unit: 1.0,
             warnings,
             ..Scene::default()

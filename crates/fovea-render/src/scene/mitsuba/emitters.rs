@@ -1,27 +1,29 @@
 //! Emitters → lights and the environment: `point`, `spot`, `directional`, `sun` / `sky` /
-//! `sunsky` (the sun's direction from the `sun` module), `constant` and `envmap` (a constant
-//! environment), and the point light that stands for an `area` emitter on a shape (placed at
-//! the area-weighted centroid, intensity `L · max(|Σ Aᵢ nᵢ|, A/4)`; see "Emitters" in the
-//! module docs of the loader).
+//! `sunsky` (the sun's direction from the `sun` module; the sky a constant environment),
+//! `constant` (a constant environment), `envmap` (a latitude-longitude map read from its
+//! file, or a constant 0.5 grey with a warning when it cannot be read), and the point light
+//! that stands for an `area` emitter on a shape (placed at the area-weighted centroid,
+//! intensity `L · max(|Σ Aᵢ nᵢ|, A/4)`; see "Emitters" in the module docs of the loader).
 
-use glam::{Vec2, Vec3};
+use glam::{Mat3, Vec3};
 
 use super::sun::{sun_position, SunTime};
 use super::transform::to_world;
 use super::tree::XNode;
 use super::{bad, Loader, SKY_RADIANCE_PER_SCALE, SUN_IRRADIANCE_PER_SCALE};
 use crate::error::Result;
-use crate::scene::{Light, Mesh, Texture};
+use crate::scene::environment::file::load_in;
+use crate::scene::{Environment, Light, Mesh};
 
 impl<'t> Loader<'t> {
-    fn set_environment(&mut self, node: &XNode, v: Vec3) {
+    fn set_environment(&mut self, node: &XNode, v: impl Into<Environment>) {
         if self.environment.is_some() {
             self.warn(format!(
                 "{}: several environment emitters, the last is used",
                 node.at()
             ));
         }
-        self.environment = Some(v);
+        self.environment = Some(v.into());
     }
 
     pub(super) fn emitter(&mut self, node: &'t XNode) -> Result<()> {
@@ -110,22 +112,48 @@ impl<'t> Loader<'t> {
             }
             "envmap" => {
                 let scale = self.float_param(node, &["scale"], 1.0)?;
-                let mean = match Self::string_param(node, &["filename"]) {
-                    Some(f) => {
-                        let p = self.resolve(&f);
-                        match Texture::load_in(self.files, &p, true) {
-                            Ok(t) => t.sample(Vec2::splat(0.5), 64.0).truncate(),
-                            Err(_) => Vec3::splat(0.5),
-                        }
-                    }
-                    None => Vec3::splat(0.5),
+                if !(scale.is_finite() && scale >= 0.0) {
+                    return Err(bad(
+                        &node.file,
+                        format!(
+                            "line {}: envmap scale {scale}: expected a number ≥ 0",
+                            node.line
+                        ),
+                    ));
+                }
+                let fallback = Vec3::splat(0.5) * scale;
+                let Some(f) = Self::string_param(node, &["filename"]) else {
+                    self.warn(format!(
+                        "{}: envmap without `filename`, using a constant {:?}",
+                        node.at(),
+                        fallback.to_array()
+                    ));
+                    self.set_environment(node, fallback);
+                    return Ok(());
                 };
-                self.warn(format!(
-                    "{}: environment map replaced by a constant {:?}",
-                    node.at(),
-                    (mean * scale).to_array()
-                ));
-                self.set_environment(node, mean * scale);
+                let p = self.resolve(&f);
+                let m = to_world(node, &mut self.warnings)?;
+                let map = match load_in(self.files, &p) {
+                    Ok(map) => map.scaled(scale)?,
+                    Err(e) => {
+                        self.warn(format!(
+                            "{}: environment map {}: {e}; using a constant {:?}",
+                            node.at(),
+                            p.display(),
+                            fallback.to_array()
+                        ));
+                        self.set_environment(node, fallback);
+                        return Ok(());
+                    }
+                };
+                let map = match map.clone().with_rotation(Mat3::from_mat4(m)) {
+                    Ok(turned) => turned,
+                    Err(e) => {
+                        self.warn(format!("{}: {e}; the map is not turned", node.at()));
+                        map
+                    }
+                };
+                self.set_environment(node, Environment::Map(map));
             }
             "area" => {
                 self.warn(format!(

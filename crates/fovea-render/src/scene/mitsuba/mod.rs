@@ -107,12 +107,20 @@
 //!   [`SUN_IRRADIANCE_PER_SCALE`] × `sunScale` × `scale` (our constant: the physical sun model
 //!   is not reproduced).
 //! * `sky`, `sunsky`: the environment becomes [`SKY_RADIANCE_PER_SCALE`] × `skyScale` ×
-//!   `scale`, a constant sky blue.
-//! * `constant`: `radiance` (1) → environment.
-//! * `envmap`: its mean colour × `scale` when the image decodes (PNG/JPEG), otherwise
-//!   0.5 grey × `scale`; always with a warning (no environment maps).
+//!   `scale`, a constant sky blue (the sun of `sunsky` stays a directional light with its
+//!   shadow ray; direct shading gathers the sky through shadow rays too, so an interior is
+//!   lit through its openings only).
+//! * `constant`: `radiance` (1) → a constant environment.
+//! * `envmap`: `filename` (OpenEXR `.exr`, Radiance `.hdr`: linear; PNG/JPEG: sRGB-decoded)
+//!   → a latitude-longitude [`EnvMap`](crate::scene::EnvMap) in Mitsuba's orientation (+Y
+//!   up, `u` along the azimuth, `−Z` at the image's left edge, `+Z` at its centre), times
+//!   `scale` (1), turned by the rotation of `toWorld` (uniform scale dropped; shear or
+//!   non-uniform scale: a warning and no rotation). A map file that is missing, outside the
+//!   scene's folder, too large or not decodable is treated like a missing texture: a warning
+//!   naming the file and the reason, and a constant 0.5 grey × `scale` instead. `gamma` and
+//!   `cache` are ignored.
 //! * Several environment emitters: the last wins, with a warning. Without any, the
-//!   environment is a dim grey ([`super::obj::DEFAULT_ENVIRONMENT`]).
+//!   environment is a dim grey constant ([`super::obj::DEFAULT_ENVIRONMENT`]).
 //!
 //! Sensors (`perspective`, `thinlens`): Mitsuba's camera looks along +z of its `toWorld`
 //! frame with +x to the image's left and +y up; position, forward and up come from the
@@ -153,7 +161,7 @@ use rayon::prelude::*;
 
 use super::files::SceneFiles;
 use super::limits::LoadLimits;
-use super::{CameraDesc, Light, MaterialId, Mesh, Scene, Texture, TextureId};
+use super::{CameraDesc, Environment, Light, MaterialId, Mesh, Scene, Texture, TextureId};
 use crate::error::{RenderError, Result};
 
 mod bsdf;
@@ -206,7 +214,7 @@ struct Loader<'t> {
     jobs: Vec<ShapeJob>,
     lights: Vec<Light>,
     cameras: Vec<CameraDesc>,
-    environment: Option<Vec3>,
+    environment: Option<Environment>,
     shape_count: usize,
 }
 
@@ -415,7 +423,9 @@ impl<'t> Loader<'t> {
             textures: scene_textures,
             lights: self.lights,
             cameras: self.cameras,
-            environment: self.environment.unwrap_or(super::obj::DEFAULT_ENVIRONMENT),
+            environment: self
+                .environment
+                .unwrap_or(Environment::Constant(super::obj::DEFAULT_ENVIRONMENT)),
             metres_per_unit: 1.0,
             warnings: self.warnings,
         })
