@@ -61,14 +61,12 @@ pub struct ReportArgs {
     #[arg(long)]
     pub bench_res: Option<String>,
     /// Primary rays per pixel of the quality section's full-resolution reference, 1 to 64,
-    /// stratified over the pixel (as `fovea render --method full --pixel-samples N`); the
-    /// foveated frames keep one ray per sample. The section's checks were set against the
-    /// one-ray reference: against a 4-ray one, VaFR's ꟻLIP within 5° of the gaze is 0.09 on
-    /// the built-in scene (Vive Pro Eye), above the 0.02 bound: the aliasing of a one-ray
-    /// frame then counts as error.
-    #[arg(long, default_value_t = 1,
+    /// stratified over the pixel (as `fovea render --method full --pixel-samples N`); default
+    /// 16 (4 with --quick). The foveated frames keep one ray per sample, and a one-ray full
+    /// frame is scored beside them: a one-ray frame aliases, so it is a poor reference itself.
+    #[arg(long,
           value_parser = clap::value_parser!(u32).range(1..=i64::from(fovea_render::settings::MAX_PIXEL_SAMPLES)))]
-    pub reference_pixel_samples: u32,
+    pub reference_pixel_samples: Option<u32>,
     /// Output folder: report.html, report.md, report.json and each section's files.
     #[arg(long, default_value = "fovea-out/report")]
     pub out: PathBuf,

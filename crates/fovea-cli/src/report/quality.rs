@@ -1,7 +1,8 @@
-//! Image quality of every foveation method against the full-resolution frame (same view, same
-//! gaze): luma PSNR, SSIM and ꟻLIP at the display's pixels per degree, over the whole frame and
-//! by eccentricity band (0–5°, 5–15°, 15–30°, > 30°), with each method's samples per pixel
-//! there (`fovea_eval::bands`).
+//! Image quality of every foveation method against the supersampled full-resolution frame
+//! (16 rays per pixel by default, 4 with `--quick`; same view, same gaze), with the one-ray
+//! full frame scored beside them: luma PSNR, SSIM and ꟻLIP at the display's pixels per
+//! degree, over the whole frame and by eccentricity band (0–5°, 5–15°, 15–30°, > 30°), with
+//! each method's samples per pixel there (`fovea_eval::bands`).
 
 use anyhow::Result;
 
@@ -21,9 +22,23 @@ use crate::plot::{line_plot, Series, Style};
 use super::doc::{Cell, Section, Table};
 use super::Ctx;
 
-/// The report's stated bound on VaFR's mean ꟻLIP within 5° of the gaze (measured 0.0085 on
-/// the built-in scene on the Vive Pro Eye; `fovea-eval/tests/band_quality.rs` holds it too).
+/// The report's absolute bound on VaFR's mean ꟻLIP within 5° of the gaze against a one-ray
+/// reference (measured 0.0085 on the built-in scene on the Vive Pro Eye;
+/// `fovea-eval/tests/band_quality.rs` holds it too).
 pub const VAFR_FOVEA_FLIP_BOUND: f64 = 0.02;
+
+/// Against a supersampled reference, the one-ray full frame's own error (its aliasing) sets
+/// the scale: VaFR's mean ꟻLIP within 5° is at most this factor times the one-ray full
+/// frame's there (or [`VAFR_FOVEA_FLIP_BOUND`], whichever is larger). Measured ratios: 1.05 on
+/// the built-in scene, 0.73 on the classroom (docs/rendering.md, `subsample_quality`).
+pub const VAFR_FOVEA_FLIP_VS_ONE_RAY: f64 = 1.25;
+
+/// Below this, a band's ꟻLIP loss (against the one-ray full frame's) is no measurable loss:
+/// on a flat-shaded object VaFR and the one-ray frame both score 0.0000 ± 0.0001.
+pub const FLIP_LOSS_FLOOR: f64 = 1e-3;
+
+/// Rays per pixel of the quality section's reference by default (with `--quick`).
+pub const DEFAULT_REFERENCE_PIXEL_SAMPLES: (u32, u32) = (16, 4);
 
 fn band_name(b: &BandQuality) -> String {
     match b.hi_deg {
@@ -44,7 +59,14 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         }
     };
     say("full resolution");
-    let rays_per_pixel = ctx.args.reference_pixel_samples;
+    let rays_per_pixel = ctx
+        .args
+        .reference_pixel_samples
+        .unwrap_or(if ctx.args.quick {
+            DEFAULT_REFERENCE_PIXEL_SAMPLES.1
+        } else {
+            DEFAULT_REFERENCE_PIXEL_SAMPLES.0
+        });
     // Foveated frames are scored against this one pixel by pixel: shade without Monte Carlo
     // noise (the occluded environment light's noise would be scored instead of the methods).
     let mut reference = FrameSettings::new(Method::Full);
@@ -57,7 +79,7 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
     let mut whole = Table::new(
         "quality-whole",
         format!(
-            "Whole frame against full resolution ({} samples), ꟻLIP at {:.1} px/deg",
+            "Whole frame against full resolution ({} pixels × {rays_per_pixel} rays), ꟻLIP at {:.1} px/deg",
             crate::common::thousands(full.stats.samples),
             display.ppd()
         ),
@@ -85,7 +107,12 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
     );
     let mut data = Vec::new();
     let mut vafr_bands = None;
-    for m in Method::ALL.into_iter().filter(|&m| m != Method::Full) {
+    let mut one_ray_bands = None;
+    // With a supersampled reference, the one-ray full frame is scored like the methods.
+    let rows = Method::ALL
+        .into_iter()
+        .filter(|&m| m != Method::Full || rays_per_pixel > 1);
+    for m in rows {
         say(m.name());
         let mut s = FrameSettings::new(m);
         s.shading = ShadingMode::NOISE_FREE;
@@ -122,6 +149,9 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
                 metric(b.flip, 4),
             ]);
         }
+        if m == Method::Full {
+            one_ray_bands = Some(per.clone());
+        }
         if m == Method::Vafr {
             write_rgb(&dir.join("vafr.png"), &frame.color, 0.0, tone)?;
             write_rgb(
@@ -146,7 +176,9 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         ("one sample at each pixel centre".to_string(), String::new())
     } else {
         (
-            format!("{rays_per_pixel} stratified rays per pixel"),
+            format!(
+                "supersampled: {rays_per_pixel} stratified rays per pixel; the row `full` is the one-ray full-resolution frame, scored like the methods"
+            ),
             format!(" --pixel-samples {rays_per_pixel}"),
         )
     };
@@ -173,7 +205,7 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
     );
     if let Some(v) = vafr_bands {
         let luma_std = band_luma_std(&full.color, display, &gaze, &REPORT_BANDS_DEG);
-        vafr_checks(sec, &v, &luma_std);
+        vafr_checks(sec, &v, one_ray_bands.as_deref(), &luma_std);
         let plot = dir.join("vafr-retained.png");
         retained_plot(&plot, &v)?;
         sec.image(
@@ -187,6 +219,7 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         "gaze_px": [gaze.point.x_px, gaze.point.y_px],
         "bands_deg": REPORT_BANDS_DEG,
         "full_samples": full.stats.samples,
+        "reference_pixel_samples": rays_per_pixel,
         "methods": data,
     });
     Ok(())
@@ -231,15 +264,32 @@ fn band_luma_std(
 /// `luma_std` is the reference's luma spread per band ([`band_luma_std`]): bands beyond the
 /// fovea where it is below [`CONSTANT_BAND_LUMA_STD`] (background only, as around a single
 /// object) are skipped by the eccentricity check, which says so rather than failing.
-fn vafr_checks(sec: &mut Section, bands: &[BandQuality], luma_std: &[f64]) {
+fn vafr_checks(
+    sec: &mut Section,
+    bands: &[BandQuality],
+    one_ray: Option<&[BandQuality]>,
+    luma_std: &[f64],
+) {
     let Some(inner) = bands.first() else {
         return;
     };
+    // Against a supersampled reference, the one-ray full frame's error within 5° scales the
+    // bound (a one-ray reference is that frame itself: its error is zero).
+    let one_ray_flip = one_ray.and_then(|b| b.first()).and_then(|b| b.flip);
+    let (bound, of) = match one_ray_flip {
+        Some(f1) => (
+            VAFR_FOVEA_FLIP_BOUND.max(VAFR_FOVEA_FLIP_VS_ONE_RAY * f1),
+            format!(
+                "max({VAFR_FOVEA_FLIP_BOUND}, {VAFR_FOVEA_FLIP_VS_ONE_RAY} × the one-ray full frame's {f1:.4})"
+            ),
+        ),
+        None => (VAFR_FOVEA_FLIP_BOUND, VAFR_FOVEA_FLIP_BOUND.to_string()),
+    };
     match inner.flip {
         Some(f) => sec.check(
-            format!("VaFR's mean ꟻLIP within 5° of the gaze is at most {VAFR_FOVEA_FLIP_BOUND}"),
-            f <= VAFR_FOVEA_FLIP_BOUND,
-            format!("{f:.4}"),
+            format!("VaFR's mean ꟻLIP within 5° of the gaze is at most {of}"),
+            f <= bound,
+            format!("{f:.4} (bound {bound:.4})"),
         ),
         None => sec.check(
             "VaFR's mean ꟻLIP within 5° of the gaze is measured",
@@ -248,7 +298,16 @@ fn vafr_checks(sec: &mut Section, bands: &[BandQuality], luma_std: &[f64]) {
         ),
     }
     let outer: Vec<&BandQuality> = bands[1..].iter().filter(|b| b.pixels > 0).collect();
-    let Some(f0) = inner.flip else {
+    // Foveation's own loss: against a supersampled reference, the one-ray full frame's error
+    // in the same band (aliasing every one-ray frame shares, largest where the gaze rests on
+    // fine detail) is taken off; against a one-ray reference it is zero.
+    let baseline = |i: usize| {
+        one_ray
+            .and_then(|b| b.get(i))
+            .and_then(|b| b.flip)
+            .unwrap_or(0.0)
+    };
+    let Some(f0) = inner.flip.map(|f| f - baseline(0)) else {
         return;
     };
     let has_content = |i: usize| luma_std.get(i).is_none_or(|&s| s >= CONSTANT_BAND_LUMA_STD);
@@ -259,7 +318,7 @@ fn vafr_checks(sec: &mut Section, bands: &[BandQuality], luma_std: &[f64]) {
     let last = (1..bands.len())
         .rev()
         .find(|&i| bands[i].pixels > 0 && has_content(i))
-        .map(|i| &bands[i]);
+        .map(|i| (&bands[i], baseline(i)));
     let skip_note = if skipped.is_empty() {
         String::new()
     } else {
@@ -269,12 +328,30 @@ fn vafr_checks(sec: &mut Section, bands: &[BandQuality], luma_std: &[f64]) {
         )
     };
     match last {
-        Some(last) => {
-            let flip_last = last.flip.unwrap_or(f64::NAN);
+        Some((last, base)) => {
+            let flip_last = last.flip.map_or(f64::NAN, |f| f - base);
+            let (what, unit) = if one_ray.is_some() {
+                (
+                    "ꟻLIP above the one-ray full frame's",
+                    " (VaFR's ꟻLIP minus the one-ray full frame's)",
+                )
+            } else {
+                ("ꟻLIP", "")
+            };
             sec.check(
-                "Quality falls with eccentricity: ꟻLIP in the outermost band with content above the fovea's",
-                flip_last > f0,
-                format!("{f0:.4} within 5°, {flip_last:.4} {}{skip_note}", band_name(last)),
+                format!(
+                    "Quality falls with eccentricity: {what} in the outermost band with content above the fovea's"
+                ),
+                flip_last > f0 || (f0.abs().max(flip_last.abs()) <= FLIP_LOSS_FLOOR),
+                format!(
+                    "{f0:.4} within 5°, {flip_last:.4} {}{unit}{skip_note}{}",
+                    band_name(last),
+                    if flip_last > f0 {
+                        String::new()
+                    } else {
+                        format!("; no loss above {FLIP_LOSS_FLOOR} in either band: nothing to fall")
+                    }
+                ),
             );
         }
         None if !skipped.is_empty() => sec.check(
