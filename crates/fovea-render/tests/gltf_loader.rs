@@ -14,27 +14,6 @@ use serde_json::{json, Value};
 // Building tiny glTF files
 // ---------------------------------------------------------------------------------------------
 
-fn base64(bytes: &[u8]) -> String {
-    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut s = String::new();
-    for chunk in bytes.chunks(3) {
-        let b = [
-            chunk[0],
-            chunk.get(1).copied().unwrap_or(0),
-            chunk.get(2).copied().unwrap_or(0),
-        ];
-        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
-        for k in 0..4 {
-            if k <= chunk.len() {
-                s.push(A[((n >> (18 - 6 * k)) & 63) as usize] as char);
-            } else {
-                s.push('=');
-            }
-        }
-    }
-    s
-}
-
 /// Accumulates one binary buffer with its views and accessors.
 #[derive(Default)]
 struct Builder {
@@ -98,7 +77,7 @@ impl Builder {
         doc["asset"] = json!({"version": "2.0"});
         doc["buffers"] = json!([{
             "byteLength": self.bin.len(),
-            "uri": format!("data:application/octet-stream;base64,{}", base64(&self.bin))
+            "uri": format!("data:application/octet-stream;base64,{}", base64::encode(&self.bin))
         }]);
         doc["bufferViews"] = json!(self.views);
         doc["accessors"] = json!(self.accessors);
@@ -176,7 +155,7 @@ fn png_data_uri(rgba: [u8; 4]) -> String {
         image::ImageFormat::Png,
     )
     .unwrap();
-    format!("data:image/png;base64,{}", base64(&bytes))
+    format!("data:image/png;base64,{}", base64::encode(&bytes))
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -15,27 +15,6 @@ use fovea_render::trace::trace_sample;
 use fovea_render::world::World;
 use glam::Vec3;
 
-fn base64(bytes: &[u8]) -> String {
-    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut s = String::new();
-    for chunk in bytes.chunks(3) {
-        let b = [
-            chunk[0],
-            chunk.get(1).copied().unwrap_or(0),
-            chunk.get(2).copied().unwrap_or(0),
-        ];
-        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
-        for k in 0..4 {
-            if k <= chunk.len() {
-                s.push(A[((n >> (18 - 6 * k)) & 63) as usize] as char);
-            } else {
-                s.push('=');
-            }
-        }
-    }
-    s
-}
-
 /// The quad x, y ∈ [-1, 1] at z = 0 facing +z, as four vertices and two triangles.
 const QUAD: [[f32; 3]; 4] = [
     [-1.0, -1.0, 0.0],
@@ -94,7 +73,7 @@ fn gltf_quad(color: [f32; 3], u8_colors: bool, morph: bool) -> String {
             {{"bufferView":1,"componentType":5123,"count":6,"type":"SCALAR"}},
             {color_accessor}]}}"#,
         len = bin.len(),
-        b64 = base64(&bin),
+        b64 = base64::encode(&bin),
     )
 }
 

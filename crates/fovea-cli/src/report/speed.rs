@@ -31,15 +31,10 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
     let methods = if args.quick {
         vec![Method::Vafr, Method::Kfr, Method::Weier]
     } else {
-        vec![
-            Method::Vafr,
-            Method::Kfr,
-            Method::Lafr,
-            Method::VisualPolar,
-            Method::Guenter,
-            Method::Inset,
-            Method::Weier,
-        ]
+        Method::ALL
+            .into_iter()
+            .filter(|&m| m != Method::Full)
+            .collect()
     };
     let params = BenchParams {
         displays: res
