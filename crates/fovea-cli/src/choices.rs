@@ -113,6 +113,22 @@ impl From<Aa> for AaMode {
     }
 }
 
+/// `--reconstruct-filter`: how polar buffers are read back at each pixel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ReconstructFilterChoice {
+    Footprint,
+    Bilinear,
+}
+
+impl From<ReconstructFilterChoice> for fovea_post::inverse_map::ReconstructFilter {
+    fn from(f: ReconstructFilterChoice) -> Self {
+        match f {
+            ReconstructFilterChoice::Footprint => Self::Footprint,
+            ReconstructFilterChoice::Bilinear => Self::Bilinear,
+        }
+    }
+}
+
 /// `--shading`: direct lighting or path tracing (the numbers are separate options).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Shading {

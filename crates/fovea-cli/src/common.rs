@@ -8,9 +8,11 @@ use fovea_core::mapping::Method;
 use fovea_core::units::Degrees;
 
 use fovea_render::pipeline::FrameSettings;
-use fovea_render::settings::MAX_PIXEL_SAMPLES;
+use fovea_render::settings::{DEFAULT_PERIPHERY_RAYS, MAX_PIXEL_SAMPLES};
 
-use crate::choices::{self, Headset, InsetPlacement, InsetSmoothing, VpInverse};
+use crate::choices::{
+    self, Headset, InsetPlacement, InsetSmoothing, ReconstructFilterChoice, VpInverse,
+};
 
 /// Which display to use: a preset or a resolution with a field of view.
 #[derive(Args, Debug, Clone)]
@@ -252,6 +254,17 @@ pub struct FrameOptions {
     #[arg(long, default_value_t = 1,
           value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_PIXEL_SAMPLES)))]
     pub pixel_samples: u32,
+    /// How VaFR's and the other polar buffers are read back at each pixel: `footprint` boxes
+    /// every texel a pixel covers where the buffer is denser than the screen (the fovea);
+    /// `bilinear` is the paper's lookup at the pixel centre.
+    #[arg(long, value_enum, ignore_case = true, default_value_t = ReconstructFilterChoice::Footprint)]
+    pub reconstruct_filter: ReconstructFilterChoice,
+    /// With one ray per sample, the most primary rays a texel of VaFR, KFR, LaFR or
+    /// visual-polar casts where it covers several screen pixels (one per pixel it covers, up
+    /// to this; 1 to 64, 1: off): the anti-aliased periphery.
+    #[arg(long, default_value_t = DEFAULT_PERIPHERY_RAYS,
+          value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_PIXEL_SAMPLES)))]
+    pub periphery_rays: u32,
     #[command(flatten)]
     pub inset: InsetSmoothingArgs,
 }
@@ -260,6 +273,8 @@ impl FrameOptions {
     /// Sets these options in `settings`.
     pub fn apply(&self, settings: &mut FrameSettings) {
         settings.pixel_samples = self.pixel_samples;
+        settings.reconstruct_filter = self.reconstruct_filter.into();
+        settings.periphery_rays = self.periphery_rays;
         self.inset.apply(settings);
     }
 }

@@ -402,6 +402,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
         "display": display.name,
         "gaze": [gaze.point.x_px, gaze.point.y_px],
         "pixel_samples": settings.pixel_samples,
+        "periphery_rays": settings.periphery_rays,
+        "reconstruct_filter": settings.reconstruct_filter,
         // The smoothing asked for; `frame.inset_smoothing` is the one applied.
         "inset_smoothing": (method == Method::Inset).then(|| settings.inset_smoothing.name()),
         "lod": lod_stats,
@@ -568,6 +570,8 @@ fn run_stereo(
         "gaze_left": [lg.point.x_px, lg.point.y_px],
         "gaze_right": [rg.point.x_px, rg.point.y_px],
         "pixel_samples": settings.pixel_samples,
+        "periphery_rays": settings.periphery_rays,
+        "reconstruct_filter": settings.reconstruct_filter,
         "inset_smoothing": (settings.method == Method::Inset)
             .then(|| settings.inset_smoothing.name()),
         "stereo": frame.stats,

@@ -15,6 +15,7 @@ use std::path::Path;
 use fovea_core::display::DisplayProfile;
 use fovea_core::mapping::Method;
 use fovea_eval::bands::{band_quality, REPORT_BANDS_DEG};
+use fovea_post::inverse_map::ReconstructFilter;
 use fovea_render::bvh::Backend;
 use fovea_render::camera::EyeCamera;
 use fovea_render::lights::view_lights;
@@ -85,9 +86,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     println!("|---|---|---|---|---|---|---|");
     for m in std::iter::once(Method::Full).chain(methods) {
-        for n in [1u32, 2, 4, 9] {
+        for (n, filter, periphery) in [
+            (1u32, ReconstructFilter::Bilinear, 1u32),
+            (1, ReconstructFilter::Footprint, 1),
+            (1, ReconstructFilter::Footprint, 2),
+            (1, ReconstructFilter::Footprint, 4),
+            (1, ReconstructFilter::Footprint, 9),
+            (4, ReconstructFilter::Footprint, 1),
+        ] {
             let mut s = FrameSettings::new(m);
             s.pixel_samples = n;
+            s.reconstruct_filter = filter;
+            s.periphery_rays = periphery;
             let f = render_frame(&world, &camera, &s, gaze, &|_, _| {})?;
             let q = band_quality(&r.color, &f.color, None, &display, &gaze, &REPORT_BANDS_DEG)?;
             let flip: Vec<String> = q
@@ -100,7 +110,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .collect();
             let st = &f.stats;
             println!(
-                "| {m} | {n} | {} | {:.0} | {:.0} | {} | {} |",
+                "| {m} | {n}, {filter:?}, periphery ≤ {periphery} | {} | {:.0} | {:.0} | {} | {} |",
                 st.rays_primary,
                 st.total_cpu_ms,
                 st.stages_cpu_ms.get(Stage::Trace) + st.stages_cpu_ms.get(Stage::Shade),

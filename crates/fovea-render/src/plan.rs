@@ -16,6 +16,7 @@ use serde::Serialize;
 use fovea_core::display::DisplayProfile;
 use fovea_core::mapping::footprint::{SampleFootprint, SpacingLut};
 use fovea_core::mapping::{build, BufferSize, FoveationMapping, Method};
+use fovea_post::inverse_map::ReconstructFilter;
 use fovea_post::Rgb;
 
 use crate::camera::EyeCamera;
@@ -87,12 +88,8 @@ pub struct FramePlan {
     pub aa: AaMode,
     /// Sub-texel jitter of every sample (temporal accumulation), buffer texels.
     pub jitter_texels: [f64; 2],
-    /// Offsets of a texel's primary rays inside the texel (buffer texels, `[0, 1)²`, before
-    /// the jitter): the centre alone, or a stratified pattern of `pixel_samples` points.
-    pub subsamples: Vec<[f64; 2]>,
-    /// Which of [`subsamples`](Self::subsamples) is nearest the texel centre: its depth is the
-    /// texel's, and it decides DOF culling for the texel.
-    pub representative: usize,
+    /// The primary rays of every texel: how many, and where inside the texel.
+    pub rays: TexelRays,
     /// Ray-cone angle of the samples.
     pub footprint: SampleFootprint,
     /// Sample spacing in pixels by eccentricity (temporal accumulation, contrast).
@@ -188,24 +185,30 @@ impl FramePlan {
         };
         let mut settings = settings.clone();
         settings.dof = dof;
-        let subsamples = subsample_offsets(settings.pixel_samples);
-        let representative = (0..subsamples.len())
-            .min_by(|&a, &b| {
-                let d = |o: [f64; 2]| (o[0] - 0.5).powi(2) + (o[1] - 0.5).powi(2);
-                d(subsamples[a]).total_cmp(&d(subsamples[b]))
-            })
-            .unwrap_or(0);
+        let spacing = SpacingLut::new(mapping.as_ref(), display, eye.gaze);
+        let rays = TexelRays::new(
+            mapping.as_ref(),
+            display,
+            eye,
+            &spacing,
+            settings.pixel_samples,
+            settings.periphery_rays,
+        );
         let covers_screen = covers_screen(mapping.as_ref(), display);
         Ok(Self {
             covers_screen,
-            subsamples,
-            representative,
+            rays,
             buffers: mapping.buffers(),
             sample_count: mapping.sample_count(),
             aa: settings.aa.resolve(settings.method),
             jitter_texels,
-            footprint: SampleFootprint::new(mapping.as_ref(), display, &eye.gaze),
-            spacing: SpacingLut::new(mapping.as_ref(), display, eye.gaze),
+            footprint: SampleFootprint::with_floor(
+                mapping.as_ref(),
+                display,
+                &eye.gaze,
+                cone_floor_px(mapping.as_ref(), settings.reconstruct_filter),
+            ),
+            spacing,
             culling,
             tiles: TileOrder {
                 tile_px: TRACE_TILE,
@@ -247,6 +250,124 @@ impl FramePlan {
     pub fn to_json(&self) -> Result<String> {
         serde_json::to_string_pretty(self)
             .map_err(|e| RenderError::Unsupported(format!("cannot serialise the plan: {e}")))
+    }
+}
+
+/// The primary rays of every texel of a frame: a stratified pattern of `pixel_samples` rays in
+/// every texel, or — with one ray per sample, on a polar buffer — as many rays as the texel
+/// covers screen pixels (its area `s²` from the sample spacing `s` at its column's
+/// eccentricity, rounded), at most `periphery_rays`: the anti-aliased periphery of the
+/// "faithful wherever the eye looks" issue. Where a texel spans several pixels, one ray
+/// point-samples it and its edges and highlights alias into sawtooth and sparkle; a few rays
+/// average it. Screen-aligned layers (Guenter, insets) and Weier's sparse set keep their
+/// papers' one ray per texel.
+#[derive(Clone, Debug, Serialize)]
+pub struct TexelRays {
+    /// The offsets (buffer texels, `[0, 1)²`, before the jitter) of a texel casting `n`
+    /// rays at index `n − 1`, for every `n` up to the most any texel casts
+    /// ([`subsample_offsets`]).
+    pub patterns: Vec<Vec<[f64; 2]>>,
+    /// For each pattern, its ray nearest the texel centre: that ray's depth is the texel's,
+    /// and it decides DOF culling for the texel.
+    pub representatives: Vec<usize>,
+    /// Rays of each column of a polar buffer (layer 0); empty: [`uniform`](Self::uniform)
+    /// rays in every texel.
+    pub per_column: Vec<u8>,
+    /// Rays of every texel where `per_column` is empty.
+    pub uniform: u32,
+}
+
+impl TexelRays {
+    /// The rays of a frame of `mapping` on `display` seen by `eye` whose samples lie
+    /// `spacing` apart (see the type).
+    pub fn new(
+        mapping: &dyn FoveationMapping,
+        display: &DisplayProfile,
+        eye: &EyeState,
+        spacing: &SpacingLut,
+        pixel_samples: u32,
+        periphery_rays: u32,
+    ) -> Self {
+        let per_column: Vec<u8> = match mapping.polar_layout() {
+            Some(layout) if pixel_samples <= 1 && periphery_rays > 1 => (0..layout.rows.len())
+                .map(|i| {
+                    let s = fovea_core::mapping::SamplePoint {
+                        layer: 0,
+                        u: i as f64 + 0.5,
+                        v: 0.0,
+                    };
+                    let area_px = mapping.inverse(s).map_or(1.0, |p| {
+                        let e = display.eccentricity(p, &eye.gaze).0;
+                        (spacing.at(e) as f64).powi(2)
+                    });
+                    area_px
+                        .round()
+                        .clamp(1.0, periphery_rays.min(u8::MAX as u32) as f64)
+                        as u8
+                })
+                .collect(),
+            _ => Vec::new(),
+        };
+        let uniform = pixel_samples.max(1);
+        let most = per_column
+            .iter()
+            .map(|&n| n as u32)
+            .max()
+            .unwrap_or(uniform)
+            .max(uniform);
+        let patterns: Vec<Vec<[f64; 2]>> = (1..=most).map(subsample_offsets).collect();
+        let representatives = patterns
+            .iter()
+            .map(|p| {
+                (0..p.len())
+                    .min_by(|&a, &b| {
+                        let d = |o: [f64; 2]| (o[0] - 0.5).powi(2) + (o[1] - 0.5).powi(2);
+                        d(p[a]).total_cmp(&d(p[b]))
+                    })
+                    .unwrap_or(0)
+            })
+            .collect();
+        Self {
+            patterns,
+            representatives,
+            per_column,
+            uniform,
+        }
+    }
+
+    /// Rays of a texel in column `column` of layer `layer`.
+    #[inline]
+    pub fn count(&self, layer: u32, column: u32) -> u32 {
+        if layer == 0 {
+            if let Some(&n) = self.per_column.get(column as usize) {
+                return n as u32;
+            }
+        }
+        self.uniform
+    }
+
+    /// The offsets of a texel casting `n` rays, and which of them stands for the texel.
+    #[inline]
+    pub fn pattern(&self, n: u32) -> (&[[f64; 2]], usize) {
+        let k = (n.max(1) as usize - 1).min(self.patterns.len() - 1);
+        (&self.patterns[k], self.representatives[k])
+    }
+
+    /// The most rays any texel casts.
+    pub fn most(&self) -> u32 {
+        self.patterns.len() as u32
+    }
+}
+
+/// The narrowest ray cone, screen pixels: one pixel where the reconstruction reads a dense
+/// buffer with a bilinear lookup (finer detail would alias into moiré on the pixel grid), an
+/// eighth of a pixel where it boxes every texel a pixel covers — polar buffers with
+/// [`ReconstructFilter::Footprint`] — since the box filters the detail to the pixel, as a
+/// supersampled full frame does (VaFR's fovea holds up to ~8 texels per pixel each way).
+pub fn cone_floor_px(mapping: &dyn FoveationMapping, filter: ReconstructFilter) -> f64 {
+    match (filter, mapping.polar_layout()) {
+        (ReconstructFilter::Footprint, Some(_)) => 0.125,
+        _ => 1.0,
     }
 }
 

@@ -7,6 +7,7 @@ use serde::Serialize;
 use fovea_core::mapping::{MappingConfig, Method};
 use fovea_post::contrast::PeripheralContrast;
 use fovea_post::inset_smoothing::Smoothing;
+use fovea_post::inverse_map::ReconstructFilter;
 
 use crate::dof::DofSettings;
 use crate::error::{RenderError, Result};
@@ -57,6 +58,9 @@ impl AaMode {
 /// Most primary rays per sample ([`FrameSettings::pixel_samples`]).
 pub const MAX_PIXEL_SAMPLES: u32 = 64;
 
+/// Default of [`FrameSettings::periphery_rays`].
+pub const DEFAULT_PERIPHERY_RAYS: u32 = 4;
+
 /// Everything that decides a frame besides the scene, the camera and the eye.
 #[derive(Clone, Debug, Serialize)]
 pub struct FrameSettings {
@@ -88,6 +92,14 @@ pub struct FrameSettings {
     /// Boundary smoothing of the inset method (Liu et al.'s inset paper, Sec. 3): alpha blend
     /// by default; ignored by the other methods.
     pub inset_smoothing: Smoothing,
+    /// How polar buffers are read back at each pixel: the pixel's footprint by default (a
+    /// box over every texel it covers where the buffer is denser than the screen), or the
+    /// paper's bilinear lookup at its centre.
+    pub reconstruct_filter: ReconstructFilter,
+    /// With one ray per sample, the most primary rays a texel of a polar buffer (VaFR, KFR,
+    /// LaFR, visual-polar) casts where it covers several screen pixels: one per pixel it
+    /// covers, up to this (1: one ray everywhere; at most [`MAX_PIXEL_SAMPLES`]).
+    pub periphery_rays: u32,
 }
 
 impl FrameSettings {
@@ -107,6 +119,8 @@ impl FrameSettings {
             keep_samples: false,
             pixel_samples: 1,
             inset_smoothing: Smoothing::ALPHA_BLEND,
+            reconstruct_filter: ReconstructFilter::Footprint,
+            periphery_rays: DEFAULT_PERIPHERY_RAYS,
         }
     }
 
@@ -125,6 +139,13 @@ impl FrameSettings {
                 "pixel-samples",
                 self.pixel_samples,
                 format!("1 to {MAX_PIXEL_SAMPLES} rays per sample"),
+            ));
+        }
+        if !(1..=MAX_PIXEL_SAMPLES).contains(&self.periphery_rays) {
+            return Err(RenderError::invalid(
+                "periphery-rays",
+                self.periphery_rays,
+                format!("1 to {MAX_PIXEL_SAMPLES} rays per texel (1: off)"),
             ));
         }
         if self.memory_limit_bytes == 0 {

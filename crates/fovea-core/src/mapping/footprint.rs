@@ -35,6 +35,20 @@ pub fn sample_spread_rad(
     gaze: &Gaze,
     p: ScreenPoint,
 ) -> f32 {
+    spread_with_floor_rad(mapping, display, gaze, p, 1.0 / display.focal_y_px())
+}
+
+/// [`sample_spread_rad`] with the lower bound `floor_rad` instead of one pixel: where the
+/// reconstruction averages every texel a pixel covers (`ReconstructFilter::Footprint` of
+/// `fovea-post`), a sample denser than the screen keeps its own, narrower cone, and the
+/// reconstruction's box filters the detail to the pixel instead.
+pub fn spread_with_floor_rad(
+    mapping: &dyn FoveationMapping,
+    display: &DisplayProfile,
+    gaze: &Gaze,
+    p: ScreenPoint,
+    floor_rad: f64,
+) -> f32 {
     let e = display.eccentricity(p, gaze).0;
     let rr = mapping.radial_rate_cpd(e);
     let rt = mapping.tangential_rate_cpd(e);
@@ -46,14 +60,13 @@ pub fn sample_spread_rad(
     } else {
         0.0
     };
-    let pixel_rad = 1.0 / display.focal_y_px();
     // `min` then `max` rather than `clamp`: on a tiny display one pixel spans more than
     // `MAX_SPREAD_DEG` (a 1x1 display with a 90° field of view: 1 pixel = 2 rad), and the pixel
     // wins. Wherever pixel ≤ 10° this is exactly `clamp(pixel_rad, 10°)`.
     spacing_deg
         .to_radians()
         .min(MAX_SPREAD_DEG.to_radians())
-        .max(pixel_rad) as f32
+        .max(floor_rad) as f32
 }
 
 /// The ray-cone angle of every sample of one frame: one pixel at full resolution, one value
@@ -67,12 +80,28 @@ pub struct SampleFootprint {
     /// Per column of a polar buffer, radians (`NaN` where the column's centre maps off the
     /// screen: those samples fall back to [`sample_spread_rad`]).
     pub column_rad: Option<Vec<f32>>,
+    /// The narrowest cone, radians: one pixel ([`SampleFootprint::new`]) or less
+    /// ([`SampleFootprint::with_floor`]).
+    pub floor_rad: f32,
 }
 
 impl SampleFootprint {
     /// The footprint table of `mapping` on `display` at `gaze`.
     pub fn new(mapping: &dyn FoveationMapping, display: &DisplayProfile, gaze: &Gaze) -> Self {
+        Self::with_floor(mapping, display, gaze, 1.0)
+    }
+
+    /// The footprint table with cones no narrower than `floor_px` screen pixels (1 in
+    /// [`SampleFootprint::new`]; less where the reconstruction filters dense buffers to the
+    /// pixel itself). Full resolution keeps one pixel.
+    pub fn with_floor(
+        mapping: &dyn FoveationMapping,
+        display: &DisplayProfile,
+        gaze: &Gaze,
+        floor_px: f64,
+    ) -> Self {
         let full = mapping.method() == Method::Full;
+        let floor_rad = floor_px / display.focal_y_px();
         let column_rad = match (full, mapping.polar_layout()) {
             (false, Some(layout)) => Some(
                 (0..layout.rows.len())
@@ -82,9 +111,9 @@ impl SampleFootprint {
                             u: i as f64 + 0.5,
                             v: 0.5,
                         };
-                        mapping
-                            .inverse(s)
-                            .map_or(f32::NAN, |p| sample_spread_rad(mapping, display, gaze, p))
+                        mapping.inverse(s).map_or(f32::NAN, |p| {
+                            spread_with_floor_rad(mapping, display, gaze, p, floor_rad)
+                        })
                     })
                     .collect(),
             ),
@@ -94,6 +123,7 @@ impl SampleFootprint {
             pixel_rad: (1.0 / display.focal_y_px()) as f32,
             full,
             column_rad,
+            floor_rad: floor_rad as f32,
         }
     }
 
@@ -116,7 +146,7 @@ impl SampleFootprint {
             .and_then(|c| c.get(column as usize))
         {
             Some(&s) if s.is_finite() => s,
-            _ => sample_spread_rad(mapping, display, gaze, p),
+            _ => spread_with_floor_rad(mapping, display, gaze, p, self.floor_rad as f64),
         }
     }
 }

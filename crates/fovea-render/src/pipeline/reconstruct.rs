@@ -31,7 +31,14 @@ pub fn reconstruct(
         std::mem::swap(&mut samples.depth[0], depth);
         return Ok(None);
     }
-    reconstruct_into(plan.mapping(), &plan.display, samples, color, depth)?;
+    reconstruct_into(
+        plan.mapping(),
+        &plan.display,
+        samples,
+        color,
+        depth,
+        plan.settings.reconstruct_filter,
+    )?;
     let smoothing = plan.settings.inset_smoothing;
     if plan.method() != Method::Inset || smoothing == Smoothing::None {
         return Ok(None);

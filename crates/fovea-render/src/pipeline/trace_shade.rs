@@ -60,14 +60,29 @@ pub struct Chunk<'a> {
     pub order: &'a [u32],
 }
 
-/// Trace: one G-buffer record per primary ray of `chunk` — `plan.subsamples.len()` per texel
-/// (texel-major) — for texels that the mapping shades, that are not `known` already, and
-/// whose ray's point maps onto the screen; `None` for the others.
+/// Where the rays of each texel of `chunk` (in its visit order) start in the chunk's
+/// G-buffer, texel-major, with the total last: [`crate::plan::TexelRays::count`] rays each.
+pub fn ray_starts(plan: &FramePlan, chunk: Chunk<'_>, starts: &mut Vec<u32>) {
+    starts.clear();
+    starts.reserve(chunk.order.len() + 1);
+    let mut total = 0u32;
+    for &k in chunk.order {
+        starts.push(total);
+        total += plan.rays.count(chunk.layer, k % chunk.row_len as u32);
+    }
+    starts.push(total);
+}
+
+/// Trace: one G-buffer record per primary ray of `chunk` — the texel's
+/// [`crate::plan::TexelRays`], texel-major, starting at `starts` ([`ray_starts`]) — for
+/// texels that the mapping shades, that are not `known` already, and whose ray's point maps
+/// onto the screen; `None` for the others.
 pub fn trace_chunk(
     world: &World,
     camera: &EyeCamera,
     plan: &FramePlan,
     chunk: Chunk<'_>,
+    starts: &[u32],
     known: Option<&Image<bool>>,
     gbuf: &mut Vec<Option<GSample>>,
 ) {
@@ -79,15 +94,14 @@ pub fn trace_chunk(
         row_len,
         order,
     } = chunk;
-    let subsamples = &plan.subsamples;
-    let n = subsamples.len();
-    // Each of n rays covers 1/n of the texel: its cone is 1/√n of the texel's.
-    let cone_scale = 1.0 / (n as f32).sqrt();
-    (0..order.len() * n)
+    let total = starts.last().copied().unwrap_or(0);
+    (0..total)
         .into_par_iter()
         .map(|r| {
-            let k = order[r / n] as usize;
-            let o = subsamples[r % n];
+            let t = starts.partition_point(|&s| s <= r) - 1;
+            let n = starts[t + 1] - starts[t];
+            let k = order[t] as usize;
+            let o = plan.rays.pattern(n).0[(r - starts[t]) as usize];
             let (i, j) = ((k % row_len) as u32, j0 + (k / row_len) as u32);
             if !mapping.is_shaded(layer, i, j) || known.is_some_and(|m| *m.get(i, j)) {
                 return None;
@@ -99,14 +113,19 @@ pub fn trace_chunk(
             };
             let p = mapping.inverse(s)?;
             let spread = plan.footprint.spread_rad(mapping, display, gaze, i, p);
-            let spread = if n == 1 { spread } else { spread * cone_scale };
+            // Each of n rays covers 1/n of the texel: its cone is 1/√n of the texel's.
+            let spread = if n == 1 {
+                spread
+            } else {
+                spread / (n as f32).sqrt()
+            };
             Some(trace_sample(world, &camera.ray(p), spread))
         })
         .collect_into_vec(gbuf);
 }
 
-/// Shade: every texel of `chunk` whose rays hit (`gbuf`, texel-major) shaded — the mean of
-/// its rays — or culled by the plan's DOF roulette (decided by the ray nearest the texel
+/// Shade: every texel of `chunk` whose rays hit (`gbuf`, texel-major from `starts`) shaded —
+/// the mean of its rays — or culled by the plan's DOF roulette (decided by the ray nearest the texel
 /// centre, whose depth is the texel's), and scattered into the chunk's colour and depth
 /// (`color`, `depth`: the chunk's rows). Records the cull state of each sample in
 /// `cull_state` when culling.
@@ -116,6 +135,7 @@ pub fn shade_chunk(
     camera: &EyeCamera,
     plan: &FramePlan,
     chunk: Chunk<'_>,
+    starts: &[u32],
     gbuf: &[Option<GSample>],
     color: &mut [Rgb],
     depth: &mut [f32],
@@ -130,14 +150,14 @@ pub fn shade_chunk(
     } = chunk;
     let shading = plan.settings.shading;
     let cull = plan.culling.as_ref();
-    let n = plan.subsamples.len();
     type Shaded = (Option<Rgb>, f32, Option<SampleCull>, RayCounts);
     let shaded: Vec<Option<Shaded>> = order
         .par_iter()
         .enumerate()
         .map(|(t, &k)| {
-            let rays = &gbuf[t * n..(t + 1) * n];
-            let rep = rays[plan.representative]
+            let rays = &gbuf[starts[t] as usize..starts[t + 1] as usize];
+            let n = rays.len();
+            let rep = rays[plan.rays.pattern(n as u32).1]
                 .as_ref()
                 .or_else(|| rays.iter().flatten().next())?;
             let mut rc = RayCounts::default();
@@ -221,7 +241,8 @@ pub fn trace_and_shade(
             Some(_) => Some(CullBuffers::new(bw, bh)?),
             None => None,
         };
-        let rows_per_chunk = plan.tiles.rows_per_chunk(bw, plan.subsamples.len() as u32);
+        let rows_per_chunk = plan.tiles.rows_per_chunk(bw, plan.rays.most());
+        let mut starts = Vec::new();
         let row_len = bw as usize;
         let chunk_order = plan.tiles.order(row_len, rows_per_chunk);
         let (color, depth) = (&mut samples.color[layer], &mut samples.depth[layer]);
@@ -245,8 +266,9 @@ pub fn trace_and_shade(
                 row_len,
                 order,
             };
+            ray_starts(plan, chunk, &mut starts);
             let t = Stopwatch::start();
-            trace_chunk(world, camera, plan, chunk, known, &mut gbuf);
+            trace_chunk(world, camera, plan, chunk, &starts, known, &mut gbuf);
             times.add(Stage::Trace, &t);
             counts.primary += gbuf.iter().filter(|g| g.is_some()).count() as u64;
 
@@ -257,6 +279,7 @@ pub fn trace_and_shade(
                 camera,
                 plan,
                 chunk,
+                &starts,
                 &gbuf,
                 c_chunk,
                 d_chunk,
