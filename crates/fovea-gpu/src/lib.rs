@@ -43,3 +43,6 @@ pub use backend::{BackendChoice, Resolved};
 pub use device::{AdapterSummary, DeviceKind, GpuContext, GpuRequest};
 pub use error::{GpuError, Result};
 pub use mapping::{Direction, GpuMapping};
+
+/// Every WGSL module of the crate, as the device compiles it.
+pub const ALL_SHADERS: &[shaders::ShaderSource] = &[mapping::vafr::SHADER, mapping::kfr::SHADER];

@@ -1,7 +1,9 @@
-//! The WGSL sources of the crate, each module as the device compiles it: `common.wgsl`
-//! prepended to the module's own file (WGSL has no include). The list is public so that a
-//! plain `cargo test` can parse and validate every module with naga, no driver needed
-//! (`tests/shaders.rs`), and compare the size of each uniform struct with its Rust twin.
+//! How the crate's WGSL modules are described: each module as the device compiles it
+//! (`common.wgsl` prepended to the module's own file, as WGSL has no include), its entry
+//! points and its uniform block. Each pass declares its own [`ShaderSource`] beside the Rust
+//! struct it uploads; [`crate::ALL_SHADERS`] lists them all, so that a plain `cargo test` can
+//! parse and validate every module with naga, no driver needed (`tests/shaders.rs`), and
+//! compare the size of each uniform struct with its Rust twin.
 
 /// One compute module.
 #[derive(Clone, Copy, Debug)]
@@ -22,34 +24,3 @@ pub const WORKGROUP_SIZE: u32 = 64;
 
 /// The shared helpers, prepended to every module.
 pub const COMMON_FILE: &str = "common.wgsl";
-
-/// The VaFR mapping (forward, inverse).
-pub const VAFR_MAPPING: ShaderSource = ShaderSource {
-    file: "vafr_mapping.wgsl",
-    source: concat!(
-        include_str!("../shaders/common.wgsl"),
-        include_str!("../shaders/vafr_mapping.wgsl")
-    ),
-    entry_points: &["forward", "inverse"],
-    uniform: (
-        "VafrParams",
-        std::mem::size_of::<crate::mapping::vafr::VafrUniform>(),
-    ),
-};
-
-/// The KFR / LMFR mapping (forward, inverse).
-pub const KFR_MAPPING: ShaderSource = ShaderSource {
-    file: "kfr_mapping.wgsl",
-    source: concat!(
-        include_str!("../shaders/common.wgsl"),
-        include_str!("../shaders/kfr_mapping.wgsl")
-    ),
-    entry_points: &["forward", "inverse"],
-    uniform: (
-        "KfrParams",
-        std::mem::size_of::<crate::mapping::kfr::KfrUniform>(),
-    ),
-};
-
-/// Every module of the crate.
-pub const ALL: &[ShaderSource] = &[VAFR_MAPPING, KFR_MAPPING];

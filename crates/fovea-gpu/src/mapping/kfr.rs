@@ -7,6 +7,18 @@ use bytemuck::{Pod, Zeroable};
 use fovea_core::mapping::Kfr;
 
 use super::vafr::split_f64;
+use crate::shaders::ShaderSource;
+
+/// The module: forward and inverse entry points, [`KfrUniform`] at binding 0.
+pub const SHADER: ShaderSource = ShaderSource {
+    file: "kfr_mapping.wgsl",
+    source: concat!(
+        include_str!("../../shaders/common.wgsl"),
+        include_str!("../../shaders/kfr_mapping.wgsl")
+    ),
+    entry_points: &["forward", "inverse"],
+    uniform: ("KfrParams", std::mem::size_of::<KfrUniform>()),
+};
 
 /// The uniform block `KfrParams` of `kfr_mapping.wgsl` (same field order; see there).
 #[repr(C)]

@@ -44,23 +44,13 @@ impl GpuMapping {
     /// The VaFR mapping `vafr` on `ctx`.
     pub fn vafr(ctx: &GpuContext, vafr: &fovea_core::mapping::Vafr) -> Result<Self> {
         let block = vafr::VafrUniform::new(vafr)?;
-        Self::new(
-            ctx,
-            "vafr",
-            &crate::shaders::VAFR_MAPPING,
-            bytemuck::bytes_of(&block),
-        )
+        Self::new(ctx, "vafr", &vafr::SHADER, bytemuck::bytes_of(&block))
     }
 
     /// The KFR / LMFR mapping `kfr` on `ctx`.
     pub fn kfr(ctx: &GpuContext, kfr: &fovea_core::mapping::Kfr) -> Result<Self> {
         let block = kfr::KfrUniform::new(kfr);
-        Self::new(
-            ctx,
-            "kfr",
-            &crate::shaders::KFR_MAPPING,
-            bytemuck::bytes_of(&block),
-        )
+        Self::new(ctx, "kfr", &kfr::SHADER, bytemuck::bytes_of(&block))
     }
 
     fn new(

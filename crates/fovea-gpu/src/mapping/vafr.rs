@@ -10,6 +10,18 @@ use bytemuck::{Pod, Zeroable};
 use fovea_core::mapping::Vafr;
 
 use crate::error::{GpuError, Result};
+use crate::shaders::ShaderSource;
+
+/// The module: forward and inverse entry points, [`VafrUniform`] at binding 0.
+pub const SHADER: ShaderSource = ShaderSource {
+    file: "vafr_mapping.wgsl",
+    source: concat!(
+        include_str!("../../shaders/common.wgsl"),
+        include_str!("../../shaders/vafr_mapping.wgsl")
+    ),
+    entry_points: &["forward", "inverse"],
+    uniform: ("VafrParams", std::mem::size_of::<VafrUniform>()),
+};
 
 /// Capacity of the segment and tangential-pivot arrays of the uniform block.
 pub const MAX_PIECES: usize = 16;
