@@ -255,10 +255,10 @@ fn check(p: &Polar, gpu: &GpuMapping, d: &DisplayProfile, label: &str, seed: u64
     let i = compare_inverse(p, gpu, &inv_pts, label);
     common::shout(&format!(
         "[fovea-gpu] {label}: forward {} pts, max {:.2e} buffer px; inverse {} pts, max {:.2e} px; \
-         edge disagreements {}/{}\n    worst forward {}\n    worst inverse {}",
-        f.compared, f.max_err, i.compared, i.max_err, f.edge_disagreements, i.edge_disagreements, f.worst, i.worst
+         edge disagreements {}/{}",
+        f.compared, f.max_err, i.compared, i.max_err, f.edge_disagreements, i.edge_disagreements
     ));
-    // Nothing vacuous: most points have samples on both sides.
+    // Nothing vacuous: a good share of the points have samples on both sides.
     assert!(
         f.compared > fwd_pts.len() / 4,
         "{label}: forward compared only {}",
