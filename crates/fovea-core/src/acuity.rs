@@ -418,6 +418,12 @@ impl TangentialFactor {
         }
     }
 
+    /// The `(eccentricity_deg, ratio)` pivots `Δ` interpolates linearly (constant before the
+    /// first and after the last), e.g. for an executor that uploads them to a shader.
+    pub fn pivots(&self) -> &[(f64, f64)] {
+        &self.pivots
+    }
+
     /// True when `Δ ≡ 1`.
     pub fn is_isotropic(&self) -> bool {
         self.pivots.iter().all(|&(_, r)| r == 1.0)

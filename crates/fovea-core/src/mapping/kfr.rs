@@ -9,7 +9,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::log_polar::delegate_to_log_polar_frame;
-use super::log_polar::{LogPolarFrame, RadialKernel};
+use super::log_polar::{LogPolarFrame, LogPolarGeometry, RadialKernel};
 use super::{BufferSize, FoveationMapping, Method, SamplePoint};
 use crate::display::{DisplayProfile, Gaze};
 use crate::error::{check_range, Result};
@@ -63,6 +63,16 @@ impl Kfr {
             kernel: PowerKernel(params.alpha),
             params,
         })
+    }
+
+    /// The buffer's geometry (VaFR Eq. 1): pole, `ln L`, `W/δ × H/δ`, outer radius.
+    pub fn geometry(&self) -> LogPolarGeometry {
+        self.frame.geometry()
+    }
+
+    /// The kernel exponent α of `u = z^α · W/δ`.
+    pub fn alpha(&self) -> f64 {
+        self.params.alpha
     }
 }
 

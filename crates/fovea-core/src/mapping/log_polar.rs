@@ -23,6 +23,24 @@ pub(crate) trait RadialKernel: Send + Sync {
     fn z_of_u(&self, u: f64) -> f64;
 }
 
+/// The numbers that place a kernel log-polar buffer (KFR, LaFR) on the screen, for an executor
+/// that evaluates the mapping elsewhere (a shader): everything here is computed once, in f64,
+/// by the mapping itself.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LogPolarGeometry {
+    /// The pole (the gaze point), screen pixels.
+    pub gaze: ScreenPoint,
+    /// `ln L`, `L` the distance from the gaze to the farthest screen corner (at least 2 px).
+    pub ln_l: f64,
+    /// Continuous buffer width `W/δ`, buffer pixels.
+    pub width: f64,
+    /// Continuous buffer height `H/δ`, buffer pixels.
+    pub height: f64,
+    /// The forward mapping has no sample farther than this from the gaze, pixels
+    /// (`L` plus a relative 1e-9 for rounding).
+    pub max_radius_px: f64,
+}
+
 /// Geometry of a kernel log-polar buffer for one display and gaze.
 #[derive(Clone, Debug)]
 pub(crate) struct LogPolarFrame {
@@ -52,6 +70,22 @@ impl LogPolarFrame {
             delta,
             screen_pixels: display.pixel_count(),
         })
+    }
+
+    /// The public view of this frame.
+    pub fn geometry(&self) -> LogPolarGeometry {
+        LogPolarGeometry {
+            gaze: self.gaze,
+            ln_l: self.ln_l,
+            width: self.w,
+            height: self.h,
+            max_radius_px: self.max_radius_px(),
+        }
+    }
+
+    /// Farthest radius with a sample, pixels.
+    fn max_radius_px(&self) -> f64 {
+        self.ln_l.exp() * (1.0 + 1e-9)
     }
 
     /// `z(r)`, clamped to [0, 1].
@@ -89,7 +123,7 @@ impl LogPolarFrame {
             return None;
         }
         let (r, theta) = polar_deg(p, self.gaze);
-        if r > self.ln_l.exp() * (1.0 + 1e-9) {
+        if r > self.max_radius_px() {
             return None;
         }
         Some(SamplePoint::new(

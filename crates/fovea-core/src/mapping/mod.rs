@@ -38,6 +38,7 @@ pub use guenter::{GuenterLayers, GuenterParams};
 pub use inset::{Inset, InsetParams};
 pub use kfr::{Kfr, KfrParams};
 pub use lafr::{Lafr, LafrParams};
+pub use log_polar::LogPolarGeometry;
 pub use vafr::{Vafr, VafrParams};
 pub use visual_polar::{VisualPolar, VisualPolarInverse, VisualPolarParams};
 pub use weier::{RadialDensity, WeierParams, WeierSparse};

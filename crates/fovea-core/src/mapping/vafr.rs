@@ -130,6 +130,22 @@ impl Vafr {
         self.e_max
     }
 
+    /// The pole of the mapping: the gaze point, screen pixels.
+    pub fn gaze(&self) -> ScreenPoint {
+        self.gaze
+    }
+
+    /// The display constant `c_r` of VaFR Eq. 3 (`e = atan(c_r · r)`), per pixel.
+    pub fn c_r(&self) -> f64 {
+        self.c_r
+    }
+
+    /// The screen radius of the buffer's edge, `tan(e_max)/c_r` pixels (Eq. 3 inverted):
+    /// [`FoveationMapping::forward`] has no sample farther than this from the gaze.
+    pub fn max_radius_px(&self) -> f64 {
+        self.e_max.to_radians().tan() / self.c_r
+    }
+
     /// `u(e_max)`: the continuous buffer width.
     pub fn u_max(&self) -> f64 {
         self.u_max

@@ -1,0 +1,48 @@
+//! # fovea-gpu
+//!
+//! The GPU executor of the fovea frame plan, on [wgpu](https://wgpu.rs): compute passes that
+//! mirror the CPU stages, so that the two can be compared pass by pass. One source of truth
+//! for the math: the f64 Rust mappings of `fovea-core` stay the reference, and every constant a
+//! shader needs is computed by them and uploaded; the WGSL derives none of its own.
+//!
+//! What exists (see `docs/gpu.md`):
+//!
+//! * [`device`]: opening a device with typed, one-line errors and no panics
+//!   ([`GpuContext`], [`GpuRequest`], [`AdapterSummary`]).
+//! * [`backend`]: `--backend cpu|gpu|auto` ([`BackendChoice`]).
+//! * [`mapping`]: VaFR and KFR forward/inverse mappings on the GPU ([`GpuMapping`]).
+//! * [`shaders`]: the WGSL sources, validated with naga in a plain `cargo test`.
+//!
+//! ```no_run
+//! use fovea_core::display::DisplayProfile;
+//! use fovea_core::mapping::{Vafr, VafrParams};
+//! use fovea_gpu::{BackendChoice, GpuMapping, GpuRequest, Resolved};
+//!
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let display = DisplayProfile::preset("vive-pro-eye")?;
+//! let vafr = Vafr::new(&display, display.gaze(700.0, 820.0)?, VafrParams::default())?;
+//! match BackendChoice::Auto.resolve(&GpuRequest::default())? {
+//!     Resolved::Gpu(ctx) => {
+//!         let gpu = GpuMapping::vafr(&ctx, &vafr)?;
+//!         let lp = gpu.forward(&[[900.5, 600.5]])?; // screen → LP buffer, on the GPU
+//!         println!("GPU: {} → {:?}", ctx.adapter(), lp[0]);
+//!     }
+//!     cpu => println!("{}", cpu.describe()),
+//! }
+//! # Ok(())
+//! # }
+//! ```
+
+pub mod backend;
+pub mod device;
+pub mod error;
+pub mod mapping;
+pub mod shaders;
+
+pub use backend::{BackendChoice, Resolved};
+pub use device::{AdapterSummary, DeviceKind, GpuContext, GpuRequest};
+pub use error::{GpuError, Result};
+pub use mapping::{Direction, GpuMapping};
+
+/// Every WGSL module of the crate, as the device compiles it.
+pub const ALL_SHADERS: &[shaders::ShaderSource] = &[mapping::vafr::SHADER, mapping::kfr::SHADER];

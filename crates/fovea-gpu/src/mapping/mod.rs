@@ -1,0 +1,261 @@
+//! Foveation mappings evaluated on the GPU: forward (screen → sample space) and inverse
+//! (sample space → screen) for batches of points, one compute invocation per point, so that
+//! the shaders can be compared with the f64 Rust mappings they mirror (`tests/mapping.rs`) and
+//! later passes (reconstruction, ray generation) can call the same WGSL functions.
+//!
+//! * [`vafr`]: VaFR (Zhang et al., Eq. 3–12, 19).
+//! * [`kfr`]: KFR / LMFR (VaFR Eq. 1, 14).
+//!
+//! Points travel as f32 (`[x, y]` screen pixels or `[u, v]` buffer pixels); the answer is
+//! `None` where the Rust mapping returns `None`. Non-finite inputs are answered on the CPU
+//! (`None`, as the reference does) and never reach a shader.
+
+pub mod kfr;
+pub mod vafr;
+
+use crate::device::GpuContext;
+use crate::error::Result;
+use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
+
+/// Bytes per input point (`vec2<f32>`).
+const IN_BYTES: u64 = 8;
+/// Bytes per output point (`vec4<f32>`: x, y, valid, unused).
+const OUT_BYTES: u64 = 16;
+
+/// Which way a batch goes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Direction {
+    /// Screen pixels → sample space.
+    Forward,
+    /// Sample space → screen pixels.
+    Inverse,
+}
+
+/// A mapping's compute pipelines and its uploaded parameters, on one device.
+pub struct GpuMapping {
+    ctx: GpuContext,
+    name: &'static str,
+    uniform: wgpu::Buffer,
+    forward: wgpu::ComputePipeline,
+    inverse: wgpu::ComputePipeline,
+}
+
+impl GpuMapping {
+    /// The VaFR mapping `vafr` on `ctx`.
+    pub fn vafr(ctx: &GpuContext, vafr: &fovea_core::mapping::Vafr) -> Result<Self> {
+        let block = vafr::VafrUniform::new(vafr)?;
+        Self::new(ctx, "vafr", &vafr::SHADER, bytemuck::bytes_of(&block))
+    }
+
+    /// The KFR / LMFR mapping `kfr` on `ctx`.
+    pub fn kfr(ctx: &GpuContext, kfr: &fovea_core::mapping::Kfr) -> Result<Self> {
+        let block = kfr::KfrUniform::new(kfr);
+        Self::new(ctx, "kfr", &kfr::SHADER, bytemuck::bytes_of(&block))
+    }
+
+    fn new(
+        ctx: &GpuContext,
+        name: &'static str,
+        shader: &ShaderSource,
+        uniform_bytes: &[u8],
+    ) -> Result<Self> {
+        let device = ctx.device();
+        let (uniform, forward, inverse) =
+            ctx.scoped(&format!("building the {name} pipelines"), || {
+                let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                    label: Some(shader.file),
+                    source: wgpu::ShaderSource::Wgsl(shader.source.into()),
+                });
+                let uniform = upload(
+                    ctx,
+                    "mapping parameters",
+                    uniform_bytes,
+                    wgpu::BufferUsages::UNIFORM,
+                );
+                let pipeline = |entry: &str| {
+                    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                        label: Some(entry),
+                        layout: None,
+                        module: &module,
+                        entry_point: Some(entry),
+                        compilation_options: Default::default(),
+                        cache: None,
+                    })
+                };
+                (uniform, pipeline("forward"), pipeline("inverse"))
+            })?;
+        Ok(Self {
+            ctx: ctx.clone(),
+            name,
+            uniform,
+            forward,
+            inverse,
+        })
+    }
+
+    /// Screen pixels → sample space (`[u, v]`), as [`FoveationMapping::forward`](fovea_core::mapping::FoveationMapping::forward).
+    pub fn forward(&self, points_px: &[[f32; 2]]) -> Result<Vec<Option<[f32; 2]>>> {
+        self.run(Direction::Forward, points_px)
+    }
+
+    /// Sample space (`[u, v]`) → screen pixels, as [`FoveationMapping::inverse`](fovea_core::mapping::FoveationMapping::inverse).
+    pub fn inverse(&self, samples: &[[f32; 2]]) -> Result<Vec<Option<[f32; 2]>>> {
+        self.run(Direction::Inverse, samples)
+    }
+
+    /// Maps `points` in batches that fit the device's limits (binding size, workgroups per
+    /// dispatch).
+    pub fn run(&self, direction: Direction, points: &[[f32; 2]]) -> Result<Vec<Option<[f32; 2]>>> {
+        let limits = self.ctx.limits();
+        let by_binding = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size)
+            / OUT_BYTES;
+        let by_dispatch =
+            limits.max_compute_workgroups_per_dimension as u64 * WORKGROUP_SIZE as u64;
+        let batch = by_binding.min(by_dispatch).clamp(1, 1 << 22) as usize;
+        let mut out = Vec::with_capacity(points.len());
+        for chunk in points.chunks(batch) {
+            out.extend(self.run_batch(direction, chunk)?);
+        }
+        Ok(out)
+    }
+
+    fn run_batch(
+        &self,
+        direction: Direction,
+        points: &[[f32; 2]],
+    ) -> Result<Vec<Option<[f32; 2]>>> {
+        // Non-finite points are answered here; the shader sees a harmless stand-in.
+        let finite: Vec<bool> = points
+            .iter()
+            .map(|p| p[0].is_finite() && p[1].is_finite())
+            .collect();
+        let input: Vec<[f32; 2]> = points
+            .iter()
+            .zip(&finite)
+            .map(|(&p, &ok)| if ok { p } else { [0.0, 0.0] })
+            .collect();
+        let n = input.len().max(1) as u64;
+        let what = format!(
+            "the {} {:?} mapping of {} points",
+            self.name,
+            direction,
+            points.len()
+        );
+        self.ctx.check_storage_binding(&what, n * OUT_BYTES)?;
+        let device = self.ctx.device();
+        let pipeline = match direction {
+            Direction::Forward => &self.forward,
+            Direction::Inverse => &self.inverse,
+        };
+        let readback = self.ctx.scoped(&what, || {
+            let contents: &[u8] = if input.is_empty() {
+                &[0u8; IN_BYTES as usize]
+            } else {
+                bytemuck::cast_slice(&input)
+            };
+            let input_buf = upload(
+                &self.ctx,
+                "points in",
+                contents,
+                wgpu::BufferUsages::STORAGE,
+            );
+            let output = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("points out"),
+                size: n * OUT_BYTES,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            let readback = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("points readback"),
+                size: n * OUT_BYTES,
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            });
+            let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("mapping bindings"),
+                layout: &pipeline.get_bind_group_layout(0),
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: self.uniform.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: input_buf.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: output.as_entire_binding(),
+                    },
+                ],
+            });
+            let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("mapping"),
+            });
+            {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("mapping"),
+                    timestamp_writes: None,
+                });
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, &bind, &[]);
+                pass.dispatch_workgroups(n.div_ceil(WORKGROUP_SIZE as u64) as u32, 1, 1);
+            }
+            encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, n * OUT_BYTES);
+            self.ctx.queue().submit([encoder.finish()]);
+            readback
+        })?;
+        let raw = read_buffer(&self.ctx, &readback, &what)?;
+        let values: &[[f32; 4]] = bytemuck::cast_slice(&raw);
+        Ok(values
+            .iter()
+            .zip(&finite)
+            .take(points.len())
+            .map(|(v, &ok)| (ok && v[2] != 0.0).then_some([v[0], v[1]]))
+            .collect())
+    }
+}
+
+/// A buffer holding `contents` (a multiple of 4 bytes). Unlike wgpu's `create_buffer_init`,
+/// which panics when the device is lost, a failure here is an error of the enclosing scope.
+fn upload(
+    ctx: &GpuContext,
+    label: &str,
+    contents: &[u8],
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    let buffer = ctx.device().create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: contents.len() as u64,
+        usage: usage | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    ctx.queue().write_buffer(&buffer, 0, contents);
+    buffer
+}
+
+/// Maps `buffer` (MAP_READ) and copies it out; waits for the queue.
+fn read_buffer(ctx: &GpuContext, buffer: &wgpu::Buffer, what: &str) -> Result<Vec<u8>> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+        let _ = tx.send(r);
+    });
+    ctx.wait_idle(what)?;
+    let mapped = rx.recv().map_err(|_| crate::GpuError::DeviceLost {
+        reason: format!("the readback of {what} never completed"),
+    })?;
+    mapped.map_err(|e| crate::GpuError::DeviceLost {
+        reason: format!("reading back {what}: {e}"),
+    })?;
+    let bytes = ctx.scoped(what, || {
+        buffer.get_mapped_range(..).map(|view| view.to_vec())
+    })?;
+    let bytes = bytes.map_err(|e| crate::GpuError::Validation {
+        what: what.to_string(),
+        message: crate::error::one_line(&e.to_string()),
+    })?;
+    buffer.unmap();
+    Ok(bytes)
+}

@@ -1,0 +1,26 @@
+//! How the crate's WGSL modules are described: each module as the device compiles it
+//! (`common.wgsl` prepended to the module's own file, as WGSL has no include), its entry
+//! points and its uniform block. Each pass declares its own [`ShaderSource`] beside the Rust
+//! struct it uploads; [`crate::ALL_SHADERS`] lists them all, so that a plain `cargo test` can
+//! parse and validate every module with naga, no driver needed (`tests/shaders.rs`), and
+//! compare the size of each uniform struct with its Rust twin.
+
+/// One compute module.
+#[derive(Clone, Copy, Debug)]
+pub struct ShaderSource {
+    /// The module's file under `shaders/`.
+    pub file: &'static str,
+    /// The full source the device compiles.
+    pub source: &'static str,
+    /// The entry points the crate creates pipelines for.
+    pub entry_points: &'static [&'static str],
+    /// The WGSL uniform struct of the module and the size of the Rust `#[repr(C)]` struct
+    /// uploaded into it, bytes.
+    pub uniform: (&'static str, usize),
+}
+
+/// Workgroup size of every compute entry point (`WORKGROUP_SIZE` in `common.wgsl`).
+pub const WORKGROUP_SIZE: u32 = 64;
+
+/// The shared helpers, prepended to every module.
+pub const COMMON_FILE: &str = "common.wgsl";

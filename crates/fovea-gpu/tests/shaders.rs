@@ -1,0 +1,137 @@
+//! Every WGSL module of the crate parses and validates with naga (the shader compiler wgpu
+//! itself uses), its entry points are the ones the Rust side creates pipelines for, with the
+//! workgroup size the Rust side dispatches with, and its uniform block has the size of the
+//! Rust struct uploaded into it. No GPU and no driver needed.
+
+use fovea_gpu::shaders::{ShaderSource, COMMON_FILE, WORKGROUP_SIZE};
+use fovea_gpu::ALL_SHADERS as ALL;
+
+fn validate(shader: &ShaderSource) -> (naga::Module, naga::valid::ModuleInfo) {
+    let module = naga::front::wgsl::parse_str(shader.source).unwrap_or_else(|e| {
+        panic!(
+            "{} does not parse:\n{}",
+            shader.file,
+            e.emit_to_string(shader.source)
+        )
+    });
+    let info = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::default(),
+    )
+    .validate(&module)
+    .unwrap_or_else(|e| {
+        panic!(
+            "{} does not validate:\n{}",
+            shader.file,
+            e.emit_to_string(shader.source)
+        )
+    });
+    (module, info)
+}
+
+#[test]
+fn every_module_parses_and_validates() {
+    assert!(!ALL.is_empty());
+    for shader in ALL {
+        validate(shader);
+    }
+}
+
+#[test]
+fn entry_points_are_the_dispatched_ones() {
+    for shader in ALL {
+        let (module, _) = validate(shader);
+        let mut names: Vec<&str> = module
+            .entry_points
+            .iter()
+            .map(|e| e.name.as_str())
+            .collect();
+        names.sort_unstable();
+        let mut want = shader.entry_points.to_vec();
+        want.sort_unstable();
+        assert_eq!(names, want, "{}", shader.file);
+        for e in &module.entry_points {
+            assert_eq!(
+                e.stage,
+                naga::ShaderStage::Compute,
+                "{}::{}",
+                shader.file,
+                e.name
+            );
+            assert_eq!(
+                e.workgroup_size,
+                [WORKGROUP_SIZE, 1, 1],
+                "{}::{}: the Rust side dispatches ceil(n / {WORKGROUP_SIZE}) workgroups",
+                shader.file,
+                e.name
+            );
+        }
+    }
+}
+
+#[test]
+fn uniform_blocks_match_their_rust_structs() {
+    for shader in ALL {
+        let (module, _) = validate(shader);
+        let (name, rust_size) = shader.uniform;
+        let ty = module
+            .types
+            .iter()
+            .find(|(_, t)| t.name.as_deref() == Some(name))
+            .unwrap_or_else(|| panic!("{}: no struct {name}", shader.file))
+            .1;
+        let naga::TypeInner::Struct { span, .. } = &ty.inner else {
+            panic!("{}: {name} is not a struct", shader.file)
+        };
+        assert_eq!(
+            *span as usize, rust_size,
+            "{}: WGSL {name} is {span} bytes, its Rust twin {rust_size}",
+            shader.file
+        );
+    }
+}
+
+#[test]
+fn every_wgsl_file_is_compiled_by_some_module() {
+    // A shader file on disk that no module includes would escape validation.
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+    let mut seen = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let name = entry.unwrap().file_name().into_string().unwrap();
+        if !name.ends_with(".wgsl") {
+            continue;
+        }
+        seen += 1;
+        assert!(
+            name == COMMON_FILE || ALL.iter().any(|s| s.file == name),
+            "shaders/{name} is in no module of fovea_gpu::ALL_SHADERS"
+        );
+    }
+    assert_eq!(seen, ALL.len() + 1);
+}
+
+#[test]
+fn a_broken_shader_is_caught() {
+    // The check above can fail: a type error in a copy of a module is reported.
+    let broken = ShaderSource {
+        source: Box::leak(
+            ALL[0]
+                .source
+                .replacen("let r = length(d);", "let r: u32 = length(d);", 1)
+                .into_boxed_str(),
+        ),
+        ..ALL[0]
+    };
+    assert_ne!(broken.source, ALL[0].source);
+    let module = naga::front::wgsl::parse_str(broken.source);
+    let failed = match module {
+        Err(_) => true,
+        Ok(m) => naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::default(),
+        )
+        .validate(&m)
+        .is_err(),
+    };
+    assert!(failed);
+}
