@@ -342,14 +342,19 @@ fn vafr_checks(
                 format!(
                     "Quality falls with eccentricity: {what} in the outermost band with content above the fovea's"
                 ),
-                flip_last > f0 || (f0.abs().max(flip_last.abs()) <= FLIP_LOSS_FLOOR),
+                flip_last > f0 || flip_last <= FLIP_LOSS_FLOOR,
                 format!(
                     "{f0:.4} within 5°, {flip_last:.4} {}{unit}{skip_note}{}",
                     band_name(last),
                     if flip_last > f0 {
                         String::new()
+                    } else if flip_last <= FLIP_LOSS_FLOOR {
+                        format!(
+                            "; no loss above {FLIP_LOSS_FLOOR} in the outer band: VaFR is as \
+                             faithful there as the one-ray full frame, nothing to fall"
+                        )
                     } else {
-                        format!("; no loss above {FLIP_LOSS_FLOOR} in either band: nothing to fall")
+                        "; the outer band loses less than the fovea".to_string()
                     }
                 ),
             );
