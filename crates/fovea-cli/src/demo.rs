@@ -28,7 +28,7 @@ use fovea_render::world::World;
 
 use crate::choices::Headset;
 use crate::common::preset;
-use crate::output::{side_by_side, write_rgb};
+use crate::output::{difference_map, mark_ring, side_by_side, write_rgb, zoomed_crop};
 use crate::sequence::gaze_trajectory;
 
 /// Options of `fovea demo`.
@@ -142,14 +142,52 @@ pub fn run(args: DemoArgs) -> Result<()> {
         ToneCurve::Reinhard,
     )?;
     let (w, h) = (display.width_px, display.height_px);
-    let both = side_by_side(&fov.color, &reference.color)?;
+    let (gx, gy) = (eye.gaze.point.x_px, eye.gaze.point.y_px);
+    // The gaze point, ringed on both halves (a ring, not a dot: the pixels under it stay
+    // visible). Linear values far above 1 come out bright yellow through the Reinhard curve.
+    let ring_px = (0.012 * h as f64).max(6.0);
+    let yellow = [60.0, 40.0, 0.0];
+    let mut both = side_by_side(&fov.color, &reference.color)?;
+    mark_ring(&mut both, gx, gy, ring_px, yellow);
+    mark_ring(&mut both, gx + w as f64, gy, ring_px, yellow);
     write_rgb(
         &dir.join("side-by-side.png"),
         &both,
         0.0,
         ToneCurve::Reinhard,
     )?;
-    let overlay = density_overlay(&fov.color, Some(&density))?;
+    // Zoomed crops, foveated | reference: around the gaze, and 30° out from it towards the
+    // screen's far side (the periphery as it is rendered, not as the eye sees it).
+    let crop = (h / 12).clamp(16, 160);
+    let zoom = (360 / crop).max(2);
+    let far = {
+        let (cx, cy) = (w as f64 / 2.0, h as f64 / 2.0);
+        let (dx, dy) = (cx - gx, cy - gy);
+        let len = dx.hypot(dy);
+        let (ux, uy) = if len > 1.0 {
+            (dx / len, dy / len)
+        } else {
+            (1.0, 0.0)
+        };
+        let r = display.radius_px(fovea_core::units::Degrees(30.0));
+        (
+            (gx + ux * r).clamp(0.0, w as f64 - 1.0),
+            (gy + uy * r).clamp(0.0, h as f64 - 1.0),
+        )
+    };
+    for (name, (x, y)) in [("crop-gaze.png", (gx, gy)), ("crop-periphery.png", far)] {
+        let pair = side_by_side(
+            &zoomed_crop(&fov.color, x, y, crop, zoom)?,
+            &zoomed_crop(&reference.color, x, y, crop, zoom)?,
+        )?;
+        write_rgb(&dir.join(name), &pair, 0.0, ToneCurve::Reinhard)?;
+    }
+    let gain = 4.0;
+    let (mut diff, mean_diff) = difference_map(&fov.color, &reference.color, gain)?;
+    mark_ring(&mut diff, gx, gy, ring_px, [0.0, 0.3, 1.0]);
+    write_rgb(&dir.join("difference.png"), &diff, 0.0, ToneCurve::Clamp)?;
+    let mut overlay = density_overlay(&fov.color, Some(&density))?;
+    mark_ring(&mut overlay, gx, gy, ring_px, [1.0, 1.0, 1.0]);
     write_rgb(
         &dir.join("density-overlay.png"),
         &overlay,
@@ -164,14 +202,27 @@ pub fn run(args: DemoArgs) -> Result<()> {
 <body>
 <h1>fovea demo — {name}, {w}×{h} per eye</h1>
 <p>Left: what the eye gets when the renderer knows where it looks — VaFR shades {samples} samples per frame ({share:.0} % of the {full_px} pixels), densest at the gaze, and blurs what lies outside the depth the eye focuses on (auto focus, {focus:.2} m here). Right: every pixel ray-traced at full resolution with the same blur.</p>
-<p>The density overlay tints each pixel by how many samples VaFR spends on it (red = one or more per pixel, blue = few); the frames follow a gaze that fixates, pursues and jumps.</p>
-<h2>Foveated | full resolution (frame {middle})</h2><img src="side-by-side.png" alt="foveated and full-resolution frames side by side">
-<h2>Samples per pixel</h2><img src="density-overlay.png" alt="sample density over the frame">
+<p>The yellow ring marks where the eye looks in this frame, ({gx:.0}, {gy:.0}); the frames below follow a gaze that fixates, pursues and jumps.</p>
+<h2>Foveated | full resolution (frame {middle})</h2><img src="side-by-side.png" alt="foveated and full-resolution frames side by side, the gaze ringed">
+<h2>Up close, foveated | full resolution, ×{zoom}</h2>
+<p>{crop}×{crop} pixels around the gaze:</p><img src="crop-gaze.png" alt="zoomed crops around the gaze">
+<p>{crop}×{crop} pixels 30° from the gaze, at ({fx:.0}, {fy:.0}), where VaFR spends few samples and the eye resolves little:</p><img src="crop-periphery.png" alt="zoomed crops in the periphery">
+<h2>Difference</h2>
+<p>How far the foveated frame is from the full-resolution one as displayed: |display luma difference| × {gain} (black = none, red → yellow → white = a quarter of the range or more); mean difference {mean_pct:.2} % of the range. The blue ring is the gaze. The environment light is sampled with a few rays per sample, so its Monte Carlo noise differs between the two frames and shows as a faint red haze everywhere; edges and fine texture that foveation changes stand out above it.</p>
+<img src="difference.png" alt="difference image">
+<h2>Samples per pixel</h2>
+<p>Each pixel is tinted by how many samples VaFR spends on it:</p>
+<div style="display:flex;align-items:center;gap:.5em;max-width:600px"><span>≤ 1/64</span><div style="flex:1;height:14px;background:linear-gradient(to right,rgb(0,0,255),rgb(0,255,0),rgb(255,0,0))"></div><span>≥ 1 per pixel</span></div>
+<p style="max-width:600px;display:flex;justify-content:space-between;margin-top:0"><span></span><span>1/8</span><span></span></p>
+<img src="density-overlay.png" alt="sample density over the frame">
 <h2>Frames</h2>{frames}
 </body></html>
 "#,
         name = display.name,
         share = 100.0 * samples as f64 / full_px as f64,
+        fx = far.0,
+        fy = far.1,
+        mean_pct = 100.0 * mean_diff,
         frames = (0..args.frames)
             .map(|i| format!(r#"<img src="frame_{i:05}.png" width="220" alt="frame {i}">"#))
             .collect::<Vec<_>>()

@@ -26,6 +26,79 @@ pub fn side_by_side(left: &Image<Rgb>, right: &Image<Rgb>) -> Result<Image<Rgb>>
     Ok(Image::from_vec(2 * w, h, data)?)
 }
 
+/// A `size × size` crop of `img` centred on `(cx, cy)` (moved inside the image where it would
+/// cross an edge; smaller where the image is), enlarged `zoom` times by pixel replication so
+/// that single pixels stay visible.
+pub fn zoomed_crop(img: &Image<Rgb>, cx: f64, cy: f64, size: u32, zoom: u32) -> Result<Image<Rgb>> {
+    let (w, h) = (img.width(), img.height());
+    let (sw, sh) = (size.min(w).max(1), size.min(h).max(1));
+    let x0 = ((cx - sw as f64 / 2.0).round().max(0.0) as u32).min(w - sw);
+    let y0 = ((cy - sh as f64 / 2.0).round().max(0.0) as u32).min(h - sh);
+    let zoom = zoom.max(1);
+    let mut data = Vec::with_capacity((sw * zoom) as usize * (sh * zoom) as usize);
+    for y in 0..sh * zoom {
+        for x in 0..sw * zoom {
+            data.push(*img.get(x0 + x / zoom, y0 + y / zoom));
+        }
+    }
+    Ok(Image::from_vec(sw * zoom, sh * zoom, data)?)
+}
+
+/// Draws a ring of radius `r_px`, about 2 pixels wide, centred on `(x, y)` into `img`, in
+/// `colour` (linear RGB), so a viewer can find the gaze point.
+pub fn mark_ring(img: &mut Image<Rgb>, x: f64, y: f64, r_px: f64, colour: Rgb) {
+    let (w, h) = (img.width() as i64, img.height() as i64);
+    let reach = (r_px + 2.0).ceil() as i64;
+    let (xi, yi) = (x.floor() as i64, y.floor() as i64);
+    for py in (yi - reach).max(0)..(yi + reach + 1).min(h) {
+        for px in (xi - reach).max(0)..(xi + reach + 1).min(w) {
+            let d = (px as f64 + 0.5 - x).hypot(py as f64 + 0.5 - y);
+            if (d - r_px).abs() <= 1.0 {
+                *img.get_mut(px as u32, py as u32) = colour;
+            }
+        }
+    }
+}
+
+/// The difference of two frames as the viewer sees them: the absolute difference of their
+/// display luma (the Reinhard curve, then sRGB encoding, as the PNGs), times `gain`, as a
+/// heat map from black through red and yellow to white (linear RGB, to be written with the
+/// clamp curve). Also returns the mean absolute display-luma difference (0–1, before the gain).
+pub fn difference_map(a: &Image<Rgb>, b: &Image<Rgb>, gain: f32) -> Result<(Image<Rgb>, f64)> {
+    if (a.width(), a.height()) != (b.width(), b.height()) {
+        bail!(
+            "difference: {}x{} and {}x{} differ",
+            a.width(),
+            a.height(),
+            b.width(),
+            b.height()
+        );
+    }
+    let display = |c: &Rgb| {
+        let l = fovea_post::luma(*c).max(0.0);
+        fovea_post::tonemap::linear_to_srgb(l / (1.0 + l))
+    };
+    let mut sum = 0.0f64;
+    let data: Vec<Rgb> = a
+        .data()
+        .iter()
+        .zip(b.data())
+        .map(|(p, q)| {
+            let d = (display(p) - display(q)).abs();
+            sum += d as f64;
+            let t = (d * gain).clamp(0.0, 1.0) * 3.0;
+            let enc = [
+                t.min(1.0),
+                (t - 1.0).clamp(0.0, 1.0),
+                (t - 2.0).clamp(0.0, 1.0),
+            ];
+            enc.map(fovea_post::tonemap::srgb_to_linear)
+        })
+        .collect();
+    let n = data.len().max(1) as f64;
+    Ok((Image::from_vec(a.width(), a.height(), data)?, sum / n))
+}
+
 fn ensure_parent(path: &Path) -> Result<()> {
     if let Some(dir) = path.parent() {
         if !dir.as_os_str().is_empty() {

@@ -291,15 +291,31 @@ fn demo_writes_frames_reference_overlay_and_index() {
         "reference.png",
         "side-by-side.png",
         "density-overlay.png",
+        "crop-gaze.png",
+        "crop-periphery.png",
+        "difference.png",
     ] {
         assert!(image::image_dimensions(d.join(f)).is_ok(), "{f}");
     }
+    // Two zoomed 133×133 crops side by side, ×2 (1600/12 px, 360/133).
+    assert_eq!(
+        image::image_dimensions(d.join("crop-gaze.png")).unwrap(),
+        (532, 266)
+    );
     assert_eq!(
         image::image_dimensions(d.join("side-by-side.png")).unwrap(),
         (2880, 1600)
     );
     let html = std::fs::read_to_string(d.join("index.html")).unwrap();
     assert!(html.contains("side-by-side.png") && html.contains("VaFR"));
+    for part in [
+        "crop-gaze.png",
+        "crop-periphery.png",
+        "difference.png",
+        "ring marks",
+    ] {
+        assert!(html.contains(part), "{part}");
+    }
     assert!(String::from_utf8_lossy(&o.stdout).contains("index.html"));
     for bad in [
         vec!["demo", "--frames", "0"],
