@@ -53,6 +53,8 @@ pub struct SequenceArgs {
     #[command(flatten)]
     pub frame: FrameOptions,
     #[command(flatten)]
+    pub env: crate::render::EnvLightArgs,
+    #[command(flatten)]
     pub dof: DofArgs,
     /// Frames to render.
     #[arg(long, default_value_t = 120)]
@@ -185,6 +187,14 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     settings.contrast = contrast;
     settings.dof = dof;
     args.frame.apply(&mut settings);
+    settings.shading = crate::render::shading(
+        crate::choices::Shading::Direct,
+        1,
+        1,
+        0,
+        &args.env,
+        crate::choices::EnvLightChoice::Occluded,
+    )?;
     settings.validate()?;
 
     // The settings the frames depend on: a folder rendered with others is not resumed.

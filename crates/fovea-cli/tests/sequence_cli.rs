@@ -62,6 +62,18 @@ fn frames_resume_and_settings_are_checked() {
     );
     let fresh = ok(&run(&out, &["--method", "kfr", "--overwrite"]));
     assert!(fresh.contains("4 rendered"), "{fresh}");
+    // The environment light is a setting of the sequence like any other: another one is
+    // refused in the same folder; out-of-range rays are a one-line error.
+    let env = run(&out, &["--method", "kfr", "--env-light", "unshadowed"]);
+    assert!(!env.status.success());
+    assert!(String::from_utf8_lossy(&env.stderr).contains("--overwrite"));
+    let bad = run(&dir.path().join("bad"), &["--env-samples", "999"]);
+    assert_eq!(bad.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(
+        err.contains("env-samples") && err.trim_end().lines().count() == 1,
+        "{err}"
+    );
 }
 
 #[test]
