@@ -261,7 +261,8 @@ pub struct FrameOptions {
     pub reconstruct_filter: ReconstructFilterChoice,
     /// With one ray per sample, the most primary rays a texel of VaFR, KFR, LaFR or
     /// visual-polar casts where it covers several screen pixels (one per pixel it covers, up
-    /// to this; 1 to 64, 1: off): the anti-aliased periphery.
+    /// to this; 1 to 64; 1, the default: one ray per texel, as the paper). Steadier edges
+    /// under gaze motion at about twice VaFR's rays (docs/rendering.md).
     #[arg(long, default_value_t = DEFAULT_PERIPHERY_RAYS,
           value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_PIXEL_SAMPLES)))]
     pub periphery_rays: u32,
