@@ -1,10 +1,10 @@
 #!/usr/bin/env python3
-"""Seeds the fuzz corpora: fuzz/corpus/<target>/ gets the malformed files of
-crates/fovea-render/tests/corpus/ and a few small valid files written here.
+"""Writes the fuzz seeds: fuzz/seeds/<target>/seed-* are the malformed files of
+crates/fovea-render/tests/corpus/ and a few small valid files written here. The inputs of
+crashes fuzzing found are kept beside them as regression-* (by hand). Fuzzing reads them as
+a second corpus folder and adds its finds to fuzz/corpus/<target>/ (see docs/fuzzing.md).
 
-    python3 fuzz/seeds.py            # then fuzz, then `cargo fuzz cmin <target>`
-
-Files are named seed-*; fuzzing adds files named by their SHA-1. The harness
+    python3 fuzz/seeds.py The harness
 (fuzz/src/lib.rs) splits `obj` inputs at MTL_MARKER (the rest is `m.mtl`) and `mitsuba`
 inputs at INCLUDE_MARKER (the rest is `inc.xml`); `mesh.obj` and `mesh.ply` lie beside them.
 """
@@ -17,7 +17,7 @@ import struct
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 TESTS = ROOT / "crates/fovea-render/tests/corpus"
-OUT = ROOT / "fuzz/corpus"
+OUT = ROOT / "fuzz/seeds"
 MTL_MARKER = b"\n##mtl\n"
 INCLUDE_MARKER = b"\n<!--inc.xml-->\n"
 

@@ -1,8 +1,8 @@
-//! Replays the fuzzing corpus (`fuzz/corpus/<target>/`, minimised with `cargo fuzz cmin`)
-//! through the fuzz targets' own harness (`fuzz/src/lib.rs`, included below), on stable and
-//! without libFuzzer: every file must load or be refused with a one-line typed error, never
-//! panic. The regression inputs of crashes the fuzzer found are in the corpus too
-//! (`fuzz/corpus/<target>/regression-*`). See docs/fuzzing.md.
+//! Replays the fuzzing corpus (`fuzz/corpus/<target>/`, minimised with `fuzz/minimise.py`)
+//! and the seeds (`fuzz/seeds/<target>/`: `seed-*` from `fuzz/seeds.py`, and `regression-*`,
+//! the inputs of crashes the fuzzer found) through the fuzz targets' own harness
+//! (`fuzz/src/lib.rs`, included below), on stable and without libFuzzer: every file must load
+//! or be refused with a one-line typed error, never panic. See docs/fuzzing.md.
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::Path;
@@ -24,13 +24,16 @@ const TARGETS: [(&str, fn(&[u8]) -> Outcome); 6] = [
 
 #[test]
 fn fuzz_corpus_loads_or_fails_cleanly() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/corpus");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz");
     let mut failures = Vec::new();
     for (target, run) in TARGETS {
-        let mut files: Vec<_> = std::fs::read_dir(root.join(target))
-            .unwrap_or_else(|e| panic!("{}: {e}", root.join(target).display()))
-            .map(|e| e.unwrap().path())
-            .collect();
+        let mut files = Vec::new();
+        for dir in ["corpus", "seeds"] {
+            let dir = root.join(dir).join(target);
+            let entries =
+                std::fs::read_dir(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
+            files.extend(entries.map(|e| e.unwrap().path()));
+        }
         files.sort();
         assert!(files.len() >= 5, "{target}: only {} files", files.len());
         let (mut loaded, mut refused) = (0, 0);
@@ -57,7 +60,7 @@ fn fuzz_corpus_loads_or_fails_cleanly() {
 fn the_seeds_give_their_expected_outcomes() {
     let seed = |target: &str, name: &str| {
         let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../fuzz/corpus")
+            .join("../../fuzz/seeds")
             .join(target)
             .join(format!("seed-{name}"));
         std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
