@@ -1,5 +1,7 @@
 //! Argument parsing shared by the subcommands: displays, gazes, methods.
 
+use std::path::Path;
+
 use anyhow::{Context, Result};
 use clap::Args;
 use fovea_core::acuity::AcuityModel;
@@ -86,6 +88,51 @@ pub fn acuity(pivots: Option<&str>) -> Result<AcuityModel> {
         Some(p) => AcuityModel::parse_pivots(p).context("reading --pivots"),
         None => Ok(AcuityModel::vafr_default()),
     }
+}
+
+/// Largest text input file (gaze CSV, camera path) the commands read: 1 GiB (10 million gaze
+/// rows of ~100 bytes).
+pub const MAX_TEXT_INPUT_BYTES: u64 = 1 << 30;
+
+/// Reads a text input file (`what` names it in errors) as the scene loaders read theirs: a
+/// regular file only (a FIFO, `/dev/zero` or another device, a socket or a directory is
+/// refused before it is opened, so nothing waits for a writer or reads without end), at most
+/// [`MAX_TEXT_INPUT_BYTES`], UTF-8.
+pub fn read_text_input(p: &Path, what: &str) -> Result<String> {
+    use std::io::Read;
+    let meta =
+        std::fs::metadata(p).with_context(|| format!("cannot read {what} {}", p.display()))?;
+    if !meta.is_file() {
+        let kind = if meta.is_dir() {
+            "a directory"
+        } else {
+            "not a regular file (a FIFO, device or socket)"
+        };
+        anyhow::bail!(
+            "cannot read {what} {}: it is {kind}; only regular files are read",
+            p.display()
+        );
+    }
+    if meta.len() > MAX_TEXT_INPUT_BYTES {
+        anyhow::bail!(
+            "cannot read {what} {}: {} bytes is more than the {MAX_TEXT_INPUT_BYTES} bytes accepted",
+            p.display(),
+            meta.len()
+        );
+    }
+    let file =
+        std::fs::File::open(p).with_context(|| format!("cannot read {what} {}", p.display()))?;
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    file.take(MAX_TEXT_INPUT_BYTES)
+        .read_to_end(&mut bytes)
+        .with_context(|| format!("cannot read {what} {}", p.display()))?;
+    String::from_utf8(bytes).map_err(|e| {
+        anyhow::anyhow!(
+            "cannot read {what} {}: not UTF-8 text (invalid byte at offset {}); save it as UTF-8",
+            p.display(),
+            e.utf8_error().valid_up_to()
+        )
+    })
 }
 
 /// Formats an integer with thousands separators.

@@ -28,7 +28,7 @@ use fovea_render::sequence::{Sequence, SequenceDriver, Track};
 use fovea_render::temporal::TemporalSettings;
 
 use crate::choices::{self, Headset, MethodChoice, Scenario, Switch, Video};
-use crate::common::{DisplayArgs, FrameOptions, MethodOptions};
+use crate::common::{read_text_input, DisplayArgs, FrameOptions, MethodOptions};
 use crate::dof_args::DofArgs;
 use crate::render::memory_limit;
 use crate::scene_args::{prepare, SceneArgs};
@@ -115,8 +115,7 @@ pub fn gaze_trajectory(
 ) -> Result<GazeTrajectory> {
     let (w, h) = (d.width_px as f64, d.height_px as f64);
     if let Some(p) = gaze_csv {
-        let text = std::fs::read_to_string(p)
-            .with_context(|| format!("cannot read gaze CSV {}", p.display()))?;
+        let text = read_text_input(p, "gaze CSV")?;
         let (t, report) = parse_csv(&text, w, h, &CsvOptions::default())
             .with_context(|| format!("gaze CSV {}", p.display()))?;
         if !quiet {
@@ -174,10 +173,7 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     let gaze_csv_hash = match &args.gaze_csv {
         Some(p) => Some(format!(
             "{:016x}",
-            fnv1a(
-                &std::fs::read(p)
-                    .with_context(|| format!("cannot read gaze CSV {}", p.display()))?
-            )
+            fnv1a(read_text_input(p, "gaze CSV")?.as_bytes())
         )),
         None => None,
     };
@@ -369,8 +365,7 @@ pub fn eye_csv(seq: &Sequence) -> String {
 
 /// A camera path CSV and its text.
 pub fn read_camera_path(p: &Path) -> Result<(CameraPath, String)> {
-    let text = std::fs::read_to_string(p)
-        .with_context(|| format!("cannot read camera path {}", p.display()))?;
+    let text = read_text_input(p, "camera path")?;
     let path = CameraPath::parse(&text).with_context(|| format!("camera path {}", p.display()))?;
     Ok((path, text))
 }

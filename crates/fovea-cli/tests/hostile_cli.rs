@@ -338,3 +338,51 @@ fn environment_light_options_are_range_checked_and_warned_where_they_do_not_appl
     assert_eq!(rays(&["--method", "full", "--env-light", "unshadowed"]), 0);
     assert_eq!(rays(&["--method", "full", "--env-samples", "0"]), 0);
 }
+
+#[test]
+#[cfg(unix)]
+fn gaze_csv_and_camera_path_must_be_regular_files() {
+    // Read to the end, /dev/zero would exhaust memory, and a FIFO would wait for a writer.
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("gaze.fifo");
+    let made = std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .is_ok_and(|s| s.success());
+    let mut inputs = vec![("--gaze-csv", Path::new("/dev/zero"))];
+    if made {
+        inputs.push(("--gaze-csv", fifo.as_path()));
+    }
+    inputs.push(("--camera-path", Path::new("/dev/zero")));
+    inputs.push(("--gaze-csv", dir.path()));
+    for (flag, path) in inputs {
+        let o = fovea()
+            .args(["sequence", "--res", "64x72", "--frames", "2", "--video", "off"])
+            .args(["-q", flag])
+            .arg(path)
+            .arg("--out")
+            .arg(dir.path().join("seq"))
+            .timeout(std::time::Duration::from_secs(120))
+            .output()
+            .unwrap();
+        let err = refused(&o, &[flag]);
+        assert!(
+            err.contains(&path.display().to_string()) && err.contains("only regular files"),
+            "{err}"
+        );
+    }
+    // A gaze CSV that is not UTF-8 names the offset.
+    let latin1 = dir.path().join("latin1.csv");
+    std::fs::write(&latin1, b"t,x,y\n0,1,1\n# caf\xe9\n").unwrap();
+    let o = fovea()
+        .args(["sequence", "--res", "64x72", "--frames", "2", "--video", "off"])
+        .arg("-q")
+        .arg("--gaze-csv")
+        .arg(&latin1)
+        .arg("--out")
+        .arg(dir.path().join("seq"))
+        .output()
+        .unwrap();
+    let err = refused(&o, &["latin1"]);
+    assert!(err.contains("not UTF-8") && err.contains("offset 20"), "{err}");
+}

@@ -7,7 +7,12 @@ use thiserror::Error;
 pub enum FoveaError {
     /// A parameter is outside its valid range. The message names the parameter, the value given
     /// and the range that would be accepted, so the caller can fix it without reading the source.
-    #[error("invalid parameter `{name}` = {value}: expected {expected}")]
+    #[error(
+        "invalid parameter `{}` = {}: expected {}",
+        printable(.name),
+        printable(.value),
+        printable(.expected)
+    )]
     InvalidParameter {
         /// Parameter name as the user writes it (CLI flag or struct field).
         name: String,
@@ -18,7 +23,12 @@ pub enum FoveaError {
     },
     /// A request that would exceed a resource limit (memory, buffer size), refused before
     /// anything is allocated.
-    #[error("resource limit: {what} needs {needed}, but the limit is {limit}")]
+    #[error(
+        "resource limit: {} needs {}, but the limit is {}",
+        printable(.what),
+        printable(.needed),
+        printable(.limit)
+    )]
     ResourceLimit {
         /// What was requested.
         what: String,
@@ -28,8 +38,26 @@ pub enum FoveaError {
         limit: String,
     },
     /// A feature combination the crate does not support.
-    #[error("unsupported: {0}")]
+    #[error("unsupported: {}", printable(.0))]
     Unsupported(String),
+}
+
+/// `text` with its control characters (`\n`, `\r`, NUL, escape…) escaped (`\r`, `\u{0}`):
+/// messages quote file contents and names, and every error is shown as one printable line.
+/// The errors' `Display` applies it to every field.
+pub fn printable(text: &str) -> std::borrow::Cow<'_, str> {
+    if !text.chars().any(char::is_control) {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    let mut out = String::with_capacity(text.len() + 8);
+    for c in text.chars() {
+        if c.is_control() {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    std::borrow::Cow::Owned(out)
 }
 
 /// Result alias of the core crate.

@@ -1,7 +1,10 @@
-//! Typed errors of the render crate, split by whose fault they are.
+//! Typed errors of the render crate, split by whose fault they are. Every message is one
+//! printable line: control characters quoted from a file (a `\r` in an XML parser's message, a
+//! NUL in a name) are shown escaped ([`printable`]).
 
 use std::path::PathBuf;
 
+use fovea_core::error::printable;
 use thiserror::Error;
 
 /// Every error the render crate returns.
@@ -11,7 +14,12 @@ pub enum RenderError {
     #[error(transparent)]
     Core(#[from] fovea_core::FoveaError),
     /// A parameter of the renderer outside its valid range.
-    #[error("invalid parameter `{name}` = {value}: expected {expected}")]
+    #[error(
+        "invalid parameter `{}` = {}: expected {}",
+        printable(.name),
+        printable(.value),
+        printable(.expected)
+    )]
     InvalidParameter {
         /// Parameter name as the user writes it.
         name: String,
@@ -21,7 +29,11 @@ pub enum RenderError {
         expected: String,
     },
     /// A file could not be read.
-    #[error("cannot read {path}: {message}")]
+    #[error(
+        "cannot read {}: {}",
+        shown_path(.path),
+        printable(.message)
+    )]
     Io {
         /// The file.
         path: PathBuf,
@@ -29,7 +41,11 @@ pub enum RenderError {
         message: String,
     },
     /// A file was read but its content is wrong (truncated, malformed, NaN vertices…).
-    #[error("bad scene file {path}: {what}")]
+    #[error(
+        "bad scene file {}: {}",
+        shown_path(.path),
+        printable(.what)
+    )]
     BadInput {
         /// The file.
         path: PathBuf,
@@ -37,10 +53,15 @@ pub enum RenderError {
         what: String,
     },
     /// A feature of the input that the renderer does not support (e.g. Draco compression).
-    #[error("unsupported: {0}")]
+    #[error("unsupported: {}", printable(.0))]
     Unsupported(String),
     /// A request that would exceed a resource limit, refused before allocating.
-    #[error("resource limit: {what} needs {needed}, but the limit is {limit}")]
+    #[error(
+        "resource limit: {} needs {}, but the limit is {}",
+        printable(.what),
+        printable(.needed),
+        printable(.limit)
+    )]
     ResourceLimit {
         /// What was requested.
         what: String,
@@ -49,6 +70,11 @@ pub enum RenderError {
         /// The limit in force.
         limit: String,
     },
+}
+
+/// A path for a message: displayed, control characters escaped.
+fn shown_path(path: &std::path::Path) -> String {
+    printable(&path.display().to_string()).into_owned()
 }
 
 /// Result alias of the render crate.
@@ -82,5 +108,30 @@ impl RenderError {
             path: path.into(),
             message: err.to_string(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn messages_are_one_printable_line() {
+        // Found by fuzzing: roxmltree quotes the offending character, here a CR.
+        let e = RenderError::bad("a\nb.xml", "malformed XML: expected '>' not '\r' at 1:18");
+        assert_eq!(
+            e.to_string(),
+            "bad scene file a\\nb.xml: malformed XML: expected '>' not '\\r' at 1:18"
+        );
+        let e = RenderError::Unsupported("x\0y".into());
+        assert_eq!(e.to_string(), "unsupported: x\\u{0}y");
+        let e = RenderError::from(fovea_core::FoveaError::invalid("a\tb", "v\u{1b}", "ok"));
+        assert_eq!(
+            e.to_string(),
+            "invalid parameter `a\\tb` = v\\u{1b}: expected ok"
+        );
+        // Unicode text stays as it is.
+        let e = RenderError::bad("é.obj", "µs → °");
+        assert_eq!(e.to_string(), "bad scene file é.obj: µs → °");
     }
 }

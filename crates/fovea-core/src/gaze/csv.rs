@@ -308,6 +308,8 @@ pub fn parse_csv(
         .iter()
         .map(|h| h.to_lowercase())
         .collect();
+    // Control characters in a header cell (a stray `\r`, a NUL) are escaped when the error
+    // is shown (`FoveaError`'s `Display`): the message stays one printable line.
     let found = || format!("columns [{}]", header.join(", "));
     let missing = |what: &str| {
         FoveaError::invalid(
@@ -678,6 +680,11 @@ mod tests {
         assert!(err_text("", &CsvOptions::default()).contains("no header"));
         assert!(err_text("# only\n\n", &CsvOptions::default()).contains("no header"));
         assert!(err_text("t,x,y\n", &CsvOptions::default()).contains("no data rows"));
+        // Found by fuzzing: a CR or NUL inside a header cell was echoed raw, breaking the
+        // one-line message; now shown escaped.
+        let e = err_text("time;gaze_x;r\r\0_x\n0;1;2\n", &CsvOptions::default());
+        assert!(e.contains("[time, gaze_x, r\\r\\u{0}_x]"), "{e}");
+        assert!(!e.contains('\r') && !e.contains('\0'), "{e}");
     }
 
     #[test]

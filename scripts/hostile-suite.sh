@@ -1,0 +1,197 @@
+#!/usr/bin/env bash
+# The hostile-input suite (issue 21): runs the `fovea` release binary on hostile files and
+# command lines, each case under a memory cap (`ulimit -v`) and a timeout, and prints a
+# table: case, exit code, expected exit code, first stderr line. Every case must exit 0 (with
+# its documented fallback: a `warning:` or `note:` line where one is expected) or 2 with
+# exactly one `error:` line: never 101 (panic), 134 (abort), 137 (killed), 124 (timeout) or
+# another code. Cases that name a file outside the scene folder must not print its content.
+# Files are generated here, in a temporary folder; nothing is committed.
+#
+#   scripts/hostile-suite.sh            # after `cargo build --release`
+#   FOVEA_BIN=path/to/fovea HOSTILE_MEM_MB=4096 HOSTILE_TIMEOUT_S=60 scripts/hostile-suite.sh
+#
+# Exits 1 when any case fails; the table is also written to $HOSTILE_TABLE when set.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+
+bin="${FOVEA_BIN:-${CARGO_TARGET_DIR:-target}/release/fovea}"
+mem_mb="${HOSTILE_MEM_MB:-4096}"
+timeout_s="${HOSTILE_TIMEOUT_S:-60}"
+if [ ! -x "$bin" ]; then
+  echo "hostile-suite: no fovea binary at $bin (run cargo build --release first)" >&2
+  exit 1
+fi
+bin="$(cd "$(dirname "$bin")" && pwd)/$(basename "$bin")"
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+scenes="$work/scenes"
+out="$work/out"
+mkdir -p "$scenes" "$out" "$work/logs"
+
+n=0
+failed=0
+table="| case | exit | expected | first stderr line |
+|---|---|---|---|"
+start=$(date +%s)
+
+# case NAME EXPECT [CHECK] -- ARGS...: runs `fovea ARGS` under the cap and the timeout.
+# EXPECT: 0, 2 or any (0 or 2). CHECK (optional, a grep -E pattern prefixed with + or !):
+# +PAT: stderr must match PAT; !PAT: stdout and stderr must not match PAT.
+case_() {
+  local name="$1" expect="$2" check=""
+  shift 2
+  if [ "$1" != "--" ]; then check="$1"; shift; fi
+  shift
+  n=$((n + 1))
+  local log="$work/logs/$n"
+  (
+    ulimit -v $((mem_mb * 1024))
+    exec timeout -k 5 "$timeout_s" "$bin" "$@"
+  ) >"$log.out" 2>"$log.err" </dev/null
+  local rc=$?
+  local first lines why=""
+  first="$(head -n 1 "$log.err" | cut -c1-160 | sed 's/|/\\|/g')"
+  lines="$(grep -c '' "$log.err")"
+  case "$rc" in
+    0 | 2) ;;
+    101) why="panic" ;;
+    134) why="abort" ;;
+    137) why="killed" ;;
+    124) why="timeout after ${timeout_s} s" ;;
+    *) why="exit code $rc" ;;
+  esac
+  if [ -z "$why" ] && [ "$expect" != any ] && [ "$rc" != "$expect" ]; then
+    why="expected exit $expect"
+  fi
+  if [ -z "$why" ] && [ "$rc" = 2 ]; then
+    if [ "$lines" != 1 ] || ! grep -q '^error: ' "$log.err"; then
+      why="exit 2 with $lines stderr lines (want one error: line)"
+    fi
+  fi
+  if [ -z "$why" ] && [ -n "$check" ]; then
+    local pat="${check:1}"
+    case "$check" in
+      +*) grep -Eq -- "$pat" "$log.err" || why="stderr lacks /$pat/" ;;
+      !*) cat "$log.out" "$log.err" | grep -Eq -- "$pat" && why="output matches /$pat/" ;;
+    esac
+  fi
+  local status="$rc"
+  if [ -n "$why" ]; then
+    failed=$((failed + 1))
+    status="$rc FAIL: $why"
+    echo "FAIL $name: $why" >&2
+    sed 's/^/    /' "$log.err" | head -n 20 >&2
+  fi
+  table+=$'\n'"| $name | $status | $expect | ${first:-(none)} |"
+}
+
+# A small render; cases add their flags.
+R=(render --res 64x72 --lights 1 -q --out "$out/r.png")
+
+# --- files -------------------------------------------------------------------------------
+tri_b64="AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAABAAIAAAA="
+# gltf BUFFER_URI [IMAGE_URI] [EXTRA_TOP_LEVEL_JSON]: a one-triangle glTF.
+gltf() {
+  local images="" material="" extra="${3:-}"
+  if [ -n "${2:-}" ]; then
+    images=",\"images\":[{\"uri\":\"$2\"}],\"textures\":[{\"source\":0}],\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}]"
+    material=",\"material\":0"
+  fi
+  cat <<EOF
+{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+"meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1$material}]}],
+"buffers":[{"byteLength":44,"uri":"$1"}],
+"bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":8}],
+"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+{"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"}]$images$extra}
+EOF
+}
+data_uri="data:application/octet-stream;base64,$tri_b64"
+d="$scenes/a/b/c"
+mkdir -p "$d"
+mkfifo "$d/fifo.bin"
+ln -s /dev/zero "$d/zero.bin"
+ln -s /dev/zero "$d/zero.glb"
+gltf /dev/zero >"$d/buffer-dev-zero.gltf"
+gltf zero.bin >"$d/buffer-zero-link.gltf"
+gltf fifo.bin >"$d/buffer-fifo.gltf"
+gltf "$data_uri" /dev/zero >"$d/texture-dev-zero.gltf"
+gltf "$data_uri" fifo.bin >"$d/texture-fifo.gltf"
+gltf ../../../../../../etc/passwd >"$d/buffer-passwd.gltf"
+gltf "$data_uri" "" ',"extensionsUsed":["KHR_lights_punctual"],"extensions":{"KHR_lights_punctual":{"lights":[{"type":"directional","intensity":6830}]}}' \
+  | sed 's/"nodes":\[{"mesh":0}\]/"nodes":[{"mesh":0},{"extensions":{"KHR_lights_punctual":{"light":0}},"rotation":[-0.5,0,0,0.866]}]/; s/"scenes":\[{"nodes":\[0\]}\]/"scenes":[{"nodes":[0,1]}]/' \
+  >"$d/sun.gltf"
+printf 'mtllib ../../../../../../etc/passwd\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' >"$d/mtllib-passwd.obj"
+cat >"$d/filename-passwd.xml" <<'EOF'
+<scene version="0.6.0"><shape type="obj"><string name="filename" value="../../../../../../etc/passwd"/></shape></scene>
+EOF
+printf 'v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n' >"$scenes/quad.obj"
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' | iconv -f UTF-8 -t UTF-16 >"$scenes/utf16.obj"
+printf 'v -3e38 0 0\nv 3e38 0 0\nv 0 3e38 0\nf 1 2 3\n' >"$scenes/huge.obj"
+{
+  printf '<scene version="0.6.0"><shape type="cube">'
+  for _ in $(seq 20000); do printf '<a>'; done
+  for _ in $(seq 20000); do printf '</a>'; done
+  printf '</shape></scene>\n'
+} >"$scenes/deep.xml"
+{
+  echo '<scene version="0.6.0"><bsdf type="diffuse" id="grey"/>'
+  for i in $(seq 0 7999); do
+    echo "<shape type=\"cube\"><transform name=\"toWorld\"><scale value=\"0.5\"/><translate x=\"$((i % 100 * 3))\" z=\"$((i / 100 * 3))\"/></transform><ref id=\"grey\"/></shape>"
+  done
+  echo '</scene>'
+} >"$scenes/shapes-8000.xml"
+mkfifo "$scenes/gaze.fifo"
+
+# --- cases -------------------------------------------------------------------------------
+case_ "glTF buffer URI /dev/zero" 2 '+outside the scene' -- "${R[@]}" --scene "$d/buffer-dev-zero.gltf"
+case_ "glTF buffer: link to /dev/zero" 2 -- "${R[@]}" --scene "$d/buffer-zero-link.gltf"
+case_ "glTF file: link to /dev/zero" 2 '+character device' -- "${R[@]}" --scene "$d/zero.glb"
+case_ "glTF buffer URI: a FIFO" 2 '+FIFO' -- "${R[@]}" --scene "$d/buffer-fifo.gltf"
+case_ "glTF texture URI /dev/zero" 0 '+warning: .*texture' -- "${R[@]}" --scene "$d/texture-dev-zero.gltf"
+case_ "glTF texture URI: a FIFO" 0 '+warning: .*texture' -- "${R[@]}" --scene "$d/texture-fifo.gltf"
+case_ "glTF buffer URI ../../../etc/passwd" 2 '!root:' -- "${R[@]}" --scene "$d/buffer-passwd.gltf"
+case_ "OBJ mtllib ../../../etc/passwd" any '!root:' -- "${R[@]}" --scene "$d/mtllib-passwd.obj"
+case_ "Mitsuba filename ../../../etc/passwd" any '!root:' -- "${R[@]}" --scene "$d/filename-passwd.xml"
+for m in full vafr kfr lafr visual-polar guenter inset weier liu-hybrid; do
+  for r in 1x1 2x2 8x8 16x9 100x1 64x4 64x8; do
+    case_ "--method $m --res $r" any -- render --method "$m" --res "$r" --lights 1 -q --out "$out/r.png"
+  done
+done
+case_ "--eyes both --res 9x9" any -- render --eyes both --res 9x9 --lights 1 -q --out "$out/r.png"
+case_ "Mitsuba XML nested 20,000 deep" 2 '+nest' -- "${R[@]}" --scene "$scenes/deep.xml"
+case_ "Mitsuba, 8,000 shapes" 0 -- "${R[@]}" --scene "$scenes/shapes-8000.xml" --method full
+case_ "glTF sun of 6,830 lx" 0 -- "${R[@]}" --scene "$d/sun.gltf" --method full
+for e in nan inf -1e9; do
+  case_ "--exposure $e" 2 -- "${R[@]}" --exposure "$e"
+done
+case_ "planar scene (one quad)" 0 -- "${R[@]}" --scene "$scenes/quad.obj" --method full
+seq_args=(sequence --res 120x90 --lights 1 --frames 3 --video off -q --out "$out/seq")
+case_ "sequence (before resume)" 0 -- "${seq_args[@]}"
+if [ -s "$out/seq/frame_00001.png" ]; then
+  size=$(stat -c %s "$out/seq/frame_00001.png")
+  truncate -s $((size / 2)) "$out/seq/frame_00001.png"
+fi
+case_ "truncated PNG on sequence resume" 0 -- "${seq_args[@]}"
+case_ "--weier with --method kfr" 0 '+warning: --weier applies' -- "${R[@]}" --method kfr --weier 10,20,0.2
+case_ "--camera-index 99 (built-in scene)" any -- "${R[@]}" --camera-index 99
+case_ "--camera-index 99 (scene without cameras)" 2 -- "${R[@]}" --scene "$scenes/quad.obj" --camera-index 99
+case_ "--gaze -100,-100" 2 -- "${R[@]}" --gaze=-100,-100
+case_ "--gaze nan,nan" 2 -- "${R[@]}" --gaze nan,nan
+case_ "UTF-16 OBJ" 2 '+UTF-16' -- "${R[@]}" --scene "$scenes/utf16.obj"
+case_ "huge coordinates (3e38)" 2 '+too large' -- "${R[@]}" --scene "$scenes/huge.obj"
+case_ "--max-memory 1KiB" 2 -- "${R[@]}" --max-memory 1KiB
+case_ "--max-memory 0" 2 -- "${R[@]}" --max-memory 0
+case_ "--max-memory 1e30 (more than any machine)" any -- "${R[@]}" --max-memory 1e30
+case_ "gaze CSV /dev/zero" 2 '+not a regular file' -- sequence --res 64x72 --frames 2 --video off -q --gaze-csv /dev/zero --out "$out/gz"
+case_ "gaze CSV: a FIFO" 2 '+not a regular file' -- sequence --res 64x72 --frames 2 --video off -q --gaze-csv "$scenes/gaze.fifo" --out "$out/gf"
+case_ "camera path /dev/zero" 2 '+not a regular file' -- sequence --res 64x72 --frames 2 --video off -q --camera-path /dev/zero --out "$out/cp"
+
+elapsed=$(($(date +%s) - start))
+echo "$table"
+echo
+echo "hostile-suite: $n cases, $failed failed, ${elapsed} s (memory cap ${mem_mb} MiB, timeout ${timeout_s} s per case)"
+if [ -n "${HOSTILE_TABLE:-}" ]; then
+  { echo "$table"; echo; echo "$n cases, $failed failed, ${elapsed} s"; } >"$HOSTILE_TABLE"
+fi
+[ "$failed" = 0 ]
