@@ -39,6 +39,16 @@ pub enum RenderError {
     /// A feature of the input that the renderer does not support (e.g. Draco compression).
     #[error("unsupported: {0}")]
     Unsupported(String),
+    /// Another executor (e.g. the GPU) failed a stage; `message` says what to do.
+    #[error("{stage} on the {backend} backend: {message}")]
+    Executor {
+        /// The stage.
+        stage: &'static str,
+        /// The backend's name.
+        backend: String,
+        /// Its one-line error.
+        message: String,
+    },
     /// A request that would exceed a resource limit, refused before allocating.
     #[error("resource limit: {what} needs {needed}, but the limit is {limit}")]
     ResourceLimit {
