@@ -185,6 +185,16 @@ impl Switch {
     }
 }
 
+/// `--backend`: which executor runs the stages the GPU can run (`fovea_gpu::BackendChoice`;
+/// see `backend.rs`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BackendArg {
+    Cpu,
+    Gpu,
+    Auto,
+}
+
 /// `--stereo`: how the second eye is made.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Stereo {

@@ -17,7 +17,7 @@ use fovea_render::plan::FramePlan;
 use fovea_render::shade::{EnvLight, ShadingMode, DEFAULT_ENV_SAMPLES};
 
 use crate::choices::{
-    Aa, EnvLightChoice, Eyes, Headset, MethodChoice, Shading, Stereo, Switch, Tonemap,
+    Aa, BackendArg, EnvLightChoice, Eyes, Headset, MethodChoice, Shading, Stereo, Switch, Tonemap,
 };
 use crate::common::{thousands, DisplayArgs, FrameOptions, MethodOptions};
 use crate::dof_args::DofArgs;
@@ -106,6 +106,12 @@ pub struct RenderArgs {
     /// buffer to the right eye and trace only the holes, VaFR_Rep).
     #[arg(long, value_enum, ignore_case = true, default_value_t = Stereo::Rep)]
     pub stereo: Stereo,
+    /// Which executor runs the stages a GPU can run (today the reconstruct stage of polar
+    /// methods; every other stage runs on the CPU): cpu, gpu (any adapter, lavapipe included;
+    /// an error without one) or auto (a hardware GPU when there is one, else the CPU). The GPU
+    /// needs a fovea built with `--features gpu`.
+    #[arg(long, value_enum, ignore_case = true, default_value_t = BackendArg::Auto)]
+    pub backend: BackendArg,
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
@@ -308,6 +314,11 @@ pub fn run(args: RenderArgs) -> Result<()> {
     settings.validate()?;
 
     if both_eyes {
+        if args.backend == BackendArg::Gpu {
+            bail!(
+                "--backend gpu: the GPU path runs one eye (--eyes one); use --backend cpu or auto"
+            );
+        }
         let (lod_world, lod_stats) = if lod_on {
             let eye = EyeState::fixating(&prepared.world, &prepared.camera, gaze, None)?;
             let (w, st) = lod_world(&prepared, &settings, &eye, args.lod_keep)?;
@@ -353,8 +364,18 @@ pub fn run(args: RenderArgs) -> Result<()> {
             .with_context(|| format!("cannot write {}", p.display()))?;
         written.push(p);
     }
+    // Which executor runs the reconstruct stage; refused here, before any ray is traced.
+    let mut backend = crate::backend::resolve(
+        args.backend,
+        plan.mapping(),
+        false,
+        crate::backend::polar_texel_bytes(plan.mapping()),
+    )?;
     let pb = progress_bar(args.quiet, method.name());
     let mut ctx = FrameContext::new();
+    if let Some(executor) = backend.executor.take() {
+        ctx.set_reconstructor(executor);
+    }
     render_planned(
         &mut ctx,
         world,
@@ -407,6 +428,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         // The smoothing asked for; `frame.inset_smoothing` is the one applied.
         "inset_smoothing": (method == Method::Inset).then(|| settings.inset_smoothing.name()),
         "lod": lod_stats,
+        "backend": backend.json(&s.stages_ms, &s.reconstruct_backend),
         "frame": s,
     });
     std::fs::write(&stats_path, serde_json::to_string_pretty(&json)? + "\n")
@@ -449,9 +471,23 @@ pub fn run(args: RenderArgs) -> Result<()> {
         Stage::Reconstruct,
     ]
     .iter()
-    .map(|&k| format!("{k} {:.1}", s.stages_ms.get(k)))
+    .map(|&k| match k {
+        Stage::Reconstruct if s.reconstruct_backend != "cpu" => {
+            format!("{k} {:.1} ({})", s.stages_ms.get(k), s.reconstruct_backend)
+        }
+        _ => format!("{k} {:.1}", s.stages_ms.get(k)),
+    })
     .collect();
     println!("stages (ms): {}", stages.join(", "));
+    let ran = if s.reconstruct_backend == "cpu" {
+        String::new()
+    } else {
+        format!(
+            " | reconstruct on the {}, every other stage on the CPU",
+            s.reconstruct_backend.to_uppercase()
+        )
+    };
+    println!("backend: {}{ran}", backend.describe);
     let (ppd_x, ppd_y) = display.centre_ppd_axes();
     println!(
         "display {} {:.1}°×{:.1}°: {ppd_x:.2} px/deg across, {ppd_y:.2} down at the centre",

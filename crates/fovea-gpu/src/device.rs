@@ -159,6 +159,7 @@ struct Inner {
     queue: wgpu::Queue,
     summary: AdapterSummary,
     limits: wgpu::Limits,
+    features: wgpu::Features,
     health: Arc<Mutex<Health>>,
 }
 
@@ -228,10 +229,12 @@ impl GpuContext {
             "max_buffer_size",
             limits.max_buffer_size,
         )?;
+        // Timestamp queries where the adapter has them (lavapipe does): per-pass GPU times.
+        let features = adapter.features() & wgpu::Features::TIMESTAMP_QUERY;
         let (device, queue) = adapter
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("fovea-gpu"),
-                required_features: wgpu::Features::empty(),
+                required_features: features,
                 required_limits: limits.clone(),
                 ..Default::default()
             })
@@ -263,9 +266,18 @@ impl GpuContext {
                 queue,
                 summary,
                 limits,
+                features,
                 health,
             }),
         })
+    }
+
+    /// Whether the device writes timestamps (`wgpu::Features::TIMESTAMP_QUERY`), so passes
+    /// can report their GPU time.
+    pub fn has_timestamps(&self) -> bool {
+        self.inner
+            .features
+            .contains(wgpu::Features::TIMESTAMP_QUERY)
     }
 
     /// The adapter the device runs on.

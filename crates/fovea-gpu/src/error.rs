@@ -80,6 +80,10 @@ pub enum GpuError {
     /// A mapping or parameter the GPU path does not support (yet).
     #[error("unsupported on the GPU: {0}; use --backend cpu")]
     Unsupported(String),
+    /// Input the caller handed over is inconsistent (buffers of the wrong size, an image
+    /// too large to allocate): the caller's fault.
+    #[error("invalid input to the GPU path: {0}")]
+    Input(String),
     /// `--backend` (or `FOVEA_BACKEND`) had a value that is not a backend.
     #[error("invalid backend `{0}`: expected cpu, gpu or auto")]
     InvalidBackend(String),

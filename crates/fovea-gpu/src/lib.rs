@@ -11,6 +11,8 @@
 //!   ([`GpuContext`], [`GpuRequest`], [`AdapterSummary`]).
 //! * [`backend`]: `--backend cpu|gpu|auto` ([`BackendChoice`]).
 //! * [`mapping`]: VaFR and KFR forward/inverse mappings on the GPU ([`GpuMapping`]).
+//! * [`reconstruct`]: polar sample buffers back to the screen, bilinear or footprint-filtered
+//!   ([`GpuReconstructor`]).
 //! * [`shaders`]: the WGSL sources, validated with naga in a plain `cargo test`.
 //!
 //! ```no_run
@@ -37,12 +39,19 @@ pub mod backend;
 pub mod device;
 pub mod error;
 pub mod mapping;
+pub mod reconstruct;
 pub mod shaders;
+mod transfer;
 
 pub use backend::{BackendChoice, Resolved};
 pub use device::{AdapterSummary, DeviceKind, GpuContext, GpuRequest};
 pub use error::{GpuError, Result};
 pub use mapping::{Direction, GpuMapping};
+pub use reconstruct::{GpuReconstructor, ReconstructTimes};
 
 /// Every WGSL module of the crate, as the device compiles it.
-pub const ALL_SHADERS: &[shaders::ShaderSource] = &[mapping::vafr::SHADER, mapping::kfr::SHADER];
+pub const ALL_SHADERS: &[shaders::ShaderSource] = &[
+    mapping::vafr::SHADER,
+    mapping::kfr::SHADER,
+    reconstruct::SHADER,
+];

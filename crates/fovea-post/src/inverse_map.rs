@@ -39,7 +39,7 @@ use crate::pull_push::pull_push;
 use crate::{lerp3, Rgb};
 
 /// Radius step of the `u(r)` lookup table, pixels.
-const LUT_STEP_PX: f64 = 0.125;
+pub const LUT_STEP_PX: f64 = 0.125;
 
 /// How a polar buffer is read at a screen pixel.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
@@ -169,6 +169,126 @@ pub fn mask_of(mapping: &dyn FoveationMapping, w: u32, h: u32) -> Image<bool> {
     Image::from_vec(w, h, data).expect("size matches")
 }
 
+/// Everything the polar reconstruction derives from the mapping and the sample buffers
+/// before it reads a pixel: the `u(r)` lookup table, the padded (and, with
+/// [`ReconstructFilter::Footprint`], angularly prefiltered) columns and the pixel's radial
+/// footprint per column. The CPU loop of this module reads them; `fovea-gpu` uploads the
+/// same tables, so both executors reconstruct from identical numbers.
+pub struct PolarTables {
+    /// The pole (the gaze point), screen pixels.
+    pub centre: ScreenPoint,
+    /// Radius step of [`Self::lut`], pixels ([`LUT_STEP_PX`]).
+    pub lut_step_px: f64,
+    /// `u(r)` at `r = k · lut_step_px` from the centre (the column coordinate, texel centres
+    /// at `i + ½`), from the mapping's own forward map along +x; `f32::INFINITY` where the
+    /// mapping has no sample.
+    pub lut: Vec<f32>,
+    /// The last column with shaded rows.
+    pub last: usize,
+    /// The columns' texels, padded and prefiltered ([`PolarColumns`]).
+    pub columns: PolarColumns,
+    /// With [`ReconstructFilter::Footprint`]: columns per pixel radially (`du/dr`) at every
+    /// column `0..=last`; `None` for [`ReconstructFilter::Bilinear`].
+    pub texels_per_px: Option<Vec<f32>>,
+}
+
+impl PolarTables {
+    /// The tables of `mapping` (a polar mapping) on `display` for `buffers` read with
+    /// `filter`. Fails for a mapping without a polar layout, buffers of the wrong size or a
+    /// buffer without shaded samples.
+    pub fn new(
+        mapping: &dyn FoveationMapping,
+        display: &DisplayProfile,
+        buffers: &SampleBuffers,
+        filter: ReconstructFilter,
+    ) -> Result<Self> {
+        let Some(layout) = mapping.polar_layout() else {
+            return Err(FoveaError::Unsupported(format!(
+                "polar reconstruction tables for {} (not a polar mapping)",
+                mapping.method()
+            )));
+        };
+        let sizes = mapping.buffers();
+        if sizes.len() != 1
+            || buffers.color.len() != 1
+            || buffers.depth.len() != 1
+            || (buffers.color[0].width(), buffers.color[0].height())
+                != (sizes[0].width, sizes[0].height)
+            || (buffers.depth[0].width(), buffers.depth[0].height())
+                != (sizes[0].width, sizes[0].height)
+        {
+            return Err(FoveaError::invalid(
+                "sample buffers",
+                format!("{} colour layers", buffers.color.len()),
+                format!("the mapping's buffer {sizes:?}"),
+            ));
+        }
+        Self::of_layout(mapping, display, &layout, buffers, filter)
+    }
+
+    fn of_layout(
+        mapping: &dyn FoveationMapping,
+        display: &DisplayProfile,
+        layout: &fovea_core::mapping::PolarLayout,
+        buffers: &SampleBuffers,
+        filter: ReconstructFilter,
+    ) -> Result<Self> {
+        let (w, h) = (display.width_px, display.height_px);
+        let c = layout.centre;
+        let last = match layout.rows.iter().rposition(|&r| r > 0) {
+            Some(l) => l,
+            None => {
+                return Err(FoveaError::Unsupported(
+                    "a polar buffer without shaded samples".into(),
+                ))
+            }
+        };
+        // u(r) lookup table from the mapping's forward map.
+        let corners = [
+            (0.0, 0.0),
+            (w as f64, 0.0),
+            (0.0, h as f64),
+            (w as f64, h as f64),
+        ];
+        let r_max = corners
+            .iter()
+            .map(|&(x, y)| (x - c.x_px).hypot(y - c.y_px))
+            .fold(0.0, f64::max)
+            + 2.0;
+        let n = (r_max / LUT_STEP_PX).ceil() as usize + 2;
+        let lut: Vec<f32> = (0..n)
+            .into_par_iter()
+            .map(|k| {
+                let r = k as f64 * LUT_STEP_PX;
+                match mapping.forward(ScreenPoint::new(c.x_px + r, c.y_px)) {
+                    Some(s) => s.u as f32,
+                    None => f32::INFINITY,
+                }
+            })
+            .collect();
+        // The pixel's footprint in every column: radial texels per pixel (`du/dr`) and rows
+        // per pixel along the column (`period/(2πr)`), both at the column's centre radius.
+        let footprint = match filter {
+            ReconstructFilter::Bilinear => None,
+            ReconstructFilter::Footprint => Some(column_footprints(&lut, layout, last)),
+        };
+        let columns = PolarColumns::new(
+            &buffers.color[0],
+            &buffers.depth[0],
+            layout,
+            footprint.as_ref().map(|f| f.rows_per_px.as_slice()),
+        );
+        Ok(Self {
+            centre: c,
+            lut_step_px: LUT_STEP_PX,
+            lut,
+            last,
+            columns,
+            texels_per_px: footprint.map(|f| f.texels_per_px),
+        })
+    }
+}
+
 fn polar(
     mapping: &dyn FoveationMapping,
     display: &DisplayProfile,
@@ -178,53 +298,17 @@ fn polar(
     out_depth: &mut Image<f32>,
     filter: ReconstructFilter,
 ) -> Result<()> {
-    let (w, h) = (display.width_px, display.height_px);
-    let c = layout.centre;
-    let last = match layout.rows.iter().rposition(|&r| r > 0) {
-        Some(l) => l,
-        None => {
-            return Err(FoveaError::Unsupported(
-                "a polar buffer without shaded samples".into(),
-            ))
-        }
-    };
-    // u(r) lookup table from the mapping's forward map.
-    let corners = [
-        (0.0, 0.0),
-        (w as f64, 0.0),
-        (0.0, h as f64),
-        (w as f64, h as f64),
-    ];
-    let r_max = corners
-        .iter()
-        .map(|&(x, y)| (x - c.x_px).hypot(y - c.y_px))
-        .fold(0.0, f64::max)
-        + 2.0;
-    let n = (r_max / LUT_STEP_PX).ceil() as usize + 2;
+    let w = display.width_px;
+    let PolarTables {
+        centre: c,
+        lut,
+        last,
+        columns,
+        texels_per_px: radial,
+        ..
+    } = PolarTables::of_layout(mapping, display, layout, buffers, filter)?;
+    let n = lut.len();
     let cols_end = (last + 1) as f32;
-    let lut: Vec<f32> = (0..n)
-        .into_par_iter()
-        .map(|k| {
-            let r = k as f64 * LUT_STEP_PX;
-            match mapping.forward(ScreenPoint::new(c.x_px + r, c.y_px)) {
-                Some(s) => s.u as f32,
-                None => f32::INFINITY,
-            }
-        })
-        .collect();
-    // The pixel's footprint in every column: radial texels per pixel (`du/dr`) and rows per
-    // pixel along the column (`period/(2πr)`), both at the column's centre radius.
-    let footprint = match filter {
-        ReconstructFilter::Bilinear => None,
-        ReconstructFilter::Footprint => Some(column_footprints(&lut, layout, last)),
-    };
-    let columns = PolarColumns::new(
-        &buffers.color[0],
-        &buffers.depth[0],
-        layout,
-        footprint.as_ref().map(|f| f.rows_per_px.as_slice()),
-    );
-    let radial = footprint.map(|f| f.texels_per_px);
     let inv_step = (1.0 / LUT_STEP_PX) as f32;
     let (cx, cy) = (c.x_px as f32, c.y_px as f32);
     let wu = w as usize;
@@ -340,18 +424,23 @@ fn coordinates_of_row(
 
 /// One column of a polar buffer: where its texels start in [`PolarColumns::texels`], how many
 /// rows it has (they wrap) and its rows per full turn.
-#[derive(Clone, Copy)]
-struct Column {
-    base: u32,
-    rows: u32,
-    period: f32,
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Column {
+    /// Index of the column's first stored texel (its last row's copy) in
+    /// [`PolarColumns::texels`]; row `j` is stored at `base + 1 + j`.
+    pub base: u32,
+    /// Stored rows (at least 1; a column without shaded rows has one black texel at infinite
+    /// depth).
+    pub rows: u32,
+    /// Rows per full turn (0 for a column without shaded rows).
+    pub period: f32,
 }
 
 /// A polar buffer's colour and depth as `[r, g, b, depth]`, column by column (the rows of a
 /// column contiguous, so the two rows a lookup blends usually share a cache line). Each
 /// column is stored with its last row copied before its first and its first after its last,
 /// so a lookup never wraps. A column without shaded rows reads black at infinite depth.
-struct PolarColumns {
+pub struct PolarColumns {
     texels: Vec<[f32; 4]>,
     columns: Vec<Column>,
 }
@@ -406,6 +495,17 @@ impl PolarColumns {
             }
         });
         Self { texels, columns }
+    }
+
+    /// The texels `[r, g, b, depth]`, column after column, each column padded by one row
+    /// on either side (see [`Column::base`]).
+    pub fn texels(&self) -> &[[f32; 4]] {
+        &self.texels
+    }
+
+    /// Where each column lies in [`Self::texels`].
+    pub fn columns(&self) -> &[Column] {
+        &self.columns
     }
 
     /// Column `i` at angle `turn` ∈ [0, 1): colour linear between the two rows around

@@ -55,6 +55,16 @@ pub enum RenderError {
     /// A feature of the input that the renderer does not support (e.g. Draco compression).
     #[error("unsupported: {}", printable(.0))]
     Unsupported(String),
+    /// Another executor (e.g. the GPU) failed a stage; `message` says what to do.
+    #[error("{stage} on the {backend} backend: {message}")]
+    Executor {
+        /// The stage.
+        stage: &'static str,
+        /// The backend's name.
+        backend: String,
+        /// Its one-line error.
+        message: String,
+    },
     /// A request that would exceed a resource limit, refused before allocating.
     #[error(
         "resource limit: {} needs {}, but the limit is {}",

@@ -16,6 +16,7 @@ pub mod vafr;
 use crate::device::GpuContext;
 use crate::error::Result;
 use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
+use crate::transfer::{read_buffer, upload};
 
 /// Bytes per input point (`vec2<f32>`).
 const IN_BYTES: u64 = 8;
@@ -216,46 +217,4 @@ impl GpuMapping {
             .map(|(v, &ok)| (ok && v[2] != 0.0).then_some([v[0], v[1]]))
             .collect())
     }
-}
-
-/// A buffer holding `contents` (a multiple of 4 bytes). Unlike wgpu's `create_buffer_init`,
-/// which panics when the device is lost, a failure here is an error of the enclosing scope.
-fn upload(
-    ctx: &GpuContext,
-    label: &str,
-    contents: &[u8],
-    usage: wgpu::BufferUsages,
-) -> wgpu::Buffer {
-    let buffer = ctx.device().create_buffer(&wgpu::BufferDescriptor {
-        label: Some(label),
-        size: contents.len() as u64,
-        usage: usage | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    ctx.queue().write_buffer(&buffer, 0, contents);
-    buffer
-}
-
-/// Maps `buffer` (MAP_READ) and copies it out; waits for the queue.
-fn read_buffer(ctx: &GpuContext, buffer: &wgpu::Buffer, what: &str) -> Result<Vec<u8>> {
-    let (tx, rx) = std::sync::mpsc::channel();
-    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
-        let _ = tx.send(r);
-    });
-    ctx.wait_idle(what)?;
-    let mapped = rx.recv().map_err(|_| crate::GpuError::DeviceLost {
-        reason: format!("the readback of {what} never completed"),
-    })?;
-    mapped.map_err(|e| crate::GpuError::DeviceLost {
-        reason: format!("reading back {what}: {e}"),
-    })?;
-    let bytes = ctx.scoped(what, || {
-        buffer.get_mapped_range(..).map(|view| view.to_vec())
-    })?;
-    let bytes = bytes.map_err(|e| crate::GpuError::Validation {
-        what: what.to_string(),
-        message: crate::error::one_line(&e.to_string()),
-    })?;
-    buffer.unmap();
-    Ok(bytes)
 }

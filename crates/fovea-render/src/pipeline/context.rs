@@ -12,6 +12,7 @@ use fovea_core::Image;
 use fovea_post::inverse_map::SampleBuffers;
 use fovea_post::Rgb;
 
+use super::reconstruct::ReconstructExecutor;
 use super::{Frame, Prefill};
 use crate::error::{RenderError, Result};
 use crate::plan::FramePlan;
@@ -43,6 +44,8 @@ pub struct FrameContext {
     spare_color: Option<Image<Rgb>>,
     /// Screen buffers allocated so far (colour and depth count one each).
     screen_allocations: u64,
+    /// Another executor of the reconstruct stage (see [`Self::set_reconstructor`]).
+    reconstructor: Option<Box<dyn ReconstructExecutor>>,
 }
 
 impl FrameContext {
@@ -153,11 +156,25 @@ impl FrameContext {
         Ok(s)
     }
 
-    /// The sample buffers [`samples_for`](Self::samples_for) prepared.
-    pub(crate) fn samples_for_reconstruct(&mut self) -> &mut SampleBuffers {
-        self.samples
+    /// The sample buffers [`samples_for`](Self::samples_for) prepared, and the executor of
+    /// the reconstruct stage, if one is plugged in.
+    pub(crate) fn samples_and_executor(
+        &mut self,
+    ) -> (
+        &mut SampleBuffers,
+        Option<&mut (dyn ReconstructExecutor + 'static)>,
+    ) {
+        let samples = self
+            .samples
             .as_mut()
-            .expect("samples_for runs before the reconstruction")
+            .expect("samples_for runs before the reconstruction");
+        (samples, self.reconstructor.as_deref_mut())
+    }
+
+    /// Runs the reconstruct stage's lookup on `executor` (e.g. the GPU's) for the mappings it
+    /// supports, in every frame rendered with this context.
+    pub fn set_reconstructor(&mut self, executor: Box<dyn ReconstructExecutor>) {
+        self.reconstructor = Some(executor);
     }
 
     /// Screen-sized colour and depth buffers for `plan`'s display: the last frame's when they

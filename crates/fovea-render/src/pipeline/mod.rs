@@ -43,6 +43,7 @@ pub mod trace_shade;
 
 pub use context::FrameContext;
 pub use fovea_core::mapping::footprint::sample_spread_rad;
+pub use reconstruct::ReconstructExecutor;
 pub use timing::{Stage, StageMs, StageTimes, Stopwatch};
 
 pub use crate::plan::memory_estimate;
@@ -106,6 +107,10 @@ pub struct FrameStats {
     pub inset_smoothing: Option<String>,
     /// Whether every screen pixel had samples (see [`FramePlan::covers_screen`]).
     pub covers_screen: bool,
+    /// The backend that ran the reconstruct stage's lookup: `cpu`, or the name of the
+    /// [`reconstruct::ReconstructExecutor`] in the frame's context (`gpu`). Every other stage
+    /// runs on the CPU.
+    pub reconstruct_backend: String,
 }
 
 /// A rendered frame.
@@ -291,9 +296,10 @@ pub fn render_planned<'c>(
 
     // 6. Reconstruct into the context's screen buffers.
     let (mut color, mut depth) = ctx.screen_buffers(plan)?;
-    let samples = ctx.samples_for_reconstruct();
     let t = Stopwatch::start();
-    let inset_smoothing = reconstruct::reconstruct(plan, samples, &mut color, &mut depth)?;
+    let (samples, executor) = ctx.samples_and_executor();
+    let (inset_smoothing, reconstruct_backend) =
+        reconstruct::reconstruct(plan, samples, &mut color, &mut depth, executor)?;
     times.add(Stage::Reconstruct, &t);
     if let Some(acc) = accumulator {
         let t = Stopwatch::start();
@@ -326,6 +332,7 @@ pub fn render_planned<'c>(
     let (total_ms, total_cpu_ms) = t_total.elapsed_ms();
     let mut stats = frame_stats(plan, counts, times, temporal, total_ms, total_cpu_ms);
     stats.inset_smoothing = inset_smoothing.map(|s| s.name().to_string());
+    stats.reconstruct_backend = reconstruct_backend;
     Ok(ctx.store(Frame {
         color,
         depth,
@@ -376,6 +383,7 @@ fn frame_stats(
         temporal,
         inset_smoothing: None,
         covers_screen: plan.covers_screen,
+        reconstruct_backend: reconstruct::CPU.to_string(),
     }
 }
 

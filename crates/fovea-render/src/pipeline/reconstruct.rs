@@ -6,31 +6,91 @@
 //! smoothed with the chosen method of Liu et al.'s inset paper (`fovea_post::inset_smoothing`,
 //! Sec. 3; alpha blend by default, the smoothing closest to the full frame's gradients in
 //! `fovea report`'s inset table).
+//!
+//! Another executor (the GPU's, `fovea-gpu`, plugged in by the CLI) can take over the polar
+//! lookup through [`ReconstructExecutor`]; the frame's stats say which one ran
+//! ([`super::FrameStats::reconstruct_backend`]).
 
-use fovea_core::mapping::{Method, SamplePoint};
+use fovea_core::display::DisplayProfile;
+use fovea_core::mapping::{FoveationMapping, Method, SamplePoint};
 use fovea_core::Image;
 use fovea_post::inset_smoothing::{composite, Rect, Smoothing};
-use fovea_post::inverse_map::{reconstruct_into, SampleBuffers};
+use fovea_post::inverse_map::{reconstruct_into, ReconstructFilter, SampleBuffers};
 use fovea_post::Rgb;
 
-use crate::error::Result;
+use crate::error::{RenderError, Result};
 use crate::plan::FramePlan;
 
-/// Reconstructs `samples` into the screen-sized `color` and `depth`. Returns the inset
-/// smoothing applied (`None` for other methods, and for an inset whose periphery is not an
-/// exact 2× or 4× subsampling of the screen, which keeps the hard boundary).
+/// Another executor of the reconstruct stage's lookup (e.g. the GPU's), kept in a
+/// [`super::FrameContext`] from frame to frame. For the mappings it [`supports`](Self::supports)
+/// it replaces `fovea_post::inverse_map::reconstruct_into` and must write every pixel of
+/// `color` and `depth` as that function does; the rest of the stage (inset smoothing) and
+/// every other stage stay on the CPU.
+pub trait ReconstructExecutor: Send {
+    /// The backend's short name in stats and JSON, e.g. `gpu`.
+    fn backend(&self) -> &str;
+    /// Whether it reconstructs `mapping`'s buffers (the CPU does the others).
+    fn supports(&self, mapping: &dyn FoveationMapping) -> bool;
+    /// `samples` through `mapping` to the screen of `display`, read with `filter`. An error is
+    /// one line saying what to do.
+    fn reconstruct_into(
+        &mut self,
+        mapping: &dyn FoveationMapping,
+        display: &DisplayProfile,
+        samples: &SampleBuffers,
+        filter: ReconstructFilter,
+        color: &mut Image<Rgb>,
+        depth: &mut Image<f32>,
+    ) -> std::result::Result<(), String>;
+}
+
+/// Reconstructs `samples` into the screen-sized `color` and `depth`, on `executor` where it
+/// supports the plan's mapping and on the CPU otherwise. Returns the inset smoothing applied
+/// (`None` for other methods, and for an inset whose periphery is not an exact 2× or 4×
+/// subsampling of the screen, which keeps the hard boundary) and the backend that ran the
+/// lookup (`cpu` or the executor's name).
 pub fn reconstruct(
     plan: &FramePlan,
     samples: &mut SampleBuffers,
     color: &mut Image<Rgb>,
     depth: &mut Image<f32>,
-) -> Result<Option<Smoothing>> {
+    executor: Option<&mut (dyn ReconstructExecutor + 'static)>,
+) -> Result<(Option<Smoothing>, String)> {
     if plan.method() == Method::Full {
         // The buffer is the screen: handed over, nothing copied.
         std::mem::swap(&mut samples.color[0], color);
         std::mem::swap(&mut samples.depth[0], depth);
-        return Ok(None);
+        return Ok((None, CPU.to_string()));
     }
+    if let Some(ex) = executor.filter(|e| e.supports(plan.mapping())) {
+        ex.reconstruct_into(
+            plan.mapping(),
+            &plan.display,
+            samples,
+            plan.settings.reconstruct_filter,
+            color,
+            depth,
+        )
+        .map_err(|message| RenderError::Executor {
+            stage: "reconstruct",
+            backend: ex.backend().to_string(),
+            message,
+        })?;
+        return Ok((None, ex.backend().to_string()));
+    }
+    let smoothing = reconstruct_on_cpu(plan, samples, color, depth)?;
+    Ok((smoothing, CPU.to_string()))
+}
+
+/// The name of the CPU backend in stats.
+pub const CPU: &str = "cpu";
+
+fn reconstruct_on_cpu(
+    plan: &FramePlan,
+    samples: &mut SampleBuffers,
+    color: &mut Image<Rgb>,
+    depth: &mut Image<f32>,
+) -> Result<Option<Smoothing>> {
     reconstruct_into(
         plan.mapping(),
         &plan.display,

@@ -1,0 +1,239 @@
+//! `fovea render --backend cpu|gpu|auto` (issue 18, docs/gpu.md): which executor runs which
+//! stage of the frame. Today the GPU runs one stage, the reconstruct stage's lookup of polar
+//! buffers (VaFR, KFR, LaFR, visual-polar, liu-hybrid; `fovea_gpu::GpuReconstructor`); every
+//! other stage, and every other method, runs on the CPU.
+//!
+//! * `cpu`: no GPU is looked for.
+//! * `gpu`: the best adapter there is (lavapipe included); none, or a frame the GPU has no
+//!   stage for (a screen-aligned method, `--eyes both`), is a one-line error, so a run that
+//!   asked for the GPU never silently measures the CPU.
+//! * `auto` (default): a hardware adapter when there is one and the frame has a GPU stage,
+//!   the CPU otherwise; a one-line notice says which and why.
+//!
+//! The GPU path is compiled with the CLI's `gpu` feature (off by default: wgpu is a long
+//! build). Without it `gpu` says how to rebuild and `auto` is the CPU.
+
+use std::sync::{Arc, Mutex};
+
+use anyhow::Result;
+use serde::Serialize;
+
+use fovea_core::mapping::FoveationMapping;
+use fovea_render::pipeline::ReconstructExecutor;
+
+use crate::choices::BackendArg;
+
+/// The GPU reconstruction's own times of the last frame (ms), as JSON.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct GpuReconstructMs {
+    /// Tables on the CPU (u(r) table, columns, prefilter).
+    pub tables_ms: f64,
+    /// Buffers, upload, recording, submission.
+    pub upload_ms: f64,
+    /// Submission to the images filled (GPU work, readback, unpacking).
+    pub run_and_readback_ms: f64,
+    /// The compute pass alone, from timestamps (when the device has them).
+    pub gpu_pass_ms: Option<f64>,
+    /// Bands of rows the screen was split into.
+    pub bands: u32,
+}
+
+/// What `--backend` resolved to for one frame.
+pub struct Backend {
+    /// What was asked for.
+    pub requested: BackendArg,
+    /// One line: `GPU: <adapter>` or `CPU (<reason>)`.
+    pub describe: String,
+    /// The adapter, when a GPU runs a stage.
+    pub adapter: Option<String>,
+    /// The executor to plug into the frame's context.
+    pub executor: Option<Box<dyn ReconstructExecutor>>,
+    /// Filled by the executor after each frame.
+    pub times: Arc<Mutex<Option<GpuReconstructMs>>>,
+}
+
+impl Backend {
+    fn cpu(requested: BackendArg, reason: &str) -> Self {
+        Self {
+            requested,
+            describe: format!("CPU ({reason})"),
+            adapter: None,
+            executor: None,
+            times: Arc::default(),
+        }
+    }
+
+    /// The JSON of the frame's stats: what was asked, what ran, which stage ran where.
+    pub fn json(
+        &self,
+        stages: &fovea_render::pipeline::StageMs,
+        reconstruct: &str,
+    ) -> serde_json::Value {
+        use fovea_render::pipeline::Stage;
+        let per_stage: serde_json::Map<String, serde_json::Value> = Stage::ALL
+            .iter()
+            .filter(|&&k| stages.ran(k))
+            .map(|&k| {
+                let on = if k == Stage::Reconstruct {
+                    reconstruct
+                } else {
+                    "cpu"
+                };
+                (k.name().to_string(), serde_json::Value::from(on))
+            })
+            .collect();
+        serde_json::json!({
+            "requested": self.requested,
+            "resolved": self.describe,
+            "adapter": self.adapter,
+            "stages": per_stage,
+            "gpu_reconstruct": *self.times.lock().unwrap_or_else(|e| e.into_inner()),
+        })
+    }
+}
+
+/// Resolves `--backend` for a frame of `mapping` (`stereo`: `--eyes both`). `frame_bytes`:
+/// the largest single GPU buffer the frame's reconstruction needs (its polar texels), checked
+/// against the adapter before anything runs.
+pub fn resolve(
+    requested: BackendArg,
+    mapping: &dyn FoveationMapping,
+    stereo: bool,
+    frame_bytes: u64,
+) -> Result<Backend> {
+    if requested == BackendArg::Cpu {
+        return Ok(Backend::cpu(requested, "asked for"));
+    }
+    let why_not = if stereo {
+        Some("the GPU path runs one eye (--eyes one)".to_string())
+    } else if mapping.polar_layout().is_none() {
+        Some(format!(
+            "the GPU path reconstructs polar methods only (vafr, kfr, lafr, visual-polar, \
+             liu-hybrid), not {}",
+            mapping.method()
+        ))
+    } else {
+        None
+    };
+    if let Some(why) = why_not {
+        if requested == BackendArg::Gpu {
+            anyhow::bail!("--backend gpu: {why}; use --backend cpu or auto");
+        }
+        return Ok(Backend::cpu(requested, &format!("auto: {why}")));
+    }
+    gpu(requested, frame_bytes)
+}
+
+#[cfg(not(feature = "gpu"))]
+fn gpu(requested: BackendArg, _frame_bytes: u64) -> Result<Backend> {
+    if requested == BackendArg::Gpu {
+        anyhow::bail!(
+            "--backend gpu: this fovea was built without GPU support; rebuild with \
+             `cargo build --release --features gpu` (Rust 1.87 or later), or use --backend cpu"
+        );
+    }
+    Ok(Backend::cpu(
+        requested,
+        "auto: built without the gpu feature",
+    ))
+}
+
+#[cfg(feature = "gpu")]
+fn gpu(requested: BackendArg, frame_bytes: u64) -> Result<Backend> {
+    use fovea_gpu::{BackendChoice, GpuReconstructor, GpuRequest, Resolved};
+    let choice = match requested {
+        BackendArg::Gpu => BackendChoice::Gpu,
+        _ => BackendChoice::Auto,
+    };
+    let request = GpuRequest {
+        storage_binding_bytes: frame_bytes,
+        buffer_bytes: frame_bytes,
+        ..GpuRequest::default()
+    };
+    let resolved = choice.resolve(&request)?;
+    let describe = resolved.describe();
+    let ctx = match resolved {
+        Resolved::Gpu(ctx) => ctx,
+        Resolved::Cpu { .. } => {
+            return Ok(Backend {
+                requested,
+                describe,
+                adapter: None,
+                executor: None,
+                times: Arc::default(),
+            })
+        }
+    };
+    let times = Arc::new(Mutex::new(None));
+    let executor = GpuExecutor {
+        gpu: GpuReconstructor::new(&ctx)?,
+        times: times.clone(),
+    };
+    Ok(Backend {
+        requested,
+        describe,
+        adapter: Some(format!("{} — {}", ctx.adapter(), ctx.adapter().driver)),
+        executor: Some(Box::new(executor)),
+        times,
+    })
+}
+
+/// `fovea_gpu::GpuReconstructor` as the pipeline's reconstruct executor.
+#[cfg(feature = "gpu")]
+struct GpuExecutor {
+    gpu: fovea_gpu::GpuReconstructor,
+    times: Arc<Mutex<Option<GpuReconstructMs>>>,
+}
+
+#[cfg(feature = "gpu")]
+impl ReconstructExecutor for GpuExecutor {
+    fn backend(&self) -> &str {
+        "gpu"
+    }
+
+    fn supports(&self, mapping: &dyn FoveationMapping) -> bool {
+        fovea_gpu::GpuReconstructor::supports(mapping)
+    }
+
+    fn reconstruct_into(
+        &mut self,
+        mapping: &dyn FoveationMapping,
+        display: &fovea_core::display::DisplayProfile,
+        samples: &fovea_post::inverse_map::SampleBuffers,
+        filter: fovea_post::inverse_map::ReconstructFilter,
+        color: &mut fovea_core::Image<fovea_post::Rgb>,
+        depth: &mut fovea_core::Image<f32>,
+    ) -> std::result::Result<(), String> {
+        let t = self
+            .gpu
+            .reconstruct_into(mapping, display, samples, filter, color, depth)
+            .map_err(|e| e.to_string())?;
+        if let Ok(mut slot) = self.times.lock() {
+            *slot = Some(GpuReconstructMs {
+                tables_ms: t.tables_ms,
+                upload_ms: t.upload_ms,
+                run_and_readback_ms: t.run_and_readback_ms,
+                gpu_pass_ms: t.gpu_pass_ms,
+                bands: t.bands,
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Bytes of the largest GPU buffer a polar frame's reconstruction needs: its texels, 16 bytes
+/// each, every column padded by two rows (`fovea_post::inverse_map::PolarColumns`).
+pub fn polar_texel_bytes(mapping: &dyn FoveationMapping) -> u64 {
+    match mapping.polar_layout() {
+        Some(layout) => {
+            let h = mapping.buffers().first().map_or(0, |b| b.height);
+            layout
+                .rows
+                .iter()
+                .map(|&r| u64::from(r.min(h).max(1)) + 2)
+                .sum::<u64>()
+                * 16
+        }
+        None => 0,
+    }
+}

@@ -1,0 +1,463 @@
+//! Polar reconstruction on the GPU: a polar sample buffer (VaFR, KFR/LMFR, LaFR,
+//! visual-polar) back to screen colour and depth (VaFR Sec. 3.4 / Eq. 10–11; the reconstruct
+//! stage of DESIGN.md), the twin of `fovea_post::inverse_map`'s polar loop.
+//!
+//! Split of the work:
+//!
+//! * **Rust, on the CPU** ([`fovea_post::inverse_map::PolarTables`], the very function the CPU
+//!   path uses): the `u(r)` lookup table from the mapping's forward map every ⅛ px of radius,
+//!   each column's base, rows and period, the columns padded by one row on either side, and
+//!   for [`ReconstructFilter::Footprint`] the radial footprint `du/dr` per column and the
+//!   angular prefilter (each column boxed along its rows to `period/(2πr) − 1` rows). The
+//!   prefilter stays on the CPU in this first version: it is a per-column prefix sum, cheap
+//!   next to the per-pixel work, and sharing it keeps both executors on identical texels.
+//! * **WGSL** (`shaders/polar_reconstruct.wgsl`): per screen pixel, `u` from the table, the
+//!   angle with the crate's own `atan`, bilinear across the two nearest columns, and the
+//!   footprint's box across `du/dr` columns where a pixel spans more than one.
+//!
+//! Differences from the CPU loop, both within its own tolerance of the exact coordinates: the
+//! CPU interpolates coordinates linearly between every 8th pixel where that stays within
+//! [`COORD_TOLERANCE_TEXELS`](fovea_post::inverse_map::COORD_TOLERANCE_TEXELS) (1/64 texel),
+//! the GPU computes every pixel exactly; the CPU's `atan2` is a polynomial with |error| < 1e-5
+//! rad, the GPU's ~1e-7.
+//!
+//! The screen is split into bands of rows whose output fits the adapter's storage-binding
+//! limit (lavapipe: 128 MiB, i.e. 8.4 M pixels at 16 bytes); the table, columns and texels must
+//! each fit one binding, checked before anything is allocated ([`GpuError::AdapterTooSmall`]).
+
+use std::time::Instant;
+
+use bytemuck::{Pod, Zeroable};
+use fovea_core::display::DisplayProfile;
+use fovea_core::mapping::FoveationMapping;
+use fovea_core::Image;
+use fovea_post::inverse_map::{PolarTables, ReconstructFilter, SampleBuffers, ScreenFrame};
+use fovea_post::Rgb;
+
+use crate::device::GpuContext;
+use crate::error::{GpuError, Result};
+use crate::mapping::vafr::split_f64;
+use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
+use crate::transfer::{read_buffers, upload};
+
+/// The module: entry point `reconstruct`, [`ReconstructUniform`] at binding 0.
+pub const SHADER: ShaderSource = ShaderSource {
+    file: "polar_reconstruct.wgsl",
+    source: concat!(
+        include_str!("../shaders/common.wgsl"),
+        include_str!("../shaders/polar_reconstruct.wgsl")
+    ),
+    entry_points: &["reconstruct"],
+    uniform: (
+        "ReconstructParams",
+        std::mem::size_of::<ReconstructUniform>(),
+    ),
+};
+
+/// Bytes per screen pixel of the output (`vec4<u32>`: r, g, b, depth bits).
+const OUT_BYTES: u64 = 16;
+/// Bytes per stored texel (`[r, g, b, depth]`).
+const TEXEL_BYTES: u64 = 16;
+/// Bytes per column (`Column` of the shader).
+const COLUMN_BYTES: u64 = 16;
+/// What the table holds where the mapping has no sample (the CPU's `f32::INFINITY`): any
+/// value past the last column does, and a finite one keeps infinities out of the shader.
+const LUT_UNCOVERED: f32 = 1e30;
+
+/// The uniform block `ReconstructParams` of `polar_reconstruct.wgsl` (same field order; see
+/// there). One per band of rows.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct ReconstructUniform {
+    /// The pole, f32 high part, pixels.
+    pub pole_hi: [f32; 2],
+    /// The pole, f32 low part, pixels.
+    pub pole_lo: [f32; 2],
+    /// Screen width, pixels.
+    pub width: u32,
+    /// First row of the band.
+    pub row0: u32,
+    /// Rows of the band.
+    pub band_rows: u32,
+    /// Table length − 2.
+    pub lut_max_k: u32,
+    /// 1 / table step, per pixel.
+    pub inv_step: f32,
+    /// `last + 1`.
+    pub cols_end: f32,
+    /// The last column with shaded rows.
+    pub last: u32,
+    /// `f32::INFINITY.to_bits()`.
+    pub miss_depth_bits: u32,
+    /// 1 for [`ReconstructFilter::Footprint`], 0 for bilinear.
+    pub footprint: u32,
+    /// 1/(2π).
+    pub turns_per_rad: f32,
+    /// 2π.
+    pub rad_per_turn: f32,
+    /// Padding to 16 bytes.
+    pub pad: u32,
+}
+
+/// The shader's `Column`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+struct GpuColumn {
+    base: u32,
+    rows: u32,
+    period: f32,
+    texels_per_px: f32,
+}
+
+/// Where the time of one GPU reconstruction went.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ReconstructTimes {
+    /// Building the tables on the CPU (lookup table, columns, prefilter), wall ms.
+    pub tables_ms: f64,
+    /// Creating buffers, uploading, recording and submitting, wall ms.
+    pub upload_ms: f64,
+    /// From submission until the output was read back into the images, wall ms (includes the
+    /// GPU's work and the copy out).
+    pub run_and_readback_ms: f64,
+    /// The compute pass alone, from the device's timestamps (when it has
+    /// `TIMESTAMP_QUERY`), ms.
+    pub gpu_pass_ms: Option<f64>,
+    /// All of the above, wall ms.
+    pub total_ms: f64,
+    /// Bands of rows the screen was split into.
+    pub bands: u32,
+}
+
+/// The polar reconstruction's pipeline on one device; reuse it from frame to frame.
+pub struct GpuReconstructor {
+    ctx: GpuContext,
+    pipeline: wgpu::ComputePipeline,
+}
+
+impl GpuReconstructor {
+    /// Compiles the pass on `ctx`.
+    pub fn new(ctx: &GpuContext) -> Result<Self> {
+        let device = ctx.device();
+        let pipeline = ctx.scoped("building the reconstruct pipeline", || {
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(SHADER.file),
+                source: wgpu::ShaderSource::Wgsl(SHADER.source.into()),
+            });
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("reconstruct"),
+                layout: None,
+                module: &module,
+                entry_point: Some("reconstruct"),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        })?;
+        Ok(Self {
+            ctx: ctx.clone(),
+            pipeline,
+        })
+    }
+
+    /// The device.
+    pub fn context(&self) -> &GpuContext {
+        &self.ctx
+    }
+
+    /// Whether the pass can reconstruct `mapping`'s buffers: polar mappings (one buffer whose
+    /// columns are rings around the gaze: VaFR, KFR/LMFR, LaFR, visual-polar).
+    pub fn supports(mapping: &dyn FoveationMapping) -> bool {
+        mapping.polar_layout().is_some() && mapping.buffers().len() == 1
+    }
+
+    /// [`Self::reconstruct_into`] into new images.
+    pub fn reconstruct(
+        &self,
+        mapping: &dyn FoveationMapping,
+        display: &DisplayProfile,
+        buffers: &SampleBuffers,
+        filter: ReconstructFilter,
+    ) -> Result<(ScreenFrame, ReconstructTimes)> {
+        let (w, h) = (display.width_px, display.height_px);
+        let image_err = |e: fovea_core::FoveaError| GpuError::Input(e.to_string());
+        let mut out = ScreenFrame {
+            color: Image::new(w, h, [0.0f32; 3]).map_err(image_err)?,
+            depth: Image::new(w, h, 0.0f32).map_err(image_err)?,
+        };
+        let times = self.reconstruct_into(
+            mapping,
+            display,
+            buffers,
+            filter,
+            &mut out.color,
+            &mut out.depth,
+        )?;
+        Ok((out, times))
+    }
+
+    /// Maps `buffers` back to the screen of `display` through the polar `mapping`, read with
+    /// `filter`, writing every pixel of `color` and `depth` (both of the display's size), as
+    /// `fovea_post::inverse_map::reconstruct_into` does on the CPU.
+    pub fn reconstruct_into(
+        &self,
+        mapping: &dyn FoveationMapping,
+        display: &DisplayProfile,
+        buffers: &SampleBuffers,
+        filter: ReconstructFilter,
+        color: &mut Image<Rgb>,
+        depth: &mut Image<f32>,
+    ) -> Result<ReconstructTimes> {
+        let t_start = Instant::now();
+        let (w, h) = (display.width_px, display.height_px);
+        for (name, size) in [
+            ("output colour", (color.width(), color.height())),
+            ("output depth", (depth.width(), depth.height())),
+        ] {
+            if size != (w, h) {
+                return Err(GpuError::Input(format!(
+                    "{name} is {}x{}, the display {w}x{h}",
+                    size.0, size.1
+                )));
+            }
+        }
+        if !Self::supports(mapping) {
+            return Err(GpuError::Unsupported(format!(
+                "reconstructing {} buffers (the GPU reconstructs polar buffers only: vafr, kfr, \
+                 lafr, visual-polar)",
+                mapping.method()
+            )));
+        }
+        let tables = PolarTables::new(mapping, display, buffers, filter)
+            .map_err(|e| GpuError::Input(e.to_string()))?;
+        let lut: Vec<f32> = tables
+            .lut
+            .iter()
+            .map(|&u| if u.is_finite() { u } else { LUT_UNCOVERED })
+            .collect();
+        let radial = tables.texels_per_px.as_deref();
+        let gpu_columns: Vec<GpuColumn> = tables
+            .columns
+            .columns()
+            .iter()
+            .enumerate()
+            .map(|(i, c)| GpuColumn {
+                base: c.base,
+                rows: c.rows,
+                period: c.period,
+                texels_per_px: radial.and_then(|r| r.get(i)).copied().unwrap_or(1.0),
+            })
+            .collect();
+        let texels = tables.columns.texels();
+        let tables_ms = ms_since(t_start);
+
+        // Sizes against the adapter's limits, before any allocation.
+        let t_upload = Instant::now();
+        let what = format!("the {} reconstruction at {w}x{h}", mapping.method());
+        let limits = self.ctx.limits();
+        self.ctx
+            .check_storage_binding("the reconstruction's u(r) table", lut.len() as u64 * 4)?;
+        self.ctx.check_storage_binding(
+            "the reconstruction's column table",
+            gpu_columns.len() as u64 * COLUMN_BYTES,
+        )?;
+        self.ctx.check_storage_binding(
+            "the polar sample buffer's texels",
+            texels.len() as u64 * TEXEL_BYTES,
+        )?;
+        let row_bytes = w as u64 * OUT_BYTES;
+        let binding = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size);
+        // One row must fit, and a band may not exceed the dispatch's workgroups in y.
+        self.ctx
+            .check_storage_binding("one screen row of the reconstruction", row_bytes)?;
+        if w.div_ceil(WORKGROUP_SIZE) > limits.max_compute_workgroups_per_dimension {
+            return Err(GpuError::Unsupported(format!(
+                "a screen {w} px wide (more than {} workgroups of {WORKGROUP_SIZE})",
+                limits.max_compute_workgroups_per_dimension
+            )));
+        }
+        let band_rows = (binding / row_bytes)
+            .min(limits.max_compute_workgroups_per_dimension as u64)
+            .min(h.max(1) as u64)
+            .max(1) as u32;
+        let bands: Vec<(u32, u32)> = (0..h.div_ceil(band_rows))
+            .map(|b| {
+                let row0 = b * band_rows;
+                (row0, band_rows.min(h - row0))
+            })
+            .collect();
+        let (pole_x_hi, pole_x_lo) = split_f64(tables.centre.x_px);
+        let (pole_y_hi, pole_y_lo) = split_f64(tables.centre.y_px);
+        let pi = std::f64::consts::PI;
+        let uniform_of = |row0: u32, rows: u32| ReconstructUniform {
+            pole_hi: [pole_x_hi, pole_y_hi],
+            pole_lo: [pole_x_lo, pole_y_lo],
+            width: w,
+            row0,
+            band_rows: rows,
+            lut_max_k: (lut.len() - 2) as u32,
+            inv_step: (1.0 / tables.lut_step_px) as f32,
+            cols_end: (tables.last + 1) as f32,
+            last: tables.last as u32,
+            miss_depth_bits: f32::INFINITY.to_bits(),
+            footprint: u32::from(filter == ReconstructFilter::Footprint),
+            turns_per_rad: (0.5 / pi) as f32,
+            rad_per_turn: (2.0 * pi) as f32,
+            pad: 0,
+        };
+        let timestamps = self.ctx.has_timestamps();
+        let device = self.ctx.device();
+        let (readbacks, stamps) = self.ctx.scoped(&what, || {
+            let storage = wgpu::BufferUsages::STORAGE;
+            let lut_buf = upload(&self.ctx, "u(r) table", bytemuck::cast_slice(&lut), storage);
+            let col_buf = upload(
+                &self.ctx,
+                "columns",
+                bytemuck::cast_slice(&gpu_columns),
+                storage,
+            );
+            let tex_buf = upload(&self.ctx, "texels", bytemuck::cast_slice(texels), storage);
+            let layout = self.pipeline.get_bind_group_layout(0);
+            let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("reconstruct"),
+            });
+            let queries = timestamps.then(|| {
+                let set = device.create_query_set(&wgpu::QuerySetDescriptor {
+                    label: Some("reconstruct timestamps"),
+                    ty: wgpu::QueryType::Timestamp,
+                    count: 2,
+                });
+                let resolve = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("timestamps resolved"),
+                    size: 16,
+                    usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                });
+                let read = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("timestamps readback"),
+                    size: 16,
+                    usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                    mapped_at_creation: false,
+                });
+                (set, resolve, read)
+            });
+            let mut outputs = Vec::with_capacity(bands.len());
+            let mut binds = Vec::with_capacity(bands.len());
+            for &(row0, rows) in &bands {
+                let bytes = rows as u64 * row_bytes;
+                let uniform = upload(
+                    &self.ctx,
+                    "reconstruct parameters",
+                    bytemuck::bytes_of(&uniform_of(row0, rows)),
+                    wgpu::BufferUsages::UNIFORM,
+                );
+                let out = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("reconstructed band"),
+                    size: bytes,
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                });
+                let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("reconstruct bindings"),
+                    layout: &layout,
+                    entries: &[
+                        entry(0, &uniform),
+                        entry(1, &lut_buf),
+                        entry(2, &col_buf),
+                        entry(3, &tex_buf),
+                        entry(4, &out),
+                    ],
+                });
+                outputs.push(out);
+                binds.push(bind);
+            }
+            {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("reconstruct"),
+                    timestamp_writes: queries.as_ref().map(|(set, _, _)| {
+                        wgpu::ComputePassTimestampWrites {
+                            query_set: set,
+                            beginning_of_pass_write_index: Some(0),
+                            end_of_pass_write_index: Some(1),
+                        }
+                    }),
+                });
+                pass.set_pipeline(&self.pipeline);
+                for (bind, &(_, rows)) in binds.iter().zip(&bands) {
+                    pass.set_bind_group(0, bind, &[]);
+                    pass.dispatch_workgroups(w.div_ceil(WORKGROUP_SIZE), rows, 1);
+                }
+            }
+            let mut readbacks = Vec::with_capacity(bands.len());
+            for out in &outputs {
+                let read = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("reconstructed band readback"),
+                    size: out.size(),
+                    usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                    mapped_at_creation: false,
+                });
+                encoder.copy_buffer_to_buffer(out, 0, &read, 0, out.size());
+                readbacks.push(read);
+            }
+            let stamps = queries.map(|(set, resolve, read)| {
+                encoder.resolve_query_set(&set, 0..2, &resolve, 0);
+                encoder.copy_buffer_to_buffer(&resolve, 0, &read, 0, 16);
+                read
+            });
+            self.ctx.queue().submit([encoder.finish()]);
+            (readbacks, stamps)
+        })?;
+        let upload_ms = ms_since(t_upload);
+
+        let t_run = Instant::now();
+        let mut all: Vec<&wgpu::Buffer> = readbacks.iter().collect();
+        all.extend(stamps.as_ref());
+        let wu = w as usize;
+        let mut ticks = [0u64; 2];
+        read_buffers(&self.ctx, &all, &what, |k, bytes| {
+            if k == bands.len() {
+                ticks = [0, 1].map(|i| {
+                    u64::from_le_bytes(bytes[8 * i..8 * i + 8].try_into().unwrap_or([0; 8]))
+                });
+                return;
+            }
+            let (row0, rows) = bands[k];
+            // Same bits as the shader's u32s: r, g, b and depth as f32.
+            let px: &[[f32; 4]] = bytemuck::cast_slice(bytes);
+            let start = row0 as usize * wu;
+            let end = start + rows as usize * wu;
+            for ((c, d), p) in color.data_mut()[start..end]
+                .iter_mut()
+                .zip(&mut depth.data_mut()[start..end])
+                .zip(px)
+            {
+                *c = [p[0], p[1], p[2]];
+                *d = p[3];
+            }
+        })?;
+        let run_and_readback_ms = ms_since(t_run);
+        let gpu_pass_ms = stamps.map(|_| {
+            let period_ns = self.ctx.queue().get_timestamp_period() as f64;
+            ticks[1].saturating_sub(ticks[0]) as f64 * period_ns * 1e-6
+        });
+        Ok(ReconstructTimes {
+            tables_ms,
+            upload_ms,
+            run_and_readback_ms,
+            gpu_pass_ms,
+            total_ms: ms_since(t_start),
+            bands: bands.len() as u32,
+        })
+    }
+}
+
+fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry {
+        binding,
+        resource: buffer.as_entire_binding(),
+    }
+}
+
+fn ms_since(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}

@@ -1,0 +1,67 @@
+//! Moving bytes to and from the device without wgpu's panicking conveniences: uploads with
+//! `create_buffer` + `Queue::write_buffer` (wgpu's `create_buffer_init` panics on a lost
+//! device), readbacks that turn every failure into a [`GpuError`](crate::GpuError).
+
+use crate::device::GpuContext;
+use crate::error::Result;
+
+/// A buffer holding `contents` (a multiple of 4 bytes). Unlike wgpu's `create_buffer_init`,
+/// which panics when the device is lost, a failure here is an error of the enclosing scope.
+pub(crate) fn upload(
+    ctx: &GpuContext,
+    label: &str,
+    contents: &[u8],
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    let buffer = ctx.device().create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: contents.len() as u64,
+        usage: usage | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    ctx.queue().write_buffer(&buffer, 0, contents);
+    buffer
+}
+
+/// Maps `buffer` (MAP_READ) and copies it out; waits for the queue.
+pub(crate) fn read_buffer(ctx: &GpuContext, buffer: &wgpu::Buffer, what: &str) -> Result<Vec<u8>> {
+    let mut out = Vec::new();
+    read_buffers(ctx, &[buffer], what, |_, bytes| out = bytes.to_vec())?;
+    Ok(out)
+}
+
+/// Maps every buffer of `buffers` (MAP_READ), waits for the queue once, and hands each
+/// buffer's bytes to `read(index, bytes)` in order, unmapping it after.
+pub(crate) fn read_buffers(
+    ctx: &GpuContext,
+    buffers: &[&wgpu::Buffer],
+    what: &str,
+    mut read: impl FnMut(usize, &[u8]),
+) -> Result<()> {
+    let mut pending = Vec::with_capacity(buffers.len());
+    for buffer in buffers {
+        let (tx, rx) = std::sync::mpsc::channel();
+        buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        pending.push(rx);
+    }
+    ctx.wait_idle(what)?;
+    for (k, (buffer, rx)) in buffers.iter().zip(pending).enumerate() {
+        let mapped = rx.recv().map_err(|_| crate::GpuError::DeviceLost {
+            reason: format!("the readback of {what} never completed"),
+        })?;
+        mapped.map_err(|e| crate::GpuError::DeviceLost {
+            reason: format!("reading back {what}: {e}"),
+        })?;
+        let done = ctx.scoped(what, || {
+            buffer.get_mapped_range(..).map(|view| read(k, &view))
+        })?;
+        done.map_err(|e| crate::GpuError::Validation {
+            what: what.to_string(),
+            message: crate::error::one_line(&e.to_string()),
+        })?;
+        buffer.unmap();
+    }
+    Ok(())
+}
