@@ -145,7 +145,9 @@ pub fn gaze_csv(data: &[u8]) -> Outcome {
                 match t.resample(90.0, n) {
                     Ok(frames) => {
                         assert!(
-                            frames.iter().all(|g| g.x_px.is_finite() && g.y_px.is_finite()),
+                            frames
+                                .iter()
+                                .all(|g| g.x_px.is_finite() && g.y_px.is_finite()),
                             "a resampled gaze is not finite"
                         );
                         Outcome::Loaded {

@@ -357,7 +357,9 @@ fn gaze_csv_and_camera_path_must_be_regular_files() {
     inputs.push(("--gaze-csv", dir.path()));
     for (flag, path) in inputs {
         let o = fovea()
-            .args(["sequence", "--res", "64x72", "--frames", "2", "--video", "off"])
+            .args([
+                "sequence", "--res", "64x72", "--frames", "2", "--video", "off",
+            ])
             .args(["-q", flag])
             .arg(path)
             .arg("--out")
@@ -375,7 +377,9 @@ fn gaze_csv_and_camera_path_must_be_regular_files() {
     let latin1 = dir.path().join("latin1.csv");
     std::fs::write(&latin1, b"t,x,y\n0,1,1\n# caf\xe9\n").unwrap();
     let o = fovea()
-        .args(["sequence", "--res", "64x72", "--frames", "2", "--video", "off"])
+        .args([
+            "sequence", "--res", "64x72", "--frames", "2", "--video", "off",
+        ])
         .arg("-q")
         .arg("--gaze-csv")
         .arg(&latin1)
@@ -384,5 +388,8 @@ fn gaze_csv_and_camera_path_must_be_regular_files() {
         .output()
         .unwrap();
     let err = refused(&o, &["latin1"]);
-    assert!(err.contains("not UTF-8") && err.contains("offset 20"), "{err}");
+    assert!(
+        err.contains("not UTF-8") && err.contains("offset 17"),
+        "{err}"
+    );
 }

@@ -51,7 +51,10 @@ fn fuzz_corpus_loads_or_fails_cleanly() {
             files.len()
         );
         // The corpus exercises both paths of every reader.
-        assert!(loaded > 0 && refused > 0, "{target}: {loaded} loaded, {refused} refused");
+        assert!(
+            loaded > 0 && refused > 0,
+            "{target}: {loaded} loaded, {refused} refused"
+        );
     }
     assert!(failures.is_empty(), "{failures:#?}");
 }
@@ -79,7 +82,10 @@ fn the_seeds_give_their_expected_outcomes() {
         harness::mitsuba(&seed("mitsuba", "scene-include.xml")),
         "scene-include.xml",
     );
-    loads(harness::gaze_csv(&seed("gaze_csv", "pixels.csv")), "pixels.csv");
+    loads(
+        harness::gaze_csv(&seed("gaze_csv", "pixels.csv")),
+        "pixels.csv",
+    );
     // Refused without reading the device.
     match harness::gltf(&seed("gltf", "dev-zero-buffer.gltf")) {
         Outcome::Refused(e) => assert!(e.contains("/dev/zero"), "{e}"),
