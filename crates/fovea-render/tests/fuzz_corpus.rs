@@ -13,7 +13,10 @@ mod harness;
 
 use harness::Outcome;
 
-const TARGETS: [(&str, fn(&[u8]) -> Outcome); 6] = [
+/// A fuzz target's harness function.
+type Target = fn(&[u8]) -> Outcome;
+
+const TARGETS: [(&str, Target); 6] = [
     ("gltf", harness::gltf),
     ("glb", harness::glb),
     ("obj", harness::obj),
