@@ -7,11 +7,11 @@
 //! Every function returns an [`Outcome`] and panics only when the library breaks its
 //! contract: a panic inside the loader, or an error message that is empty or longer than
 //! one line (errors are printed as one `error:` line). The file-based loaders read from a
-//! scratch folder of this process (`$TMPDIR/fovea-fuzz-<pid>/`), rewritten on every call, so
-//! a run does not depend on the inputs before it.
+//! scratch folder of the thread (`$TMPDIR/fovea-fuzz-<pid>-<n>/`, removed when the thread
+//! ends), rewritten on every call, so a run does not depend on the inputs before it.
 
-use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use fovea_core::gaze::csv::{parse_csv, CsvOptions, GapPolicy};
 use fovea_render::scene::{gltf, Scene};
@@ -38,16 +38,35 @@ const MESH_PLY: &str = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float 
                         property list uchar int vertex_indices\nend_header\n\
                         0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
 
-/// The scratch folder of this process, with the fixed companion files.
-fn scratch() -> &'static Path {
-    static DIR: OnceLock<PathBuf> = OnceLock::new();
-    DIR.get_or_init(|| {
-        let dir = std::env::temp_dir().join(format!("fovea-fuzz-{}", std::process::id()));
+/// A scratch folder with the fixed companion files, removed when its thread ends.
+struct Scratch(PathBuf);
+
+impl Scratch {
+    fn new() -> Self {
+        static NEXT: AtomicUsize = AtomicUsize::new(0);
+        let n = NEXT.fetch_add(1, Ordering::Relaxed);
+        let dir = std::env::temp_dir().join(format!("fovea-fuzz-{}-{n}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("scratch folder");
         std::fs::write(dir.join("mesh.obj"), MESH_OBJ).expect("mesh.obj");
         std::fs::write(dir.join("mesh.ply"), MESH_PLY).expect("mesh.ply");
-        dir
-    })
+        Scratch(dir)
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+thread_local! {
+    // One per thread: the replay test's test functions run in parallel.
+    static SCRATCH: Scratch = Scratch::new();
+}
+
+/// The scratch folder of this thread.
+fn scratch() -> PathBuf {
+    SCRATCH.with(|s| s.0.clone())
 }
 
 /// `data` before and after the first `marker` (empty after when there is none).

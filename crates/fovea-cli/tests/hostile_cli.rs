@@ -389,7 +389,7 @@ fn gaze_csv_and_camera_path_must_be_regular_files() {
         .unwrap();
     let err = refused(&o, &["latin1"]);
     assert!(
-        err.contains("not UTF-8") && err.contains("offset 20"),
+        err.contains("not UTF-8") && err.contains("offset 17"),
         "{err}"
     );
 }

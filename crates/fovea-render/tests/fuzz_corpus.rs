@@ -13,7 +13,7 @@ mod harness;
 
 use harness::Outcome;
 
-/// A fuzz target: the bytes of one input to what the reader made of them.
+/// A fuzz target's harness function.
 type Target = fn(&[u8]) -> Outcome;
 
 const TARGETS: [(&str, Target); 6] = [
