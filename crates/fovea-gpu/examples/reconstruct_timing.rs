@@ -55,22 +55,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for name in presets.split(',') {
         let d = DisplayProfile::preset(name)?;
         let m = build(Method::Vafr, &d, d.centre_gaze(), &MappingConfig::default())?;
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
-        let mut bufs = SampleBuffers {
-            color: Vec::new(),
-            depth: Vec::new(),
-        };
-        for b in m.buffers() {
-            let c = (0..b.pixels()).map(|_| [next(), next(), next()]).collect();
-            bufs.color.push(Image::from_vec(b.width, b.height, c)?);
-            bufs.depth.push(Image::new(b.width, b.height, 1.0f32)?);
-        }
+        let mut bufs = SampleBuffers::random(m.as_ref(), 0)?;
         let mut color = Image::new(d.width_px, d.height_px, [0.0f32; 3])?;
         let mut depth = Image::new(d.width_px, d.height_px, 0.0f32)?;
         let (mut cpu_wall, mut cpu_cpu) = (Vec::new(), Vec::new());

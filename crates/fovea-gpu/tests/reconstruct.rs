@@ -33,7 +33,7 @@ use fovea_core::units::ScreenPoint;
 use fovea_core::Image;
 use fovea_gpu::{GpuError, GpuReconstructor};
 use fovea_post::inverse_map::{
-    reconstruct_into, ReconstructFilter, SampleBuffers, ScreenFrame, COORD_TOLERANCE_TEXELS,
+    reconstruct_filtered, ReconstructFilter, SampleBuffers, ScreenFrame, COORD_TOLERANCE_TEXELS,
 };
 use fovea_post::Rgb;
 
@@ -99,24 +99,9 @@ fn exact_bilinear(
     ))
 }
 
-/// Random colour in every texel, depth = texel index (as the CPU test's `random_buffers`).
+/// Random colour in every texel, depth = texel index ([`SampleBuffers::random`]).
 fn random_buffers(mapping: &dyn FoveationMapping, seed: u64) -> SampleBuffers {
-    let mut state = 0x9e37_79b9_7f4a_7c15u64 ^ seed.wrapping_mul(0x2545_f491_4f6c_dd1d);
-    let mut next = || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 40) as f32 / (1u64 << 24) as f32
-    };
-    let mut color = Vec::new();
-    let mut depth = Vec::new();
-    for b in mapping.buffers() {
-        let c: Vec<Rgb> = (0..b.pixels()).map(|_| [next(), next(), next()]).collect();
-        color.push(Image::from_vec(b.width, b.height, c).unwrap());
-        let d: Vec<f32> = (0..b.pixels()).map(|k| k as f32).collect();
-        depth.push(Image::from_vec(b.width, b.height, d).unwrap());
-    }
-    SampleBuffers { color, depth }
+    SampleBuffers::random(mapping, seed).unwrap()
 }
 
 fn cpu(
@@ -125,14 +110,7 @@ fn cpu(
     bufs: &SampleBuffers,
     filter: ReconstructFilter,
 ) -> ScreenFrame {
-    let mut b = bufs.clone();
-    let n = d.pixel_count() as usize;
-    let mut out = ScreenFrame {
-        color: Image::from_vec(d.width_px, d.height_px, vec![[0.0; 3]; n]).unwrap(),
-        depth: Image::from_vec(d.width_px, d.height_px, vec![0.0; n]).unwrap(),
-    };
-    reconstruct_into(m, d, &mut b, &mut out.color, &mut out.depth, filter).unwrap();
-    out
+    reconstruct_filtered(m, d, bufs.clone(), filter).unwrap()
 }
 
 /// How far apart two reconstructions are.

@@ -66,6 +66,29 @@ pub struct SampleBuffers {
     pub depth: Vec<Image<f32>>,
 }
 
+impl SampleBuffers {
+    /// Buffers of `mapping` with an independent pseudo-random colour in [0, 1) in every texel
+    /// (xorshift from `seed`: the worst case for interpolation errors) and depth = the texel's
+    /// index in its layer. Test and benchmark input for the reconstruction.
+    pub fn random(mapping: &dyn FoveationMapping, seed: u64) -> Result<Self> {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64 ^ seed.wrapping_mul(0x2545_f491_4f6c_dd1d);
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let (mut color, mut depth) = (Vec::new(), Vec::new());
+        for b in mapping.buffers() {
+            let c: Vec<Rgb> = (0..b.pixels()).map(|_| [next(), next(), next()]).collect();
+            color.push(Image::from_vec(b.width, b.height, c)?);
+            let d: Vec<f32> = (0..b.pixels()).map(|k| k as f32).collect();
+            depth.push(Image::from_vec(b.width, b.height, d)?);
+        }
+        Ok(Self { color, depth })
+    }
+}
+
 /// The reconstructed screen image and depth.
 #[derive(Clone, Debug)]
 pub struct ScreenFrame {
@@ -82,6 +105,16 @@ pub fn reconstruct(
     display: &DisplayProfile,
     buffers: SampleBuffers,
 ) -> Result<ScreenFrame> {
+    reconstruct_filtered(mapping, display, buffers, ReconstructFilter::default())
+}
+
+/// [`reconstruct`] with the polar lookup `filter`.
+pub fn reconstruct_filtered(
+    mapping: &dyn FoveationMapping,
+    display: &DisplayProfile,
+    buffers: SampleBuffers,
+    filter: ReconstructFilter,
+) -> Result<ScreenFrame> {
     let (w, h) = (display.width_px, display.height_px);
     let n = w as usize * h as usize;
     let mut buffers = buffers;
@@ -96,7 +129,7 @@ pub fn reconstruct(
         &mut buffers,
         &mut out.color,
         &mut out.depth,
-        ReconstructFilter::default(),
+        filter,
     )?;
     Ok(out)
 }
@@ -818,24 +851,8 @@ mod tests {
 
     use fovea_core::mapping::{build, MappingConfig};
 
-    /// Random colour in every texel (worst case for interpolation errors), depth = texel index.
     fn random_buffers(mapping: &dyn FoveationMapping) -> SampleBuffers {
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
-        let mut color = Vec::new();
-        let mut depth = Vec::new();
-        for b in mapping.buffers() {
-            let c: Vec<Rgb> = (0..b.pixels()).map(|_| [next(), next(), next()]).collect();
-            color.push(Image::from_vec(b.width, b.height, c).unwrap());
-            let d: Vec<f32> = (0..b.pixels()).map(|k| k as f32).collect();
-            depth.push(Image::from_vec(b.width, b.height, d).unwrap());
-        }
-        SampleBuffers { color, depth }
+        SampleBuffers::random(mapping, 0).unwrap()
     }
 
     /// The polar reconstruction computed the slow way: every pixel's column through the
@@ -926,14 +943,7 @@ mod tests {
         bufs: &SampleBuffers,
         filter: ReconstructFilter,
     ) -> ScreenFrame {
-        let mut b = bufs.clone();
-        let n = d.pixel_count() as usize;
-        let mut out = ScreenFrame {
-            color: Image::from_vec(d.width_px, d.height_px, vec![[0.0; 3]; n]).unwrap(),
-            depth: Image::from_vec(d.width_px, d.height_px, vec![0.0; n]).unwrap(),
-        };
-        reconstruct_into(m, d, &mut b, &mut out.color, &mut out.depth, filter).unwrap();
-        out
+        reconstruct_filtered(m, d, bufs.clone(), filter).unwrap()
     }
 
     /// The mean over a pixel of the buffer seen as piecewise constant (each texel its value

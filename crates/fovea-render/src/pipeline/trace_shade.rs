@@ -95,10 +95,16 @@ pub fn trace_chunk(
         order,
     } = chunk;
     let total = starts.last().copied().unwrap_or(0);
+    // With the same rays in every texel (the default) a ray's texel is a division away; only
+    // per-column counts need the search.
+    let uniform = plan.rays.per_column.is_empty().then_some(plan.rays.uniform);
     (0..total)
         .into_par_iter()
         .map(|r| {
-            let t = starts.partition_point(|&s| s <= r) - 1;
+            let t = match uniform {
+                Some(n) => (r / n) as usize,
+                None => starts.partition_point(|&s| s <= r) - 1,
+            };
             let n = starts[t + 1] - starts[t];
             let k = order[t] as usize;
             let o = plan.rays.pattern(n).0[(r - starts[t]) as usize];
