@@ -163,7 +163,7 @@ done
 case_ "--eyes both --res 9x9" any -- render --eyes both --res 9x9 --lights 1 -q --out "$out/r.png"
 case_ "Mitsuba XML nested 20,000 deep" 2 '+nest' -- "${R[@]}" --scene "$scenes/deep.xml"
 case_ "Mitsuba, 8,000 shapes" 0 -- "${R[@]}" --scene "$scenes/shapes-8000.xml" --method full
-case_ "glTF sun of 6,830 lx" 0 -- "${R[@]}" --scene "$d/sun.gltf" --method full
+case_ "glTF sun of 6,830 lx" 0 "+note: the scene.s lights are photometric" -- "${R[@]}" --scene "$d/sun.gltf" --method full
 for e in nan inf -1e9; do
   case_ "--exposure $e" 2 -- "${R[@]}" --exposure "$e"
 done

@@ -26,16 +26,42 @@ pub struct DisplayArgs {
     /// Custom per-eye resolution WxH (square pixels), e.g. 1920x1080, or a preset name.
     #[arg(long)]
     pub res: Option<String>,
-    /// Vertical field of view in degrees for --res.
-    #[arg(long, default_value_t = 90.0)]
-    pub vfov: f64,
+    /// Vertical field of view in degrees for --res (default: the scene file's camera's when
+    /// the view is that camera's, else 90).
+    #[arg(long)]
+    pub vfov: Option<f64>,
 }
+
+/// The vertical field of view of `--res` when neither `--vfov` nor the file's camera sets one.
+pub const DEFAULT_VFOV_DEG: f64 = 90.0;
 
 impl DisplayArgs {
     /// The chosen display; `default` when neither --headset nor --res is given.
     pub fn display(&self, default: Headset) -> Result<DisplayProfile> {
+        self.display_for_view(default, None)
+    }
+
+    /// The `--vfov` in effect without a file camera: the flag's, else 90°.
+    pub fn vfov_deg(&self) -> f64 {
+        self.vfov.unwrap_or(DEFAULT_VFOV_DEG)
+    }
+
+    /// The chosen display for a view whose camera came from the scene file with vertical field
+    /// of view `file_vfov_deg` (glTF `yfov`, Mitsuba `fov`): a `--res` display takes that field
+    /// of view unless `--vfov` is given; a headset preset keeps its own (the headset's optics
+    /// decide what the eye sees).
+    pub fn display_for_view(
+        &self,
+        default: Headset,
+        file_vfov_deg: Option<f32>,
+    ) -> Result<DisplayProfile> {
         if let Some(r) = &self.res {
-            display_of(r, self.vfov)
+            let vfov = match (self.vfov, file_vfov_deg) {
+                (Some(v), _) => v,
+                (None, Some(f)) => f64::from(f),
+                (None, None) => DEFAULT_VFOV_DEG,
+            };
+            display_of(r, vfov)
         } else {
             preset(self.headset.unwrap_or(default))
         }

@@ -148,7 +148,8 @@ pub fn params(args: &FlickerArgs) -> Result<FlickerParams> {
 pub fn run(args: FlickerArgs) -> Result<()> {
     check_sequence(args.frames as usize, args.fps)?;
     let params = params(&args)?;
-    let display = args.display.display(Headset::VivePro)?;
+    let prepared = prepare(&args.scene, &args.display, Headset::VivePro)?;
+    let display = prepared.camera.display.clone();
     let duration_s = args.frames as f64 / args.fps;
     let gazes = gaze_trajectory(
         args.gaze_csv.as_deref(),
@@ -159,7 +160,6 @@ pub fn run(args: FlickerArgs) -> Result<()> {
         duration_s,
     )?
     .resample(args.fps, args.frames as usize)?;
-    let prepared = prepare(&args.scene, &display)?;
     let cameras: Vec<EyeCamera> = match &args.camera_path {
         Some(p) => {
             let (path, _) = read_camera_path(p)?;

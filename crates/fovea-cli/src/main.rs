@@ -12,6 +12,7 @@ mod curves;
 mod demo;
 mod dof_args;
 mod dof_compare;
+mod exposure_args;
 mod flicker;
 mod inset_analysis;
 mod optics;

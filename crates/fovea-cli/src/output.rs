@@ -9,7 +9,7 @@ use fovea_post::tonemap::{to_srgb8, ToneCurve};
 use fovea_post::Rgb;
 
 /// `left` and `right` (the same size) next to each other.
-pub fn side_by_side(left: &Image<Rgb>, right: &Image<Rgb>) -> Result<Image<Rgb>> {
+pub fn side_by_side<T: Copy>(left: &Image<T>, right: &Image<T>) -> Result<Image<T>> {
     let (w, h) = (left.width(), left.height());
     if (right.width(), right.height()) != (w, h) {
         bail!(

@@ -21,6 +21,7 @@ use crate::choices::{
 };
 use crate::common::{thousands, DisplayArgs, FrameOptions, MethodOptions};
 use crate::dof_args::DofArgs;
+use crate::exposure_args::{expose, exposure_json, ExposureArgs};
 use crate::output::{check_image_path, write_rgb, write_scalar};
 use crate::scene_args::{prepare, GazeArgs, SceneArgs};
 
@@ -82,9 +83,8 @@ pub struct RenderArgs {
     /// spacing tables, AA, culling limits, tiles, memory): what the frame was decided to be.
     #[arg(long)]
     pub plan_out: Option<PathBuf>,
-    /// Exposure in stops for PNG output, -20 to 20.
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-    pub exposure: f32,
+    #[command(flatten)]
+    pub exposure: ExposureArgs,
     /// Tone curve for PNG output: clamp or reinhard.
     #[arg(long, value_enum, ignore_case = true, default_value_t = Tonemap::Reinhard)]
     pub tonemap: Tonemap,
@@ -141,21 +141,6 @@ fn parse_bytes(text: &str) -> Result<u64> {
         bail!("invalid parameter `max-memory` = {text}: expected a positive size like 8G");
     }
     Ok((v * mult as f64) as u64)
-}
-
-/// The largest `--exposure` magnitude in stops (±20 stops is a factor of about 10⁶).
-pub const MAX_EXPOSURE_STOPS: f32 = 20.0;
-
-/// Refuses a non-finite `--exposure` or one beyond ±[`MAX_EXPOSURE_STOPS`] (which would
-/// write an all-black or all-white image).
-pub fn check_exposure(stops: f32) -> Result<()> {
-    if !(stops.is_finite() && stops.abs() <= MAX_EXPOSURE_STOPS) {
-        bail!(
-            "invalid parameter `exposure` = {stops}: expected a finite number of stops from \
-             -{MAX_EXPOSURE_STOPS} to {MAX_EXPOSURE_STOPS}"
-        );
-    }
-    Ok(())
 }
 
 /// `--env-light` and `--env-samples`: the environment light of direct shading.
@@ -259,7 +244,7 @@ pub fn progress_bar(quiet: bool, label: &str) -> ProgressBar {
 }
 
 pub fn run(args: RenderArgs) -> Result<()> {
-    check_exposure(args.exposure)?;
+    args.exposure.asked()?;
     check_image_path(&args.out)?;
     for p in [&args.depth_out, &args.density_out, &args.coc_out]
         .into_iter()
@@ -267,7 +252,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
     {
         check_image_path(p)?;
     }
-    let display = args.display.display(Headset::VivePro)?;
+    // Checked before the scene loads; the view's display may take the file camera's field of
+    // view (see `Loaded::display`).
+    args.display.display(Headset::VivePro)?;
     let liu_hybrid = args.method.is_liu_hybrid();
     let method = args.method.method();
     let dof = args.dof.settings(liu_hybrid)?;
@@ -301,7 +288,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
         .validate()?;
     }
     let memory_limit = memory_limit(args.max_memory.as_deref())?;
-    let prepared = prepare(&args.scene, &display)?;
+    let prepared = prepare(&args.scene, &args.display, Headset::VivePro)?;
+    let display = prepared.camera.display.clone();
     let gaze = args.gaze.resolve(&display, &prepared.camera)?;
     let mut settings = FrameSettings::new(method);
     settings.mapping = config;
@@ -391,7 +379,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let frame = ctx.take_frame().context("no frame rendered")?;
     pb.finish_and_clear();
 
-    write_rgb(&args.out, &frame.color, args.exposure, tone)?;
+    let exposure = args.exposure.choose(prepared.world.scene.light_units)?;
+    let exposed = expose(&frame.color, &frame.depth, exposure, tone);
+    write_rgb(&args.out, &frame.color, exposed.stops, tone)?;
     written.insert(0, &args.out);
     if let Some(p) = &args.depth_out {
         write_scalar(p, &frame.depth, 0.1, 100.0)?;
@@ -429,6 +419,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         "inset_smoothing": (method == Method::Inset).then(|| settings.inset_smoothing.name()),
         "lod": lod_stats,
         "backend": backend.json(&s.stages_ms, &s.reconstruct_backend),
+        "exposure": exposure_json(exposure.0, &exposed),
         "frame": s,
     });
     std::fs::write(&stats_path, serde_json::to_string_pretty(&json)? + "\n")
@@ -593,7 +584,10 @@ fn run_stereo(
     pb.finish_and_clear();
     let (w, h) = (display.width_px, display.height_px);
     let both = crate::output::side_by_side(&frame.left.color, &frame.right.color)?;
-    write_rgb(&args.out, &both, args.exposure, tone)?;
+    let both_depth = crate::output::side_by_side(&frame.left.depth, &frame.right.depth)?;
+    let exposure = args.exposure.choose(prepared.world.scene.light_units)?;
+    let exposed = expose(&both, &both_depth, exposure, tone);
+    write_rgb(&args.out, &both, exposed.stops, tone)?;
     let stats_path = args
         .stats
         .clone()
@@ -611,6 +605,7 @@ fn run_stereo(
         "inset_smoothing": (settings.method == Method::Inset)
             .then(|| settings.inset_smoothing.name()),
         "stereo": frame.stats,
+        "exposure": exposure_json(exposure.0, &exposed),
         "lod": lod_stats,
         "left": frame.left.stats,
         "right": frame.right.stats,

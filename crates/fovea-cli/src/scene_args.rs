@@ -13,7 +13,8 @@ use fovea_render::lights::view_lights;
 use fovea_render::scene::{builtin, CameraDesc, Light, Scene};
 use fovea_render::world::World;
 
-use crate::choices::{Bvh, EyeChoice};
+use crate::choices::{Bvh, EyeChoice, Headset};
+use crate::common::DisplayArgs;
 
 /// Where the scene and the viewer come from.
 #[derive(Args, Debug, Clone, serde::Serialize)]
@@ -169,6 +170,8 @@ pub struct Loaded {
     eye: Eye,
     /// The scene's own lights.
     scene_lights: Vec<Light>,
+    /// The vertical field of view of the file's camera when the view is that camera's.
+    file_vfov_deg: Option<f32>,
 }
 
 /// Loads the scene, builds its BVH and places the head.
@@ -189,10 +192,21 @@ pub fn load(args: &SceneArgs) -> Result<Loaded> {
         world,
         rig,
         eye,
+        file_vfov_deg: desc.yfov_deg,
     })
 }
 
 impl Loaded {
+    /// The display of `args` for this view: with `--res` and no `--vfov`, the field of view
+    /// of the file's camera when the view is that camera's (a `note:` says so).
+    pub fn display(&self, args: &DisplayArgs, default: Headset) -> Result<DisplayProfile> {
+        let d = args.display_for_view(default, self.file_vfov_deg)?;
+        if let (Some(_), None, Some(f)) = (&args.res, args.vfov, self.file_vfov_deg) {
+            eprintln!("note: vertical field of view {f:.1}° from the scene file's camera (--vfov sets another)");
+        }
+        Ok(d)
+    }
+
     /// The head rig (both eyes).
     pub fn rig(&self) -> &HmdRig {
         &self.rig
@@ -219,10 +233,12 @@ impl Loaded {
     }
 }
 
-/// Builds the world and camera for `display`.
-pub fn prepare(args: &SceneArgs, display: &DisplayProfile) -> Result<Prepared> {
+/// Builds the world and the camera for the display of `display` (`default` when it names
+/// none; see [`Loaded::display`]); the display is `camera.display`.
+pub fn prepare(args: &SceneArgs, display: &DisplayArgs, default: Headset) -> Result<Prepared> {
     let mut loaded = load(args)?;
-    let camera = loaded.view(args, display)?;
+    let display = loaded.display(display, default)?;
+    let camera = loaded.view(args, &display)?;
     Ok(Prepared {
         rig: loaded.rig.clone(),
         world: loaded.world,

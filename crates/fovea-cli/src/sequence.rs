@@ -17,19 +17,21 @@ use serde::Serialize;
 use fovea_core::display::DisplayProfile;
 use fovea_core::gaze::csv::{parse_csv, CsvOptions};
 use fovea_core::gaze::GazeTrajectory;
+use fovea_core::mapping::Method;
 use fovea_core::optics::AccommodationParams;
 use fovea_eval::experiments::scenario::GazeScenario;
 use fovea_post::tonemap::ToneCurve;
 use fovea_render::camera::{Eye, EyeCamera, HmdRig};
 use fovea_render::camera_path::CameraPath;
 use fovea_render::eye::FocusDistance;
-use fovea_render::pipeline::FrameSettings;
+use fovea_render::pipeline::{render_frame, FrameSettings};
 use fovea_render::sequence::{Sequence, SequenceDriver, Track};
 use fovea_render::temporal::TemporalSettings;
 
 use crate::choices::{self, Headset, MethodChoice, Scenario, Switch, Video};
 use crate::common::{read_text_input, DisplayArgs, FrameOptions, MethodOptions};
 use crate::dof_args::DofArgs;
+use crate::exposure_args::{expose, ExposureArgs};
 use crate::render::memory_limit;
 use crate::scene_args::{prepare, SceneArgs};
 use crate::temporal_args::TemporalArgs;
@@ -56,6 +58,8 @@ pub struct SequenceArgs {
     pub env: crate::render::EnvLightArgs,
     #[command(flatten)]
     pub dof: DofArgs,
+    #[command(flatten)]
+    pub exposure: ExposureArgs,
     /// Frames to render.
     #[arg(long, default_value_t = 120)]
     pub frames: u32,
@@ -139,12 +143,15 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     if !(args.fps.is_finite() && (1.0..=1000.0).contains(&args.fps)) {
         bail!("invalid parameter `fps` = {}: expected 1 to 1000", args.fps);
     }
-    let display = args.display.display(Headset::VivePro)?;
+    // Checked before the scene loads; the view's display may take the file camera's field of
+    // view (see `Loaded::display`).
+    args.display.display(Headset::VivePro)?;
     let liu_hybrid = args.method.is_liu_hybrid();
     let method = args.method.method();
     let config = args.options.frame_config()?;
     args.options.warn_inapplicable(&[method]);
     let dof = args.dof.settings(liu_hybrid)?;
+    args.exposure.asked()?;
     let temporal = if args.temporal.is_on() {
         Some(args.temporal_opts.settings()?)
     } else {
@@ -152,6 +159,8 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     };
     let contrast = args.temporal_opts.contrast()?;
     let memory_limit = memory_limit(args.max_memory.as_deref())?;
+    let prepared = prepare(&args.scene, &args.display, Headset::VivePro)?;
+    let display = prepared.camera.display.clone();
     let duration_s = args.frames as f64 / args.fps;
     let traj = gaze_trajectory(
         args.gaze_csv.as_deref(),
@@ -192,6 +201,7 @@ pub fn run(args: SequenceArgs) -> Result<()> {
         crate::choices::EnvLightChoice::Occluded,
     )?;
     settings.validate()?;
+    let exposure_stops = sequence_exposure(&args, &prepared, camera_path.as_ref(), &settings)?;
 
     // The settings the frames depend on: a folder rendered with others is not resumed.
     let method_name = choices::name(&args.method);
@@ -213,6 +223,7 @@ pub fn run(args: SequenceArgs) -> Result<()> {
         },
         seed: args.seed,
         camera_path: &camera_path_text,
+        exposure_stops,
     };
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create directory {}", args.out.display()))?;
@@ -231,7 +242,6 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     }
     write_atomic(&manifest_path, manifest_text.as_bytes())?;
 
-    let prepared = prepare(&args.scene, &display)?;
     let world = &prepared.world;
     // The head pose of each frame: the scene's, or the path's at the frame's time.
     let rigs: Vec<HmdRig> = (0..args.frames as usize)
@@ -296,7 +306,7 @@ pub fn run(args: SequenceArgs) -> Result<()> {
         &mut |e| {
             let path = frame_path(out, e.index);
             let tmp = path.with_extension("png.tmp");
-            write_png(&tmp, &e.frames[0].color)?;
+            write_png(&tmp, &e.frames[0].color, exposure_stops)?;
             std::fs::rename(&tmp, &path)
                 .with_context(|| format!("cannot write {}", path.display()))?;
             Ok::<(), anyhow::Error>(())
@@ -331,6 +341,43 @@ struct Manifest<'a> {
     scenario: Option<&'a str>,
     seed: u64,
     camera_path: &'a str,
+    /// The exposure of every frame's PNG, in stops.
+    exposure_stops: f32,
+}
+
+/// The one exposure of a sequence's frames (a per-frame auto exposure would flicker): the
+/// stops asked for, or, for `auto` (the default for photometric lights), the auto exposure of
+/// a full-resolution frame of the first camera, metered before any frame is rendered, so a
+/// resumed sequence gets the same.
+fn sequence_exposure(
+    args: &SequenceArgs,
+    prepared: &crate::scene_args::Prepared,
+    camera_path: Option<&CameraPath>,
+    settings: &FrameSettings,
+) -> Result<f32> {
+    let chosen = args.exposure.choose(prepared.world.scene.light_units)?;
+    if let Some(stops) = chosen.0.fixed_stops() {
+        return Ok(stops);
+    }
+    let display = &prepared.camera.display;
+    let camera = match camera_path {
+        Some(p) => {
+            let (pos, look, up) = p.at(0.0);
+            EyeCamera::new(pos, look - pos, up, display)?
+        }
+        None => prepared.camera.clone(),
+    };
+    let mut meter = FrameSettings::new(Method::Full);
+    meter.shading = settings.shading;
+    meter.memory_limit_bytes = settings.memory_limit_bytes;
+    let frame = render_frame(
+        &prepared.world,
+        &camera,
+        &meter,
+        display.centre_gaze(),
+        &|_, _| {},
+    )?;
+    Ok(expose(&frame.color, &frame.depth, chosen, ToneCurve::Reinhard).stops)
 }
 
 /// `frames.csv`: the eye state of every frame.
@@ -392,8 +439,8 @@ fn frame_is_complete(path: &Path, d: &DisplayProfile) -> bool {
 }
 
 /// Writes 8-bit sRGB PNG (Reinhard tone curve, as `fovea render`) whatever the extension.
-fn write_png(path: &Path, img: &fovea_core::Image<fovea_post::Rgb>) -> Result<()> {
-    let bytes = fovea_post::tonemap::to_srgb8(img, 0.0, ToneCurve::Reinhard);
+fn write_png(path: &Path, img: &fovea_core::Image<fovea_post::Rgb>, stops: f32) -> Result<()> {
+    let bytes = fovea_post::tonemap::to_srgb8(img, stops, ToneCurve::Reinhard);
     let buf = image::RgbImage::from_raw(img.width(), img.height(), bytes)
         .ok_or_else(|| anyhow::anyhow!("frame buffer size"))?;
     buf.save_with_format(path, image::ImageFormat::Png)

@@ -5,6 +5,9 @@ use std::path::{Path, PathBuf};
 
 use assert_cmd::Command;
 
+mod common;
+use common::photometric_ground;
+
 fn fovea() -> Command {
     Command::cargo_bin("fovea").unwrap()
 }
@@ -338,4 +341,98 @@ fn one_line_error(args: &[&str]) {
         "{args:?}: {err}"
     );
     assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+}
+
+/// Renders `scene` at 64×48 with `extra` flags; returns (PNG bytes decoded, stats, stderr).
+fn render_small(
+    dir: &Path,
+    scene: &Path,
+    name: &str,
+    extra: &[&str],
+) -> (Vec<u8>, serde_json::Value, String) {
+    let png = dir.join(format!("{name}.png"));
+    let out = fovea()
+        .args([
+            "render", "--res", "64x48", "--method", "full", "-q", "--scene",
+        ])
+        .arg(scene)
+        .args(extra)
+        .arg("--out")
+        .arg(&png)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{extra:?}: {err}");
+    let img = image::open(&png).unwrap().to_rgb8().into_raw();
+    let stats =
+        serde_json::from_slice(&std::fs::read(png.with_extension("json")).unwrap()).unwrap();
+    (img, stats, err)
+}
+
+#[test]
+fn a_photometric_sun_is_exposed_automatically_and_clipping_is_warned() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = photometric_ground(dir.path(), 6830.0);
+    let white = |img: &[u8]| {
+        img.chunks(3)
+            .filter(|c| c.iter().all(|&v| v == 255))
+            .count() as f64
+            / (img.len() / 3) as f64
+    };
+    let mean = |img: &[u8]| img.iter().map(|&v| f64::from(v)).sum::<f64>() / img.len() as f64;
+
+    // Default: auto exposure for photometric lights, said in a note; a visible picture.
+    let (img, stats, err) = render_small(dir.path(), &scene, "auto", &[]);
+    assert!(
+        err.contains("note: the scene's lights are photometric"),
+        "{err}"
+    );
+    assert_eq!(stats["exposure"]["mode"], "auto");
+    let stops = stats["exposure"]["stops"].as_f64().unwrap();
+    assert!(stops < -8.0, "a 6,830 lx sun needs a strong cut: {stops}");
+    assert!(white(&img) < 0.01, "{}", white(&img));
+    assert!((40.0..220.0).contains(&mean(&img)), "{}", mean(&img));
+
+    // The raw values clip: the frame is white below the horizon, and a warning says so.
+    let (img, stats, err) = render_small(dir.path(), &scene, "raw", &["--exposure", "0"]);
+    assert!(
+        err.contains("warning:") && err.contains("clip to white"),
+        "{err}"
+    );
+    assert!(white(&img) > 0.5, "{}", white(&img));
+    assert!(stats["exposure"]["clipped_fraction"].as_f64().unwrap() > 0.5);
+
+    // A camera's EV100 is recorded as given.
+    let (_, stats, _) = render_small(dir.path(), &scene, "ev", &["--ev100", "12"]);
+    assert_eq!(stats["exposure"]["mode"], "ev100");
+    assert!((stats["exposure"]["ev100"].as_f64().unwrap() - 12.0).abs() < 1e-4);
+}
+
+#[test]
+fn the_file_camera_field_of_view_sets_a_custom_resolution() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = photometric_ground(dir.path(), 10.0);
+    let fov = 0.7f64.to_degrees().to_string();
+    let (file, _, err) = render_small(dir.path(), &scene, "file", &["--exposure", "0"]);
+    assert!(
+        err.contains("note: vertical field of view 40.1° from the scene file's camera"),
+        "{err}"
+    );
+    let (same, _, _) = render_small(
+        dir.path(),
+        &scene,
+        "same",
+        &["--exposure", "0", "--vfov", &fov],
+    );
+    let (wide, _, _) = render_small(
+        dir.path(),
+        &scene,
+        "wide",
+        &["--exposure", "0", "--vfov", "90"],
+    );
+    assert_eq!(
+        file, same,
+        "the file's yfov and --vfov with the same value differ"
+    );
+    assert_ne!(file, wide, "the file's 40° and --vfov 90 render alike");
 }

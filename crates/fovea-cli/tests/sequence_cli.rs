@@ -5,6 +5,8 @@ use std::path::Path;
 
 use assert_cmd::Command;
 
+mod common;
+
 fn fovea() -> Command {
     Command::cargo_bin("fovea").unwrap()
 }
@@ -341,4 +343,46 @@ fn a_gaze_csv_vergence_depth_drives_the_focus() {
     // The gaze is at the screen centre, so the depth along the view axis is the vergence.
     assert!((focus_m - 0.45).abs() < 0.01, "{focus_m}");
     assert!((buffer_m - 0.45).abs() > 0.2, "depth buffer {buffer_m} m");
+}
+
+#[test]
+fn a_photometric_sequence_is_exposed_once_for_all_its_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::photometric_ground(dir.path(), 6830.0);
+    let out = dir.path().join("seq");
+    let run = || {
+        fovea()
+            .args([
+                "sequence", "--res", "64x48", "--method", "full", "--frames", "3",
+            ])
+            .args(["--video", "off", "-q", "--scene"])
+            .arg(&scene)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap()
+    };
+    let o = run();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("exposed automatically"), "{err}");
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("sequence.json")).unwrap()).unwrap();
+    let stops = manifest["exposure_stops"].as_f64().unwrap();
+    assert!(stops < -8.0, "{stops}");
+    // Every frame is a picture, not white: the metered exposure applied to all of them.
+    for i in 0..3 {
+        let img = image::open(out.join(format!("frame_{i:05}.png")))
+            .unwrap()
+            .to_rgb8();
+        let white = img.pixels().filter(|p| p.0 == [255; 3]).count();
+        assert!(
+            white * 100 < img.pixels().count(),
+            "frame {i}: {white} white pixels"
+        );
+    }
+    // Metering again on resume gives the same exposure, so the folder resumes.
+    let o = run();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("0 rendered, 3 already there"));
 }

@@ -12,6 +12,7 @@
 //! * [`inverse_map`]: sample buffers back to screen pixels with filtered lookups.
 //! * [`mip`]: 2×2-box mip pyramid with bilinear and Quincunx lookups (Weier et al.).
 //! * [`pull_push`]: hole filling for sparse screen masks (Weier et al.).
+//! * [`exposure`]: manual, EV100 and automatic exposure, with clipping and background shares.
 //! * [`tonemap`]: exposure, tone curve and sRGB encoding.
 
 #![allow(clippy::needless_range_loop)] // per-channel pixel loops read best indexed
@@ -19,6 +20,7 @@
 pub mod alloc;
 pub mod contrast;
 pub mod dof;
+pub mod exposure;
 pub mod fxaa;
 pub mod gaussian_aa;
 pub mod grid;

@@ -217,10 +217,9 @@ fn gltf_camera_fov_is_kept_and_morph_targets_are_a_warning() {
     let s = Scene::load(&p).unwrap();
     let fov = s.cameras[0].yfov_deg.unwrap();
     assert!((fov - 0.7f32.to_degrees()).abs() < 1e-4);
+    // Used by the CLI for `--res` displays (tests/render_cli.rs), so no warning.
     assert!(
-        s.warnings
-            .iter()
-            .any(|w| w.contains("field of view") && w.contains("40.1")),
+        !s.warnings.iter().any(|w| w.contains("field of view")),
         "{:?}",
         s.warnings
     );

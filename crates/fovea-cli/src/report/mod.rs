@@ -164,7 +164,10 @@ pub fn scene_flags(s: &SceneArgs) -> String {
 /// headset).
 pub fn display_flags(d: &DisplayArgs) -> String {
     match (&d.res, &d.headset) {
-        (Some(r), _) => format!(" --res {r} --vfov {}", d.vfov),
+        (Some(r), _) => match d.vfov {
+            Some(v) => format!(" --res {r} --vfov {v}"),
+            None => format!(" --res {r}"),
+        },
         (None, Some(h)) => format!(" --headset {}", choices::name(h)),
         (None, None) => String::new(),
     }
@@ -208,7 +211,9 @@ pub fn run(args: ReportArgs) -> Result<()> {
         return verify_dir(dir);
     }
     let wanted = parse_sections(&args.sections)?;
-    let display = args.display.display(Headset::VivePro)?;
+    // Checked before the scene loads; the view's display may take the file camera's field of
+    // view (see `Loaded::display`).
+    args.display.display(Headset::VivePro)?;
     if let Some(n) = args.flicker_frames {
         if !(2..=10_000).contains(&n) {
             bail!("invalid parameter `flicker-frames` = {n}: expected 2 to 10000");
@@ -216,7 +221,7 @@ pub fn run(args: ReportArgs) -> Result<()> {
     }
     if let Some(r) = &args.bench_res {
         for t in r.split(',') {
-            crate::common::display_of(t, args.display.vfov)?;
+            crate::common::display_of(t, args.display.vfov_deg())?;
         }
     }
     std::fs::create_dir_all(&args.out)
@@ -229,6 +234,7 @@ pub fn run(args: ReportArgs) -> Result<()> {
     };
     say(&format!("loading {}", args.scene.scene));
     let mut loaded = load(&args.scene)?;
+    let display = loaded.display(&args.display, Headset::VivePro)?;
     let camera = loaded.view(&args.scene, &display)?;
     let gaze = args.gaze.resolve(&display, &camera)?;
     let mut ctx = Ctx {

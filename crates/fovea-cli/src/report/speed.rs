@@ -27,7 +27,7 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         (None, true) => headset,
         (None, false) => format!("{headset},2k,4k"),
     };
-    let vfov = args.display.vfov;
+    let vfov = args.display.vfov_deg();
     let methods = if args.quick {
         vec![Method::Vafr, Method::Kfr, Method::Weier]
     } else {

@@ -264,6 +264,7 @@ pub fn depth_range() -> Result<Scene> {
         lights,
         cameras: vec![camera],
         environment: Vec3::new(0.25, 0.32, 0.45).into(),
+        light_units: super::LightUnits::Relative,
         metres_per_unit: 1.0,
         warnings: vec![],
     };

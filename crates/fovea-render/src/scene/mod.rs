@@ -270,9 +270,23 @@ pub struct Scene {
     pub environment: Environment,
     /// Metres per scene unit as read (1 for glTF, whose unit is the metre).
     pub metres_per_unit: f32,
+    /// The units of the light values, which decide how the frame is exposed by default.
+    pub light_units: LightUnits,
     /// Non-fatal problems met while loading (missing texture → flat colour, ignored
     /// extension, dropped degenerate triangles), printed by the CLI.
     pub warnings: Vec<String>,
+}
+
+/// The units a scene's light values are in.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub enum LightUnits {
+    /// Relative radiometric units (OBJ, PLY, Mitsuba, the built-in scenes): a white surface
+    /// facing a unit light at 1 m is about 1/π, shown as is.
+    #[default]
+    Relative,
+    /// Photometric (glTF `KHR_lights_punctual`: point and spot lights in candela, directional
+    /// lights in lux): the frame's values are luminance in cd/m², shown through an exposure.
+    Photometric,
 }
 
 /// Axis-aligned bounding box.

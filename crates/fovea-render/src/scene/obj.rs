@@ -244,6 +244,7 @@ pub fn load_with_limits(path: &Path, limits: &LoadLimits) -> Result<Scene> {
         lights: Vec::new(),
         cameras: Vec::new(),
         environment: DEFAULT_ENVIRONMENT.into(),
+        light_units: super::LightUnits::Relative,
         metres_per_unit: 1.0,
         warnings,
     })

@@ -287,6 +287,7 @@ pub fn load_scene_with_limits(path: &Path, limits: &LoadLimits) -> Result<Scene>
         lights: Vec::new(),
         cameras: Vec::new(),
         environment: super::obj::DEFAULT_ENVIRONMENT.into(),
+        light_units: super::LightUnits::Relative,
         metres_per_unit: 1.0,
         warnings: Vec::new(),
     })

@@ -31,11 +31,15 @@
 //!     `cos_outer = cos(outerConeAngle)`;
 //!   - directional: illuminance in lux → irradiance `color · intensity`, same convention;
 //!   - `range` as given (the spec says node scale does not change it), else infinite.
+//!   - A file with such lights is [`LightUnits::Photometric`]: the frame's values are
+//!     luminance in cd/m² (a white diffuse surface 1 m from a 1 cd light shows 1/π), so a real
+//!     export (a 6,830 lx Blender sun) is far above the display's 0–1 and the CLI's default
+//!     exposure for such scenes is automatic (`--exposure auto`; `--ev100` for a camera's).
 //! * **Cameras**: perspective cameras on nodes → [`CameraDesc`](super::CameraDesc) (position = node origin,
 //!   forward = node −Z, up = node +Y made orthogonal to forward, `yfov` in degrees in
-//!   `yfov_deg`). The first camera in node order is the default view. The renderer's
-//!   cameras take their field of view from the display profile, so a warning says that the
-//!   default view's `yfov` is recorded but not used.
+//!   `yfov_deg`). The first camera in node order is the default view. A display
+//!   given as a resolution takes its vertical field of view from `yfov` (the CLI's
+//!   `--res WxH` without `--vfov`); a headset preset keeps its own.
 //! * **Units**: the glTF unit is the metre, so `metres_per_unit = 1`. glTF has no
 //!   environment, so `environment` is the dim grey constant `0.05` every loader uses by
 //!   default (direct shading gathers it through shadow rays, so closed rooms stay dark).
@@ -98,7 +102,7 @@ use ::gltf::json;
 
 use super::files::SceneFiles;
 use super::limits::LoadLimits;
-use super::{MaterialId, Mesh, Scene};
+use super::{LightUnits, MaterialId, Mesh, Scene};
 use crate::error::{RenderError, Result};
 
 mod accessor;
@@ -247,6 +251,9 @@ fn load_bytes_in(files: &SceneFiles, path: &Path, bytes: &[u8]) -> Result<Scene>
     loader.walk_nodes()?;
     loader.decode_textures();
     loader.finish_warnings();
+    if !loader.scene.lights.is_empty() {
+        loader.scene.light_units = LightUnits::Photometric;
+    }
     Ok(loader.scene)
 }
 

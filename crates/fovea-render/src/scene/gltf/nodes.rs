@@ -197,15 +197,6 @@ impl Loader<'_> {
         let yfov = p.yfov().to_degrees();
         let yfov_deg = (yfov.is_finite() && yfov > 0.0 && yfov < 180.0).then_some(yfov);
         let name = camera.name().unwrap_or(node).to_owned();
-        if let (true, Some(fov)) = (self.scene.cameras.is_empty(), yfov_deg) {
-            // Kept in `CameraDesc::yfov_deg`, but the renderer's cameras take their field of
-            // view from the display profile.
-            self.scene.warnings.push(format!(
-                "camera `{name}`: the file's vertical field of view ({fov:.1}°) is recorded \
-                 but not used; the display profile sets the field of view (with a custom \
-                 resolution, e.g. --vfov {fov:.1})"
-            ));
-        }
         self.scene.cameras.push(CameraDesc {
             name,
             position,

@@ -426,6 +426,7 @@ impl<'t> Loader<'t> {
             environment: self
                 .environment
                 .unwrap_or(Environment::Constant(super::obj::DEFAULT_ENVIRONMENT)),
+            light_units: crate::scene::LightUnits::Relative,
             metres_per_unit: 1.0,
             warnings: self.warnings,
         })
