@@ -405,6 +405,44 @@ fn polar(
     Ok(())
 }
 
+/// The columns of a polar buffer whose texels are smaller than a screen pixel both radially
+/// (the column's width, from the inverse map at its two edges) and tangentially (the circle at
+/// its centre over its rows per turn): there every pixel holds more than one sample each way
+/// and the reconstruction averages them over the pixel (see [`reconstruct_into`]), which is
+/// anti-aliasing already when the filter is [`ReconstructFilter::Footprint`]. `None` for
+/// mappings without a polar layout.
+pub fn minified_columns(mapping: &dyn FoveationMapping) -> Option<Vec<bool>> {
+    let layout = mapping.polar_layout()?;
+    let c = layout.centre;
+    let radius = |u: f64| {
+        mapping
+            .inverse(SamplePoint {
+                layer: 0,
+                u,
+                v: 0.5,
+            })
+            .map(|p| (p.x_px - c.x_px).hypot(p.y_px - c.y_px))
+    };
+    Some(
+        (0..layout.rows.len())
+            .map(|i| {
+                let (Some(r0), Some(r1), Some(rc)) = (
+                    radius(i as f64),
+                    radius(i as f64 + 1.0),
+                    radius(i as f64 + 0.5),
+                ) else {
+                    return false;
+                };
+                let period = layout.period[i];
+                layout.rows[i] > 0
+                    && (r1 - r0).abs() < 1.0
+                    && period > 0.0
+                    && std::f64::consts::TAU * rc / period < 1.0
+            })
+            .collect(),
+    )
+}
+
 /// Largest error, in texels, that pass 1 of the polar reconstruction may make in a pixel's
 /// buffer coordinates by interpolating them linearly between exactly computed pixels.
 pub const COORD_TOLERANCE_TEXELS: f32 = 1.0 / 64.0;
@@ -1036,5 +1074,44 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// [`minified_columns`] against the screen distances between neighbouring texel centres:
+    /// a column is minified when both the step to the next column and the chord to the next
+    /// row are shorter than a pixel (columns within 2 % of either threshold are not judged,
+    /// the column width at its edges and the chord at its centre differing slightly). At the
+    /// Vive Pro Eye, visual-polar's fovea is minified, its first column (a disc 4 px wide
+    /// around the gaze) and its periphery are not; full resolution has no polar layout.
+    #[test]
+    fn minified_columns_are_denser_than_the_screen_both_ways() {
+        let d = DisplayProfile::preset("vive-pro-eye").unwrap();
+        let gaze = d.centre_gaze();
+        let full = build(Method::Full, &d, gaze, &MappingConfig::default()).unwrap();
+        assert!(minified_columns(full.as_ref()).is_none());
+        let m = build(Method::VisualPolar, &d, gaze, &MappingConfig::default()).unwrap();
+        let keep = minified_columns(m.as_ref()).unwrap();
+        let at = |u: f64, v: f64| m.inverse(SamplePoint { layer: 0, u, v }).unwrap();
+        let (mut judged, mut minified) = (0, 0);
+        for i in 0..keep.len() - 1 {
+            let radial = at(i as f64 + 0.5, 0.5).distance(at(i as f64 + 1.5, 0.5));
+            let tangential = at(i as f64 + 0.5, 0.5).distance(at(i as f64 + 0.5, 1.5));
+            if [radial, tangential].iter().any(|s| (s - 1.0).abs() < 0.02) {
+                continue;
+            }
+            judged += 1;
+            minified += keep[i] as usize;
+            assert_eq!(
+                keep[i],
+                radial < 1.0 && tangential < 1.0,
+                "column {i}: {radial:.3} px to the next column, {tangential:.3} px to the next row"
+            );
+        }
+        assert!(judged > keep.len() * 9 / 10, "{judged} of {}", keep.len());
+        assert!(!keep[0] && !keep[keep.len() - 1]);
+        let ring_50px = (0..keep.len())
+            .find(|&i| at(i as f64 + 0.5, 0.5).distance(gaze.point) > 50.0)
+            .unwrap();
+        assert!(keep[ring_50px]);
+        println!("{minified} of {} columns minified", keep.len());
     }
 }
