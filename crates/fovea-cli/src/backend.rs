@@ -1,7 +1,8 @@
 //! `fovea render --backend cpu|gpu|auto` (issue 18, docs/gpu.md): which executor runs which
-//! stage of the frame. Today the GPU runs one stage, the reconstruct stage's lookup of polar
-//! buffers (VaFR, KFR, LaFR, visual-polar, liu-hybrid; `fovea_gpu::GpuReconstructor`); every
-//! other stage, and every other method, runs on the CPU.
+//! stage of the frame. Today the GPU runs two: the trace stage's primary rays (closest hits
+//! through a BVH, `fovea_gpu::GpuTracer`; surfaces and shading stay on the CPU) and the
+//! reconstruct stage's lookup of polar buffers (VaFR, KFR, LaFR, visual-polar, liu-hybrid;
+//! `fovea_gpu::GpuReconstructor`); every other stage, and every other method, runs on the CPU.
 //!
 //! * `cpu`: no GPU is looked for.
 //! * `gpu`: the best adapter there is (lavapipe included); none, or a frame the GPU has no
@@ -19,7 +20,8 @@ use anyhow::Result;
 use serde::Serialize;
 
 use fovea_core::mapping::FoveationMapping;
-use fovea_render::pipeline::ReconstructExecutor;
+use fovea_render::pipeline::{ReconstructExecutor, TraceExecutor};
+use fovea_render::world::World;
 
 use crate::choices::BackendArg;
 
@@ -46,8 +48,12 @@ pub struct Backend {
     pub describe: String,
     /// The adapter, when a GPU runs a stage.
     pub adapter: Option<String>,
-    /// The executor to plug into the frame's context.
+    /// The reconstruct executor to plug into the frame's context.
     pub executor: Option<Box<dyn ReconstructExecutor>>,
+    /// The trace executor to plug into the frame's context.
+    pub tracer: Option<Box<dyn TraceExecutor>>,
+    /// The GPU's BVH, when it traces.
+    pub gpu_bvh: Option<serde_json::Value>,
     /// Filled by the executor after each frame.
     pub times: Arc<Mutex<Option<GpuReconstructMs>>>,
 }
@@ -59,6 +65,8 @@ impl Backend {
             describe: format!("CPU ({reason})"),
             adapter: None,
             executor: None,
+            tracer: None,
+            gpu_bvh: None,
             times: Arc::default(),
         }
     }
@@ -68,16 +76,17 @@ impl Backend {
         &self,
         stages: &fovea_render::pipeline::StageMs,
         reconstruct: &str,
+        trace: &str,
     ) -> serde_json::Value {
         use fovea_render::pipeline::Stage;
         let per_stage: serde_json::Map<String, serde_json::Value> = Stage::ALL
             .iter()
             .filter(|&&k| stages.ran(k))
             .map(|&k| {
-                let on = if k == Stage::Reconstruct {
-                    reconstruct
-                } else {
-                    "cpu"
+                let on = match k {
+                    Stage::Reconstruct => reconstruct,
+                    Stage::Trace => trace,
+                    _ => "cpu",
                 };
                 (k.name().to_string(), serde_json::Value::from(on))
             })
@@ -88,16 +97,18 @@ impl Backend {
             "adapter": self.adapter,
             "stages": per_stage,
             "gpu_reconstruct": *self.times.lock().unwrap_or_else(|e| e.into_inner()),
+            "gpu_bvh": self.gpu_bvh,
         })
     }
 }
 
-/// Resolves `--backend` for a frame of `mapping` (`stereo`: `--eyes both`). `frame_bytes`:
-/// the largest single GPU buffer the frame's reconstruction needs (its polar texels), checked
-/// against the adapter before anything runs.
+/// Resolves `--backend` for a frame of `mapping` of `world` (`stereo`: `--eyes both`).
+/// `frame_bytes`: the largest single GPU buffer the frame's reconstruction needs (its polar
+/// texels), checked against the adapter before anything runs.
 pub fn resolve(
     requested: BackendArg,
     mapping: &dyn FoveationMapping,
+    world: &World,
     stereo: bool,
     frame_bytes: u64,
 ) -> Result<Backend> {
@@ -121,11 +132,11 @@ pub fn resolve(
         }
         return Ok(Backend::cpu(requested, &format!("auto: {why}")));
     }
-    gpu(requested, frame_bytes)
+    gpu(requested, world, frame_bytes)
 }
 
 #[cfg(not(feature = "gpu"))]
-fn gpu(requested: BackendArg, _frame_bytes: u64) -> Result<Backend> {
+fn gpu(requested: BackendArg, _world: &World, _frame_bytes: u64) -> Result<Backend> {
     if requested == BackendArg::Gpu {
         anyhow::bail!(
             "--backend gpu: this fovea was built without GPU support; rebuild with \
@@ -139,15 +150,17 @@ fn gpu(requested: BackendArg, _frame_bytes: u64) -> Result<Backend> {
 }
 
 #[cfg(feature = "gpu")]
-fn gpu(requested: BackendArg, frame_bytes: u64) -> Result<Backend> {
-    use fovea_gpu::{BackendChoice, GpuReconstructor, GpuRequest, Resolved};
+fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend> {
+    use fovea_gpu::{BackendChoice, GpuReconstructor, GpuRequest, GpuTracer, Resolved};
     let choice = match requested {
         BackendArg::Gpu => BackendChoice::Gpu,
         _ => BackendChoice::Auto,
     };
+    // The largest binding: the polar texels, or the triangles (48 bytes each).
+    let bytes = frame_bytes.max(world.tris.len() as u64 * 48);
     let request = GpuRequest {
-        storage_binding_bytes: frame_bytes,
-        buffer_bytes: frame_bytes,
+        storage_binding_bytes: bytes,
+        buffer_bytes: bytes,
         ..GpuRequest::default()
     };
     let resolved = choice.resolve(&request)?;
@@ -160,10 +173,26 @@ fn gpu(requested: BackendArg, frame_bytes: u64) -> Result<Backend> {
                 describe,
                 adapter: None,
                 executor: None,
+                tracer: None,
+                gpu_bvh: None,
                 times: Arc::default(),
             })
         }
     };
+    let tris: Vec<[[f32; 3]; 3]> = world
+        .tris
+        .verts
+        .iter()
+        .map(|v| [v[0].into(), v[1].into(), v[2].into()])
+        .collect();
+    let tracer = GpuTracer::new(&ctx, &tris)?;
+    let s = tracer.stats();
+    let gpu_bvh = serde_json::json!({
+        "triangles": s.triangles,
+        "nodes": s.nodes,
+        "depth": s.depth,
+        "build_ms": s.build_ms,
+    });
     let times = Arc::new(Mutex::new(None));
     let executor = GpuExecutor {
         gpu: GpuReconstructor::new(&ctx)?,
@@ -174,8 +203,57 @@ fn gpu(requested: BackendArg, frame_bytes: u64) -> Result<Backend> {
         describe,
         adapter: Some(format!("{} — {}", ctx.adapter(), ctx.adapter().driver)),
         executor: Some(Box::new(executor)),
+        tracer: Some(Box::new(GpuTraceExecutor {
+            gpu: tracer,
+            fingerprint: world.tris_fingerprint,
+        })),
+        gpu_bvh: Some(gpu_bvh),
         times,
     })
+}
+
+/// `fovea_gpu::GpuTracer` as the pipeline's trace executor, for the world it was built from.
+#[cfg(feature = "gpu")]
+struct GpuTraceExecutor {
+    gpu: fovea_gpu::GpuTracer,
+    fingerprint: u64,
+}
+
+#[cfg(feature = "gpu")]
+impl TraceExecutor for GpuTraceExecutor {
+    fn backend(&self) -> &str {
+        "gpu"
+    }
+
+    fn serves(&self, world: &World) -> bool {
+        world.tris_fingerprint == self.fingerprint
+    }
+
+    fn closest_hits(
+        &mut self,
+        rays: &[fovea_render::bvh::Ray],
+    ) -> std::result::Result<Vec<Option<fovea_render::bvh::Hit>>, String> {
+        let batch: Vec<fovea_gpu::GpuRay> = rays
+            .iter()
+            .map(|r| fovea_gpu::GpuRay {
+                origin: r.origin.into(),
+                t_min: r.t_min,
+                dir: r.dir.into(),
+                t_max: r.t_max,
+            })
+            .collect();
+        let hits = self.gpu.closest_hits(&batch).map_err(|e| e.to_string())?;
+        Ok(hits
+            .into_iter()
+            .map(|h| {
+                h.map(|h| fovea_render::bvh::Hit {
+                    t: h.t,
+                    tri: h.tri,
+                    bary: glam::Vec2::from(h.bary),
+                })
+            })
+            .collect())
+    }
 }
 
 /// `fovea_gpu::GpuReconstructor` as the pipeline's reconstruct executor.

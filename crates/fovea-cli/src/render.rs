@@ -106,8 +106,8 @@ pub struct RenderArgs {
     /// buffer to the right eye and trace only the holes, VaFR_Rep).
     #[arg(long, value_enum, ignore_case = true, default_value_t = Stereo::Rep)]
     pub stereo: Stereo,
-    /// Which executor runs the stages a GPU can run (today the reconstruct stage of polar
-    /// methods; every other stage runs on the CPU): cpu, gpu (any adapter, lavapipe included;
+    /// Which executor runs the stages a GPU can run (today the primary rays of the trace
+    /// stage and the reconstruct stage, for polar methods; every other stage runs on the CPU): cpu, gpu (any adapter, lavapipe included;
     /// an error without one) or auto (a hardware GPU when there is one, else the CPU). The GPU
     /// needs a fovea built with `--features gpu`.
     #[arg(long, value_enum, ignore_case = true, default_value_t = BackendArg::Auto)]
@@ -352,15 +352,20 @@ pub fn run(args: RenderArgs) -> Result<()> {
             .with_context(|| format!("cannot write {}", p.display()))?;
         written.push(p);
     }
-    // Which executor runs the reconstruct stage; refused here, before any ray is traced.
+    // Which executors run the trace and reconstruct stages; refused here, before any ray is
+    // traced.
     let mut backend = crate::backend::resolve(
         args.backend,
         plan.mapping(),
+        world,
         false,
         crate::backend::polar_texel_bytes(plan.mapping()),
     )?;
     let pb = progress_bar(args.quiet, method.name());
     let mut ctx = FrameContext::new();
+    if let Some(tracer) = backend.tracer.take() {
+        ctx.set_tracer(tracer);
+    }
     if let Some(executor) = backend.executor.take() {
         ctx.set_reconstructor(executor);
     }
@@ -418,7 +423,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         // The smoothing asked for; `frame.inset_smoothing` is the one applied.
         "inset_smoothing": (method == Method::Inset).then(|| settings.inset_smoothing.name()),
         "lod": lod_stats,
-        "backend": backend.json(&s.stages_ms, &s.reconstruct_backend),
+        "backend": backend.json(&s.stages_ms, &s.reconstruct_backend, &s.trace_backend),
         "exposure": exposure_json(exposure.0, &exposed),
         "frame": s,
     });
@@ -466,17 +471,25 @@ pub fn run(args: RenderArgs) -> Result<()> {
         Stage::Reconstruct if s.reconstruct_backend != "cpu" => {
             format!("{k} {:.1} ({})", s.stages_ms.get(k), s.reconstruct_backend)
         }
+        Stage::Trace if s.trace_backend != "cpu" => {
+            format!("{k} {:.1} ({})", s.stages_ms.get(k), s.trace_backend)
+        }
         _ => format!("{k} {:.1}", s.stages_ms.get(k)),
     })
     .collect();
     println!("stages (ms): {}", stages.join(", "));
-    let ran = if s.reconstruct_backend == "cpu" {
+    let on_gpu: Vec<String> = [
+        ("primary rays", &s.trace_backend),
+        ("reconstruct", &s.reconstruct_backend),
+    ]
+    .into_iter()
+    .filter(|(_, b)| b.as_str() != "cpu")
+    .map(|(stage, b)| format!("{stage} on the {}", b.to_uppercase()))
+    .collect();
+    let ran = if on_gpu.is_empty() {
         String::new()
     } else {
-        format!(
-            " | reconstruct on the {}, every other stage on the CPU",
-            s.reconstruct_backend.to_uppercase()
-        )
+        format!(" | {}, every other stage on the CPU", on_gpu.join(", "))
     };
     println!("backend: {}{ran}", backend.describe);
     let (ppd_x, ppd_y) = display.centre_ppd_axes();

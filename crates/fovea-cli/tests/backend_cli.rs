@@ -151,12 +151,13 @@ fn gpu_without_an_adapter_is_one_line_and_auto_falls_back() {
     );
 }
 
-/// The reconstruct stage on the GPU, the rest on the CPU; the image is the CPU's within the
-/// GPU tests' worst-case bound per channel (relative above 1), and the mean far below theirs
-/// (shaded content is smooth where random texels are not).
+/// The primary rays and the reconstruct stage on the GPU, the rest on the CPU; the image is
+/// the CPU's within the GPU reconstruction tests' worst-case bound per channel (relative
+/// above 1: the GPU's hits are the CPU's, `fovea-gpu/tests/trace.rs`), and the mean far below
+/// theirs (shaded content is smooth where random texels are not).
 #[cfg(feature = "gpu")]
 #[test]
-fn gpu_backend_reconstructs_on_the_gpu() {
+fn gpu_backend_traces_and_reconstructs_on_the_gpu() {
     let dir = tempfile::tempdir().unwrap();
     let out = render(
         dir.path(),
@@ -169,7 +170,7 @@ fn gpu_backend_reconstructs_on_the_gpu() {
         if err.contains("no GPU adapter")
             && std::env::var("FOVEA_REQUIRE_GPU").as_deref() != Ok("1")
         {
-            eprintln!("[fovea-cli] SKIPPED gpu_backend_reconstructs_on_the_gpu: {err}");
+            eprintln!("[fovea-cli] SKIPPED gpu_backend_traces_and_reconstructs_on_the_gpu: {err}");
             return;
         }
         panic!("{err}");
@@ -177,12 +178,17 @@ fn gpu_backend_reconstructs_on_the_gpu() {
     let s = stats(dir.path(), "gpu");
     assert_eq!(s["frame"]["reconstruct_backend"], "gpu");
     assert_eq!(s["backend"]["stages"]["reconstruct"], "gpu");
-    assert_eq!(s["backend"]["stages"]["trace"], "cpu");
+    assert_eq!(s["frame"]["trace_backend"], "gpu");
+    assert_eq!(s["backend"]["stages"]["trace"], "gpu");
+    assert_eq!(s["backend"]["stages"]["shade"], "cpu");
+    assert!(s["backend"]["gpu_bvh"]["nodes"].as_u64().unwrap() > 1);
     assert!(s["backend"]["adapter"].is_string());
     assert!(s["backend"]["gpu_reconstruct"]["bands"].as_u64().unwrap() >= 1);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
-        stdout.contains("reconstruct on the GPU, every other stage on the CPU"),
+        stdout.contains(
+            "primary rays on the GPU, reconstruct on the GPU, every other stage on the CPU"
+        ),
         "{stdout}"
     );
 

@@ -13,6 +13,8 @@
 //! * [`mapping`]: VaFR and KFR forward/inverse mappings on the GPU ([`GpuMapping`]).
 //! * [`reconstruct`]: polar sample buffers back to the screen, bilinear or footprint-filtered
 //!   ([`GpuReconstructor`]).
+//! * [`trace`]: closest hits and occlusion of ray batches through a BVH built by obvhs
+//!   ([`GpuTracer`]).
 //! * [`shaders`]: the WGSL sources, validated with naga in a plain `cargo test`.
 //!
 //! ```no_run
@@ -41,6 +43,7 @@ pub mod error;
 pub mod mapping;
 pub mod reconstruct;
 pub mod shaders;
+pub mod trace;
 mod transfer;
 
 pub use backend::{BackendChoice, Resolved};
@@ -48,10 +51,12 @@ pub use device::{AdapterSummary, DeviceKind, GpuContext, GpuRequest};
 pub use error::{GpuError, Result};
 pub use mapping::{Direction, GpuMapping};
 pub use reconstruct::{GpuReconstructor, ReconstructTimes};
+pub use trace::{BvhStats, GpuHit, GpuRay, GpuTracer};
 
 /// Every WGSL module of the crate, as the device compiles it.
 pub const ALL_SHADERS: &[shaders::ShaderSource] = &[
     mapping::vafr::SHADER,
     mapping::kfr::SHADER,
     reconstruct::SHADER,
+    trace::SHADER,
 ];

@@ -24,6 +24,9 @@ pub struct World {
     pub lights: Vec<Light>,
     /// BVH build time, milliseconds.
     pub build_ms: f64,
+    /// FNV-1a of the triangles' vertex bits: which geometry another executor of the trace
+    /// stage must have been built from (see `pipeline::TraceExecutor::serves`).
+    pub tris_fingerprint: u64,
 }
 
 impl World {
@@ -54,6 +57,7 @@ impl World {
             })
             .collect();
         let lights = scene.lights.clone();
+        let tris_fingerprint = tris.fingerprint();
         Ok(Self {
             scene,
             tris,
@@ -61,6 +65,7 @@ impl World {
             uv_per_metre,
             lights,
             build_ms,
+            tris_fingerprint,
         })
     }
 

@@ -150,6 +150,17 @@ impl Triangles {
     pub fn is_empty(&self) -> bool {
         self.verts.is_empty()
     }
+
+    /// FNV-1a over the bits of every vertex coordinate, in order: equal for the same
+    /// triangles, different (with overwhelming likelihood) for others.
+    pub fn fingerprint(&self) -> u64 {
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        for c in self.verts.iter().flatten().flat_map(|v| v.to_array()) {
+            h ^= u64::from(c.to_bits());
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+        h ^ self.verts.len() as u64
+    }
 }
 
 /// Möller–Trumbore ray/triangle test: `(t, u, v)` of the hit in `[t_min, t_max]`, both faces.

@@ -13,6 +13,7 @@ use fovea_post::inverse_map::SampleBuffers;
 use fovea_post::Rgb;
 
 use super::reconstruct::ReconstructExecutor;
+use super::trace_shade::TraceExecutor;
 use super::{Frame, Prefill};
 use crate::error::{RenderError, Result};
 use crate::plan::FramePlan;
@@ -46,6 +47,8 @@ pub struct FrameContext {
     screen_allocations: u64,
     /// Another executor of the reconstruct stage (see [`Self::set_reconstructor`]).
     reconstructor: Option<Box<dyn ReconstructExecutor>>,
+    /// Another executor of the trace stage's ray casting (see [`Self::set_tracer`]).
+    tracer: Option<Box<dyn TraceExecutor>>,
 }
 
 impl FrameContext {
@@ -169,6 +172,30 @@ impl FrameContext {
             .as_mut()
             .expect("samples_for runs before the reconstruction");
         (samples, self.reconstructor.as_deref_mut())
+    }
+
+    /// The sample buffers for `plan` ([`samples_for`](Self::samples_for)) and the executor
+    /// of the trace stage, if one is plugged in.
+    pub(crate) fn samples_and_tracer(
+        &mut self,
+        plan: &FramePlan,
+        prefill: Option<&Prefill>,
+    ) -> Result<(
+        &mut SampleBuffers,
+        Option<&mut (dyn TraceExecutor + 'static)>,
+    )> {
+        self.samples_for(plan, prefill)?;
+        let samples = self
+            .samples
+            .as_mut()
+            .expect("samples_for keeps the buffers it prepares");
+        Ok((samples, self.tracer.as_deref_mut()))
+    }
+
+    /// Casts the trace stage's primary rays on `executor` (e.g. the GPU's) in every frame
+    /// rendered with this context, for the world it was built for.
+    pub fn set_tracer(&mut self, executor: Box<dyn TraceExecutor>) {
+        self.tracer = Some(executor);
     }
 
     /// Runs the reconstruct stage's lookup on `executor` (e.g. the GPU's) for the mappings it

@@ -45,6 +45,7 @@ pub use context::FrameContext;
 pub use fovea_core::mapping::footprint::sample_spread_rad;
 pub use reconstruct::ReconstructExecutor;
 pub use timing::{Stage, StageMs, StageTimes, Stopwatch};
+pub use trace_shade::TraceExecutor;
 
 pub use crate::plan::memory_estimate;
 
@@ -111,6 +112,9 @@ pub struct FrameStats {
     /// [`reconstruct::ReconstructExecutor`] in the frame's context (`gpu`). Every other stage
     /// runs on the CPU.
     pub reconstruct_backend: String,
+    /// The backend that cast the primary rays: `cpu`, or the name of the
+    /// [`trace_shade::TraceExecutor`] in the frame's context (`gpu`).
+    pub trace_backend: String,
 }
 
 /// A rendered frame.
@@ -275,9 +279,10 @@ pub fn render_planned<'c>(
     let known = prefill.map(|p| p.known.as_slice());
 
     // 3–4. Trace and shade into the sample buffers.
-    let samples = ctx.samples_for(plan, prefill)?;
-    let counts =
-        trace_shade::trace_and_shade(world, camera, plan, known, samples, &mut times, progress)?;
+    let (samples, tracer) = ctx.samples_and_tracer(plan, prefill)?;
+    let (counts, trace_backend) = trace_shade::trace_and_shade(
+        world, camera, plan, known, samples, &mut times, tracer, progress,
+    )?;
 
     // 5. Sample-space post: temporal accumulation, then anti-aliasing.
     let temporal = match accumulator.as_deref_mut() {
@@ -333,6 +338,7 @@ pub fn render_planned<'c>(
     let mut stats = frame_stats(plan, counts, times, temporal, total_ms, total_cpu_ms);
     stats.inset_smoothing = inset_smoothing.map(|s| s.name().to_string());
     stats.reconstruct_backend = reconstruct_backend;
+    stats.trace_backend = trace_backend;
     Ok(ctx.store(Frame {
         color,
         depth,
@@ -384,6 +390,7 @@ fn frame_stats(
         inset_smoothing: None,
         covers_screen: plan.covers_screen,
         reconstruct_backend: reconstruct::CPU.to_string(),
+        trace_backend: trace_shade::CPU.to_string(),
     }
 }
 

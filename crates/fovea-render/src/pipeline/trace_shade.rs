@@ -25,13 +25,31 @@ use fovea_post::Rgb;
 use glam::Vec3;
 
 use super::timing::{Stage, StageTimes, Stopwatch};
+use crate::bvh::{Hit, Ray};
 use crate::camera::EyeCamera;
 use crate::cull_fill::{fill_culled, shade_or_cull, CullBuffers, SampleCull};
-use crate::error::Result;
+use crate::error::{RenderError, Result};
 use crate::plan::FramePlan;
 use crate::shade::{shade, RayCounts};
-use crate::trace::{trace_sample, GSample};
+use crate::trace::{surface, trace_sample, GSample};
 use crate::world::World;
+
+/// Another executor of the trace stage's ray casting (e.g. the GPU's, `fovea-gpu`): the
+/// closest hits of a chunk's primary rays against the triangles of the world it was built
+/// for. The surface attributes (normals, UVs, materials, the ray cone) and shading stay on the
+/// CPU; so do the rays of a world it was not built for (a level-of-detail world).
+pub trait TraceExecutor: Send {
+    /// The backend's short name in stats and JSON, e.g. `gpu`.
+    fn backend(&self) -> &str;
+    /// Whether it holds `world`'s triangles (compare [`World::tris_fingerprint`]).
+    fn serves(&self, world: &World) -> bool;
+    /// The closest hit of every ray in `[t_min, t_max]`, `Hit::tri` indexing `world.tris`.
+    /// An error is one line saying what to do.
+    fn closest_hits(&mut self, rays: &[Ray]) -> std::result::Result<Vec<Option<Hit>>, String>;
+}
+
+/// The name of the CPU trace in [`TraceCounts::backend`].
+pub const CPU: &str = "cpu";
 
 /// What the trace and shade stages did.
 #[derive(Clone, Copy, Debug, Default)]
@@ -77,6 +95,10 @@ pub fn ray_starts(plan: &FramePlan, chunk: Chunk<'_>, starts: &mut Vec<u32>) {
 /// [`crate::plan::TexelRays`], texel-major, starting at `starts` ([`ray_starts`]) — for
 /// texels that the mapping shades, that are not `known` already, and whose ray's point maps
 /// onto the screen; `None` for the others.
+///
+/// With `tracer` the closest hits come from it (one batch per chunk) and the surfaces are
+/// interpolated here; without, each ray is cast on the CPU.
+#[allow(clippy::too_many_arguments)]
 pub fn trace_chunk(
     world: &World,
     camera: &EyeCamera,
@@ -84,8 +106,9 @@ pub fn trace_chunk(
     chunk: Chunk<'_>,
     starts: &[u32],
     known: Option<&Image<bool>>,
+    tracer: Option<&mut (dyn TraceExecutor + 'static)>,
     gbuf: &mut Vec<Option<GSample>>,
-) {
+) -> Result<()> {
     let mapping = plan.mapping();
     let (display, gaze, jitter) = (&plan.display, &plan.eye.gaze, plan.jitter_texels);
     let Chunk {
@@ -98,9 +121,8 @@ pub fn trace_chunk(
     // With the same rays in every texel (the default) a ray's texel is a division away; only
     // per-column counts need the search.
     let uniform = plan.rays.per_column.is_empty().then_some(plan.rays.uniform);
-    (0..total)
-        .into_par_iter()
-        .map(|r| {
+    let ray_of = |r: u32| -> Option<(Ray, f32)> {
+        {
             let t = match uniform {
                 Some(n) => (r / n) as usize,
                 None => starts.partition_point(|&s| s <= r) - 1,
@@ -125,9 +147,52 @@ pub fn trace_chunk(
             } else {
                 spread / (n as f32).sqrt()
             };
-            Some(trace_sample(world, &camera.ray(p), spread))
+            Some((camera.ray(p), spread))
+        }
+    };
+    let Some(tracer) = tracer else {
+        (0..total)
+            .into_par_iter()
+            .map(|r| ray_of(r).map(|(ray, spread)| trace_sample(world, &ray, spread)))
+            .collect_into_vec(gbuf);
+        return Ok(());
+    };
+    let rays: Vec<Option<(Ray, f32)>> = (0..total).into_par_iter().map(ray_of).collect();
+    let batch: Vec<Ray> = rays.iter().flatten().map(|&(ray, _)| ray).collect();
+    let hits = tracer
+        .closest_hits(&batch)
+        .map_err(|message| RenderError::Executor {
+            stage: "trace",
+            backend: tracer.backend().to_string(),
+            message,
+        })?;
+    if hits.len() != batch.len() {
+        return Err(RenderError::Executor {
+            stage: "trace",
+            backend: tracer.backend().to_string(),
+            message: format!("{} hits for {} rays", hits.len(), batch.len()),
+        });
+    }
+    // Where each ray's hit is in `hits` (rays of texels that are not traced have none).
+    let mut next = 0usize;
+    let slot: Vec<usize> = rays
+        .iter()
+        .map(|r| {
+            let k = next;
+            next += usize::from(r.is_some());
+            k
+        })
+        .collect();
+    rays.par_iter()
+        .zip(slot.par_iter())
+        .map(|(r, &k)| {
+            r.map(|(ray, spread)| match &hits[k] {
+                Some(hit) => surface(world, &ray, hit, spread),
+                None => GSample::miss(ray.dir),
+            })
         })
         .collect_into_vec(gbuf);
+    Ok(())
 }
 
 /// Shade: every texel of `chunk` whose rays hit (`gbuf`, texel-major from `starts`) shaded —
@@ -227,7 +292,9 @@ pub fn shade_chunk(
 
 /// Trace and shade every layer of the plan into `samples` (sized and reset for the plan, or
 /// holding the prefilled texels of `known`), chunk by chunk; then fill culled samples.
-/// `progress(done, total)` is called after each chunk.
+/// `progress(done, total)` is called after each chunk. With `tracer` (for `world`) the
+/// primary rays are cast there. Returns the counts and the backend that cast the rays.
+#[allow(clippy::too_many_arguments)]
 pub fn trace_and_shade(
     world: &World,
     camera: &EyeCamera,
@@ -235,9 +302,17 @@ pub fn trace_and_shade(
     known: Option<&[Image<bool>]>,
     samples: &mut SampleBuffers,
     times: &mut StageTimes,
+    mut tracer: Option<&mut (dyn TraceExecutor + 'static)>,
     progress: &(dyn Fn(u64, u64) + Sync),
-) -> Result<TraceCounts> {
+) -> Result<(TraceCounts, String)> {
     let total = plan.sample_count;
+    // Another executor only for the world it holds.
+    if tracer.as_ref().is_some_and(|t| !t.serves(world)) {
+        tracer = None;
+    }
+    let backend = tracer
+        .as_ref()
+        .map_or(CPU.to_string(), |t| t.backend().to_string());
     let mut counts = TraceCounts::default();
     let mut gbuf = Vec::new();
     for (layer, size) in plan.buffers.iter().enumerate() {
@@ -274,7 +349,16 @@ pub fn trace_and_shade(
             };
             ray_starts(plan, chunk, &mut starts);
             let t = Stopwatch::start();
-            trace_chunk(world, camera, plan, chunk, &starts, known, &mut gbuf);
+            trace_chunk(
+                world,
+                camera,
+                plan,
+                chunk,
+                &starts,
+                known,
+                tracer.as_deref_mut(),
+                &mut gbuf,
+            )?;
             times.add(Stage::Trace, &t);
             counts.primary += gbuf.iter().filter(|g| g.is_some()).count() as u64;
 
@@ -302,5 +386,5 @@ pub fn trace_and_shade(
             times.add(Stage::CullFill, &t);
         }
     }
-    Ok(counts)
+    Ok((counts, backend))
 }

@@ -1,0 +1,192 @@
+//! Times the GPU trace (`GpuTracer`: a binary BVH from obvhs walked in WGSL) against the CPU
+//! renderer's (obvhs' compressed wide BVH, rayon over all cores), side by side, on the primary
+//! rays of a display and the shadow rays from their hits to a point light; median of several
+//! runs after one warm-up each:
+//!
+//! ```sh
+//! XDG_RUNTIME_DIR=$(mktemp -d) cargo run --release -p fovea-gpu --example trace_timing \
+//!     [-- SCENE [PRESET [runs]]]
+//! ```
+//!
+//! SCENE: a built-in scene name (default `depth-range`) or a scene file (its first camera, or
+//! a framing view); PRESET: a display preset (default `vive-pro-eye`). Per executor and ray
+//! kind: wall ms, Mrays/s, process CPU ms (summed over threads; on lavapipe the "GPU" is CPU
+//! threads of this process, so its work shows there) and the CPU share (CPU ms / (wall ms ×
+//! cores)), as `fovea bench` reports them. The GPU's time includes uploading the rays and
+//! reading the hits back. Timing only; correctness is `tests/trace.rs`.
+
+use std::path::Path;
+use std::time::Instant;
+
+use fovea_core::display::DisplayProfile;
+use fovea_core::units::ScreenPoint;
+use fovea_gpu::{GpuContext, GpuRay, GpuRequest, GpuTracer};
+use fovea_render::bvh::{Backend, Ray};
+use fovea_render::camera::EyeCamera;
+use fovea_render::scene::{builtin, CameraDesc, Scene};
+use fovea_render::world::World;
+use glam::Vec3;
+use rayon::prelude::*;
+
+fn cpu_ms() -> f64 {
+    cpu_time::ProcessTime::try_now()
+        .map(|t| t.as_duration().as_secs_f64() * 1e3)
+        .unwrap_or(f64::NAN)
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(|a, b| a.total_cmp(b));
+    v[v.len() / 2]
+}
+
+/// Median wall and CPU ms of `runs` runs of `f` after one warm-up.
+fn time(runs: usize, mut f: impl FnMut()) -> (f64, f64) {
+    f();
+    let (mut wall, mut cpu) = (Vec::new(), Vec::new());
+    for _ in 0..runs {
+        let (t, c) = (Instant::now(), cpu_ms());
+        f();
+        wall.push(t.elapsed().as_secs_f64() * 1e3);
+        cpu.push(cpu_ms() - c);
+    }
+    (median(wall), median(cpu))
+}
+
+fn gpu_ray(r: &Ray) -> GpuRay {
+    GpuRay {
+        origin: r.origin.into(),
+        t_min: r.t_min,
+        dir: r.dir.into(),
+        t_max: r.t_max,
+    }
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let mut args = std::env::args().skip(1);
+    let scene_arg = args.next().unwrap_or_else(|| "depth-range".into());
+    let preset = args.next().unwrap_or_else(|| "vive-pro-eye".into());
+    let runs: usize = args.next().map_or(Ok(5), |r| r.parse())?;
+    let runs = runs.max(1);
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let scene = if scene_arg.contains('.') {
+        Scene::load(Path::new(&scene_arg))?
+    } else {
+        builtin::by_name(&scene_arg)?
+    };
+    let desc = match scene.cameras.first() {
+        Some(c) => c.clone(),
+        None => {
+            let b = scene.bounds().ok_or("the scene is empty")?;
+            let c = b.centre();
+            let e = b.extent().max_element();
+            CameraDesc::look_at("framing", c + Vec3::new(0.0, 0.25 * e, 1.2 * e), c, None)?
+        }
+    };
+    let world = World::new(scene, Backend::Obvhs)?;
+    let display = DisplayProfile::preset(&preset)?;
+    let camera = EyeCamera::from_desc(&desc, &display)?;
+    let ctx = GpuContext::new(&GpuRequest::default())?;
+    let tris: Vec<[[f32; 3]; 3]> = world
+        .tris
+        .verts
+        .iter()
+        .map(|v| [v[0].into(), v[1].into(), v[2].into()])
+        .collect();
+    let gpu = GpuTracer::new(&ctx, &tris)?;
+    let s = gpu.stats();
+    println!(
+        "GPU: {} — {}; {cores} CPU cores; median of {runs} runs\nscene {} ({} triangles); \
+         GPU BVH: {} nodes, depth {}, built in {:.0} ms; CPU BVH built in {:.0} ms",
+        ctx.adapter(),
+        ctx.adapter().driver,
+        world.scene.name,
+        s.triangles,
+        s.nodes,
+        s.depth,
+        s.build_ms,
+        world.build_ms
+    );
+    let primary: Vec<Ray> = (0..display.height_px)
+        .flat_map(|y| (0..display.width_px).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            camera.ray(ScreenPoint {
+                x_px: x as f64 + 0.5,
+                y_px: y as f64 + 0.5,
+            })
+        })
+        .collect();
+    let hits: Vec<_> = primary
+        .par_iter()
+        .map(|r| world.caster.intersect(r))
+        .collect();
+    let b = world.scene.bounds().ok_or("the scene is empty")?;
+    let light = b.centre() + Vec3::new(0.0, 0.75 * b.extent().y, 0.0);
+    let shadow: Vec<Ray> = primary
+        .iter()
+        .zip(&hits)
+        .filter_map(|(r, h)| {
+            let h = h.as_ref()?;
+            let n = world.face_normal(h.tri);
+            let n = if n.dot(r.dir) > 0.0 { -n } else { n };
+            let o = r.origin + r.dir * h.t + n * 1e-3;
+            let to = light - o;
+            Some(Ray {
+                origin: o,
+                dir: to.normalize(),
+                t_min: 0.0,
+                t_max: to.length(),
+            })
+        })
+        .collect();
+    let gp: Vec<GpuRay> = primary.iter().map(gpu_ray).collect();
+    let gs: Vec<GpuRay> = shadow.iter().map(gpu_ray).collect();
+    println!(
+        "\n{} {}x{}: {} primary rays ({} hit), {} shadow rays\n",
+        display.name,
+        display.width_px,
+        display.height_px,
+        primary.len(),
+        shadow.len(),
+        shadow.len()
+    );
+    println!("| rays | executor | wall ms | Mrays/s | CPU ms | CPU share |");
+    println!("|---|---|---:|---:|---:|---:|");
+    let row = |kind: &str, who: &str, n: usize, (wall, cpu): (f64, f64)| {
+        println!(
+            "| {kind} | {who} | {wall:.1} | {:.2} | {cpu:.1} | {:.0} % |",
+            n as f64 / wall / 1e3,
+            100.0 * cpu / (wall * cores as f64)
+        );
+    };
+    let mut failed = None;
+    let t = time(runs, || {
+        if let Err(e) = gpu.closest_hits(&gp) {
+            failed = Some(e);
+        }
+    });
+    row("primary", "GPU", gp.len(), t);
+    let t = time(runs, || {
+        let _: Vec<_> = primary
+            .par_iter()
+            .map(|r| world.caster.intersect(r))
+            .collect();
+    });
+    row("primary", "CPU", primary.len(), t);
+    let t = time(runs, || {
+        if let Err(e) = gpu.occluded(&gs) {
+            failed = Some(e);
+        }
+    });
+    row("shadow", "GPU", gs.len(), t);
+    let t = time(runs, || {
+        let _: Vec<_> = shadow
+            .par_iter()
+            .map(|r| world.caster.occluded(r))
+            .collect();
+    });
+    row("shadow", "CPU", shadow.len(), t);
+    match failed {
+        Some(e) => Err(e.into()),
+        None => Ok(()),
+    }
+}

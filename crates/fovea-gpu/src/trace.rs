@@ -1,0 +1,547 @@
+//! The trace stage's ray casting on the GPU (issue 18): closest hits and occlusion of batches
+//! of rays against a scene's triangles, through a binary BVH built here on the CPU by obvhs
+//! (PLOC with reinsertion, `BvhBuildParams::medium_build`) and traversed in WGSL
+//! (`shaders/trace.wgsl`) with a 64-entry stack, one invocation per ray.
+//!
+//! The ray/triangle test is the CPU's (`fovea_render::bvh::intersect_triangle`: Möller–Trumbore,
+//! both faces, `t_min ≤ t ≤ t_max`), so a GPU hit is the CPU's hit up to f32 rounding
+//! (`tests/trace.rs` compares them against brute force and against the CPU renderer's BVH on
+//! the built-in scene). The tree's depth is checked against the shader's stack before upload
+//! ([`GpuError::Input`] when deeper), so the traversal never drops a subtree.
+//!
+//! What this does not do yet: generate the rays from the frame plan or shade on the GPU; the
+//! caller hands rays in and gets hits back.
+
+use bytemuck::{Pod, Zeroable};
+use obvhs::bvh2::builder::build_bvh2_from_tris;
+use obvhs::bvh2::node::Bvh2Node;
+use obvhs::triangle::Triangle;
+use obvhs::BvhBuildParams;
+
+use crate::device::GpuContext;
+use crate::error::{GpuError, Result};
+use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
+use crate::transfer::{read_buffer, upload};
+
+/// The module: `closest_hit` and `any_hit`, [`TraceUniform`] at binding 0.
+pub const SHADER: ShaderSource = ShaderSource {
+    file: "trace.wgsl",
+    source: concat!(
+        include_str!("../shaders/common.wgsl"),
+        include_str!("../shaders/trace.wgsl")
+    ),
+    entry_points: &["closest_hit", "any_hit"],
+    uniform: ("TraceParams", std::mem::size_of::<TraceUniform>()),
+};
+
+/// The traversal stack of `trace.wgsl` (`STACK_SIZE`): the deepest tree it can walk.
+pub const STACK_SIZE: usize = 64;
+
+/// The uniform block `TraceParams` of `trace.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct TraceUniform {
+    /// Rays in the batch.
+    pub ray_count: u32,
+    /// Nodes in the tree.
+    pub node_count: u32,
+    _pad: [u32; 2],
+}
+
+/// A ray as the shader reads it: origin, `t_min`, direction (any length; the hit's `t` is in
+/// its units), `t_max`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct GpuRay {
+    /// Origin, world space.
+    pub origin: [f32; 3],
+    /// Nearest accepted distance.
+    pub t_min: f32,
+    /// Direction.
+    pub dir: [f32; 3],
+    /// Farthest accepted distance.
+    pub t_max: f32,
+}
+
+/// The closest hit of a ray.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GpuHit {
+    /// Distance along the ray.
+    pub t: f32,
+    /// The triangle's index in the list the tracer was built from.
+    pub tri: u32,
+    /// Barycentric coordinates of vertices 1 and 2.
+    pub bary: [f32; 2],
+}
+
+/// A node as the shader reads it (`Node` in `trace.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+struct NodeGpu {
+    min: [f32; 3],
+    prim_count: u32,
+    max: [f32; 3],
+    first_index: u32,
+}
+
+/// The hit as the shader writes it (`Hit` in `trace.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+struct HitGpu {
+    t: f32,
+    prim: u32,
+    u: f32,
+    v: f32,
+}
+
+/// The largest `t_max` the shader sees (below its `FAR` marker of 3e38).
+const MAX_DISTANCE: f32 = 1.0e38;
+/// `Hit::prim` of a miss.
+const MISS: u32 = u32::MAX;
+const RAY_BYTES: u64 = std::mem::size_of::<GpuRay>() as u64;
+const HIT_BYTES: u64 = std::mem::size_of::<HitGpu>() as u64;
+
+/// What was built and uploaded.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BvhStats {
+    /// Triangles.
+    pub triangles: usize,
+    /// Nodes of the binary tree.
+    pub nodes: usize,
+    /// Its depth (a lone leaf is 1).
+    pub depth: usize,
+    /// CPU time of the build, ms (wall).
+    pub build_ms: f64,
+}
+
+/// The scene's triangles and BVH on one device, with the two traversal pipelines.
+pub struct GpuTracer {
+    ctx: GpuContext,
+    stats: BvhStats,
+    /// `None` for an empty scene (every ray misses without a dispatch).
+    scene: Option<SceneBuffers>,
+}
+
+struct SceneBuffers {
+    nodes: wgpu::Buffer,
+    tris: wgpu::Buffer,
+    prim_ids: wgpu::Buffer,
+    closest: wgpu::ComputePipeline,
+    any: wgpu::ComputePipeline,
+}
+
+impl GpuTracer {
+    /// Builds the BVH of `triangles` (vertices in world space) on the CPU and uploads it.
+    /// Errors: a non-finite vertex, a tree deeper than [`STACK_SIZE`], or buffers larger than
+    /// the adapter binds ([`GpuError::AdapterTooSmall`], before any allocation).
+    pub fn new(ctx: &GpuContext, triangles: &[[[f32; 3]; 3]]) -> Result<Self> {
+        if let Some(k) = triangles
+            .iter()
+            .position(|t| t.iter().flatten().any(|c| !c.is_finite()))
+        {
+            return Err(GpuError::Input(format!(
+                "triangle {k} has a non-finite vertex coordinate"
+            )));
+        }
+        let t0 = std::time::Instant::now();
+        if triangles.is_empty() {
+            return Ok(Self {
+                ctx: ctx.clone(),
+                stats: BvhStats {
+                    triangles: 0,
+                    nodes: 0,
+                    depth: 0,
+                    build_ms: 0.0,
+                },
+                scene: None,
+            });
+        }
+        let input: Vec<Triangle> = triangles
+            .iter()
+            .map(|t| Triangle {
+                v0: t[0].into(),
+                v1: t[1].into(),
+                v2: t[2].into(),
+            })
+            .collect();
+        let bvh = build_bvh2_from_tris(
+            &input,
+            BvhBuildParams::medium_build(),
+            &mut std::time::Duration::default(),
+        );
+        let depth = tree_depth(&bvh.nodes);
+        check_depth(depth)?;
+        let nodes: Vec<NodeGpu> = bvh.nodes.iter().map(node_gpu).collect();
+        // Triangles in leaf order, so a leaf's `first_index` addresses them directly.
+        let tris: Vec<[f32; 12]> = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| {
+                let t = &triangles[i as usize];
+                [
+                    t[0][0], t[0][1], t[0][2], 0.0, t[1][0], t[1][1], t[1][2], 0.0, t[2][0],
+                    t[2][1], t[2][2], 0.0,
+                ]
+            })
+            .collect();
+        let build_ms = t0.elapsed().as_secs_f64() * 1e3;
+        ctx.check_storage_binding(
+            "the BVH nodes",
+            std::mem::size_of_val(nodes.as_slice()) as u64,
+        )?;
+        ctx.check_storage_binding(
+            "the triangles",
+            std::mem::size_of_val(tris.as_slice()) as u64,
+        )?;
+        let device = ctx.device();
+        let scene = ctx.scoped(
+            "uploading the scene and building the trace pipelines",
+            || {
+                let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                    label: Some(SHADER.file),
+                    source: wgpu::ShaderSource::Wgsl(SHADER.source.into()),
+                });
+                let pipeline = |entry: &str| {
+                    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                        label: Some(entry),
+                        layout: None,
+                        module: &module,
+                        entry_point: Some(entry),
+                        compilation_options: Default::default(),
+                        cache: None,
+                    })
+                };
+                SceneBuffers {
+                    nodes: upload(
+                        ctx,
+                        "bvh nodes",
+                        bytemuck::cast_slice(&nodes),
+                        wgpu::BufferUsages::STORAGE,
+                    ),
+                    tris: upload(
+                        ctx,
+                        "triangles",
+                        bytemuck::cast_slice(&tris),
+                        wgpu::BufferUsages::STORAGE,
+                    ),
+                    prim_ids: upload(
+                        ctx,
+                        "triangle ids",
+                        bytemuck::cast_slice(&bvh.primitive_indices),
+                        wgpu::BufferUsages::STORAGE,
+                    ),
+                    closest: pipeline("closest_hit"),
+                    any: pipeline("any_hit"),
+                }
+            },
+        )?;
+        Ok(Self {
+            ctx: ctx.clone(),
+            stats: BvhStats {
+                triangles: triangles.len(),
+                nodes: nodes.len(),
+                depth,
+                build_ms,
+            },
+            scene: Some(scene),
+        })
+    }
+
+    /// What was built.
+    pub fn stats(&self) -> BvhStats {
+        self.stats
+    }
+
+    /// The closest hit of every ray (`None`: a miss). Rays with a non-finite component or
+    /// an empty interval miss without reaching the shader.
+    pub fn closest_hits(&self, rays: &[GpuRay]) -> Result<Vec<Option<GpuHit>>> {
+        let raw = self.run(rays, false)?;
+        Ok(raw
+            .iter()
+            .map(|h| {
+                (h.prim != MISS).then_some(GpuHit {
+                    t: h.t,
+                    tri: h.prim,
+                    bary: [h.u, h.v],
+                })
+            })
+            .collect())
+    }
+
+    /// Whether anything lies on each ray within its interval (shadow rays).
+    pub fn occluded(&self, rays: &[GpuRay]) -> Result<Vec<bool>> {
+        Ok(self
+            .run(rays, true)?
+            .iter()
+            .map(|h| h.prim != MISS)
+            .collect())
+    }
+
+    /// Runs `rays` in batches that fit the device's bindings and dispatch limits.
+    fn run(&self, rays: &[GpuRay], any_hit: bool) -> Result<Vec<HitGpu>> {
+        let miss = HitGpu {
+            t: 0.0,
+            prim: MISS,
+            u: 0.0,
+            v: 0.0,
+        };
+        let Some(scene) = &self.scene else {
+            return Ok(vec![miss; rays.len()]);
+        };
+        let limits = self.ctx.limits();
+        let by_binding = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size)
+            / RAY_BYTES.max(HIT_BYTES);
+        let by_dispatch =
+            limits.max_compute_workgroups_per_dimension as u64 * WORKGROUP_SIZE as u64;
+        let batch = by_binding.min(by_dispatch).clamp(1, 1 << 22) as usize;
+        let mut out = Vec::with_capacity(rays.len());
+        for chunk in rays.chunks(batch) {
+            // Rays the shader must not see (non-finite, empty interval) miss here.
+            let valid: Vec<bool> = chunk.iter().map(ray_is_valid).collect();
+            let input: Vec<GpuRay> = chunk
+                .iter()
+                .zip(&valid)
+                .map(|(r, &ok)| {
+                    if ok {
+                        // WGSL may assume no infinities: +∞ becomes a distance no scene reaches.
+                        GpuRay {
+                            t_max: r.t_max.min(MAX_DISTANCE),
+                            ..*r
+                        }
+                    } else {
+                        GpuRay {
+                            origin: [0.0; 3],
+                            t_min: 1.0,
+                            dir: [0.0, 0.0, 1.0],
+                            t_max: 0.0,
+                        }
+                    }
+                })
+                .collect();
+            let hits = self.run_batch(scene, &input, any_hit)?;
+            out.extend(
+                hits.into_iter()
+                    .zip(valid)
+                    .map(|(h, ok)| if ok { h } else { miss }),
+            );
+        }
+        Ok(out)
+    }
+
+    fn run_batch(
+        &self,
+        scene: &SceneBuffers,
+        rays: &[GpuRay],
+        any_hit: bool,
+    ) -> Result<Vec<HitGpu>> {
+        if rays.is_empty() {
+            return Ok(Vec::new());
+        }
+        let n = rays.len() as u64;
+        let what = format!(
+            "tracing {} {} rays",
+            rays.len(),
+            if any_hit { "shadow" } else { "closest-hit" }
+        );
+        self.ctx.check_storage_binding(&what, n * RAY_BYTES)?;
+        let device = self.ctx.device();
+        let pipeline = if any_hit { &scene.any } else { &scene.closest };
+        let block = TraceUniform {
+            ray_count: rays.len() as u32,
+            node_count: self.stats.nodes as u32,
+            _pad: [0; 2],
+        };
+        let readback = self.ctx.scoped(&what, || {
+            let uniform = upload(
+                &self.ctx,
+                "trace parameters",
+                bytemuck::bytes_of(&block),
+                wgpu::BufferUsages::UNIFORM,
+            );
+            let ray_buf = upload(
+                &self.ctx,
+                "rays",
+                bytemuck::cast_slice(rays),
+                wgpu::BufferUsages::STORAGE,
+            );
+            let output = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("hits"),
+                size: n * HIT_BYTES,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            let readback = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("hits readback"),
+                size: n * HIT_BYTES,
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            });
+            let entries = [
+                uniform.as_entire_binding(),
+                scene.nodes.as_entire_binding(),
+                scene.tris.as_entire_binding(),
+                scene.prim_ids.as_entire_binding(),
+                ray_buf.as_entire_binding(),
+                output.as_entire_binding(),
+            ];
+            let entries: Vec<wgpu::BindGroupEntry> = entries
+                .into_iter()
+                .enumerate()
+                .map(|(k, resource)| wgpu::BindGroupEntry {
+                    binding: k as u32,
+                    resource,
+                })
+                .collect();
+            let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("trace bindings"),
+                layout: &pipeline.get_bind_group_layout(0),
+                entries: &entries,
+            });
+            let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("trace"),
+            });
+            {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("trace"),
+                    timestamp_writes: None,
+                });
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, &bind, &[]);
+                pass.dispatch_workgroups(n.div_ceil(WORKGROUP_SIZE as u64) as u32, 1, 1);
+            }
+            encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, n * HIT_BYTES);
+            self.ctx.queue().submit([encoder.finish()]);
+            readback
+        })?;
+        let raw = read_buffer(&self.ctx, &readback, &what)?;
+        Ok(bytemuck::cast_slice::<u8, HitGpu>(&raw).to_vec())
+    }
+}
+
+/// A ray the shader may see: finite components and a non-empty interval (`t_max` may be
+/// +∞ on the caller's side; it is clamped to the shader's largest distance).
+fn ray_is_valid(r: &GpuRay) -> bool {
+    r.origin.iter().chain(&r.dir).all(|c| c.is_finite())
+        && r.dir.iter().any(|&c| c != 0.0)
+        && r.t_min.is_finite()
+        && !r.t_max.is_nan()
+        && r.t_min <= r.t_max
+}
+
+fn node_gpu(n: &Bvh2Node) -> NodeGpu {
+    NodeGpu {
+        min: n.aabb.min.into(),
+        prim_count: n.prim_count,
+        max: n.aabb.max.into(),
+        first_index: n.first_index,
+    }
+}
+
+/// The depth of the tree rooted at `nodes[0]` (a lone leaf is 1), without recursion.
+fn tree_depth(nodes: &[Bvh2Node]) -> usize {
+    let mut deepest = 0;
+    let mut todo = vec![(0usize, 1usize)];
+    while let Some((i, d)) = todo.pop() {
+        deepest = deepest.max(d);
+        let n = &nodes[i];
+        if n.prim_count == 0 {
+            let a = n.first_index as usize;
+            todo.push((a, d + 1));
+            todo.push((a + 1, d + 1));
+        }
+    }
+    deepest
+}
+
+/// Refuses a tree the shader's stack cannot walk: at most one entry per level is pushed, so
+/// a depth up to `STACK_SIZE + 1` fits.
+fn check_depth(depth: usize) -> Result<()> {
+    if depth > STACK_SIZE + 1 {
+        return Err(GpuError::Input(format!(
+            "the BVH is {depth} levels deep; the GPU traversal's stack holds {STACK_SIZE} \
+             (use --backend cpu for this scene)"
+        )));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use obvhs::aabb::Aabb;
+
+    fn leaf(first: u32) -> Bvh2Node {
+        Bvh2Node {
+            aabb: Aabb::empty(),
+            prim_count: 1,
+            first_index: first,
+            ..Default::default()
+        }
+    }
+
+    fn inner(first: u32) -> Bvh2Node {
+        Bvh2Node {
+            aabb: Aabb::empty(),
+            prim_count: 0,
+            first_index: first,
+            ..Default::default()
+        }
+    }
+
+    /// A chain: every inner node has a leaf and another inner node as children.
+    fn chain(levels: usize) -> Vec<Bvh2Node> {
+        let mut nodes = vec![inner(1)];
+        for k in 0..levels - 2 {
+            let next = nodes.len() as u32 + 2;
+            nodes.push(leaf(k as u32));
+            nodes.push(inner(next));
+        }
+        nodes.push(leaf(0));
+        nodes.push(leaf(1));
+        nodes
+    }
+
+    #[test]
+    fn depth_is_counted_and_checked_against_the_stack() {
+        assert_eq!(tree_depth(&[leaf(0)]), 1);
+        assert_eq!(tree_depth(&[inner(1), leaf(0), leaf(1)]), 2);
+        assert_eq!(tree_depth(&chain(10)), 10);
+        assert!(check_depth(tree_depth(&chain(STACK_SIZE + 1))).is_ok());
+        let err = check_depth(tree_depth(&chain(STACK_SIZE + 2))).unwrap_err();
+        assert!(err.to_string().contains("levels deep"), "{err}");
+    }
+
+    #[test]
+    fn invalid_rays_are_recognised() {
+        let ok = GpuRay {
+            origin: [0.0; 3],
+            t_min: 0.0,
+            dir: [0.0, 0.0, -1.0],
+            t_max: f32::INFINITY,
+        };
+        assert!(ray_is_valid(&ok));
+        for bad in [
+            GpuRay {
+                origin: [f32::NAN, 0.0, 0.0],
+                ..ok
+            },
+            GpuRay {
+                dir: [0.0; 3],
+                ..ok
+            },
+            GpuRay {
+                t_min: 2.0,
+                t_max: 1.0,
+                ..ok
+            },
+            GpuRay {
+                t_max: f32::NAN,
+                ..ok
+            },
+        ] {
+            assert!(!ray_is_valid(&bad), "{bad:?}");
+        }
+    }
+}
