@@ -25,10 +25,11 @@ use fovea_render::camera::{Eye, EyeCamera, HmdRig};
 use fovea_render::camera_path::CameraPath;
 use fovea_render::eye::FocusDistance;
 use fovea_render::pipeline::{render_frame, FrameSettings};
+use fovea_render::plan::FramePlan;
 use fovea_render::sequence::{Sequence, SequenceDriver, Track};
 use fovea_render::temporal::TemporalSettings;
 
-use crate::choices::{self, Headset, MethodChoice, Scenario, Switch, Video};
+use crate::choices::{self, BackendArg, Headset, MethodChoice, Scenario, Switch, Video};
 use crate::common::{read_text_input, DisplayArgs, FrameOptions, MethodOptions};
 use crate::dof_args::DofArgs;
 use crate::exposure_args::{expose, ExposureArgs};
@@ -60,6 +61,10 @@ pub struct SequenceArgs {
     pub dof: DofArgs,
     #[command(flatten)]
     pub exposure: ExposureArgs,
+    /// Which executor casts the primary rays and reconstructs polar frames: cpu, gpu or auto,
+    /// as `fovea render --backend` (the GPU needs a fovea built with `--features gpu`).
+    #[arg(long, value_enum, ignore_case = true, default_value_t = BackendArg::Auto)]
+    pub backend: BackendArg,
     /// Frames to render.
     #[arg(long, default_value_t = 120)]
     pub frames: u32,
@@ -203,45 +208,6 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     settings.validate()?;
     let exposure_stops = sequence_exposure(&args, &prepared, camera_path.as_ref(), &settings)?;
 
-    // The settings the frames depend on: a folder rendered with others is not resumed.
-    let method_name = choices::name(&args.method);
-    let scenario_name = choices::name(&args.scenario);
-    let manifest = Manifest {
-        scene: &args.scene,
-        display: &display,
-        method: &method_name,
-        settings: &settings,
-        temporal,
-        frames: args.frames,
-        fps: args.fps,
-        gaze_csv: args.gaze_csv.as_deref(),
-        gaze_csv_fnv1a: gaze_csv_hash,
-        scenario: if args.gaze_csv.is_some() {
-            None
-        } else {
-            Some(&scenario_name)
-        },
-        seed: args.seed,
-        camera_path: &camera_path_text,
-        exposure_stops,
-    };
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create directory {}", args.out.display()))?;
-    let manifest_path = args.out.join("sequence.json");
-    let manifest_text = serde_json::to_string_pretty(&manifest)? + "\n";
-    if let Ok(old) = std::fs::read_to_string(&manifest_path) {
-        if old != manifest_text {
-            if !args.overwrite {
-                bail!(
-                    "{} holds frames rendered with other settings; pass --overwrite to start over or choose another --out",
-                    args.out.display()
-                );
-            }
-            remove_frames(&args.out)?;
-        }
-    }
-    write_atomic(&manifest_path, manifest_text.as_bytes())?;
-
     let world = &prepared.world;
     // The head pose of each frame: the scene's, or the path's at the frame's time.
     let rigs: Vec<HmdRig> = (0..args.frames as usize)
@@ -284,6 +250,61 @@ pub fn run(args: SequenceArgs) -> Result<()> {
         AccommodationParams::default(),
         pairs.as_deref(),
     )?;
+    // Which executors cast the primary rays and reconstruct (`--backend`), decided on the
+    // first frame's plan, before anything is written; frames of another backend differ in
+    // the last bits, so the backend is part of what a resumed folder must match.
+    let first = FramePlan::new(world, &seq.cameras[0], &settings, &seq.eyes[0], [0.0, 0.0])?;
+    let mut backend = crate::backend::resolve(
+        args.backend,
+        first.mapping(),
+        world,
+        false,
+        crate::backend::polar_texel_bytes(first.mapping()),
+    )?;
+    let backend_name = if backend.executor.is_some() || backend.tracer.is_some() {
+        "gpu"
+    } else {
+        "cpu"
+    };
+    // The settings the frames depend on: a folder rendered with others is not resumed.
+    let method_name = choices::name(&args.method);
+    let scenario_name = choices::name(&args.scenario);
+    let manifest = Manifest {
+        scene: &args.scene,
+        display: &display,
+        method: &method_name,
+        settings: &settings,
+        temporal,
+        frames: args.frames,
+        fps: args.fps,
+        gaze_csv: args.gaze_csv.as_deref(),
+        gaze_csv_fnv1a: gaze_csv_hash,
+        scenario: if args.gaze_csv.is_some() {
+            None
+        } else {
+            Some(&scenario_name)
+        },
+        seed: args.seed,
+        camera_path: &camera_path_text,
+        exposure_stops,
+        backend: backend_name,
+    };
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create directory {}", args.out.display()))?;
+    let manifest_path = args.out.join("sequence.json");
+    let manifest_text = serde_json::to_string_pretty(&manifest)? + "\n";
+    if let Ok(old) = std::fs::read_to_string(&manifest_path) {
+        if old != manifest_text {
+            if !args.overwrite {
+                bail!(
+                    "{} holds frames rendered with other settings; pass --overwrite to start over or choose another --out",
+                    args.out.display()
+                );
+            }
+            remove_frames(&args.out)?;
+        }
+    }
+    write_atomic(&manifest_path, manifest_text.as_bytes())?;
     write_atomic(&args.out.join("frames.csv"), eye_csv(&seq).as_bytes())?;
 
     let pb = if args.quiet {
@@ -298,7 +319,13 @@ pub fn run(args: SequenceArgs) -> Result<()> {
         pb.set_message("sequence");
         pb
     };
-    let track = Track::new(method.name(), settings, temporal)?;
+    let mut track = Track::new(method.name(), settings, temporal)?;
+    if let Some(tracer) = backend.tracer.take() {
+        track.context_mut().set_tracer(tracer);
+    }
+    if let Some(executor) = backend.executor.take() {
+        track.context_mut().set_reconstructor(executor);
+    }
     let mut driver = SequenceDriver::new(world, &seq, vec![track])?;
     let out = &args.out;
     let counts = driver.run(
@@ -321,6 +348,9 @@ pub fn run(args: SequenceArgs) -> Result<()> {
         counts.rendered,
         counts.skipped
     );
+    if !args.quiet {
+        println!("backend: {}", backend.describe);
+    }
     make_video(&args.out, args.fps, args.video)?;
     Ok(())
 }
@@ -343,6 +373,8 @@ struct Manifest<'a> {
     camera_path: &'a str,
     /// The exposure of every frame's PNG, in stops.
     exposure_stops: f32,
+    /// Where the primary rays and the reconstruction ran: `cpu` or `gpu`.
+    backend: &'a str,
 }
 
 /// The one exposure of a sequence's frames (a per-frame auto exposure would flicker): the

@@ -223,3 +223,84 @@ fn gpu_backend_traces_and_reconstructs_on_the_gpu() {
     // reach 9e-4 in the mean.
     assert!(mean <= 2e-4, "{mean}");
 }
+
+/// `fovea sequence --backend`: the folder records where its frames were made, and a sequence
+/// on the GPU writes the CPU's frames within 8-bit rounding of the render test's bounds.
+fn sequence(dir: &Path, name: &str, backend: &str) -> std::process::Output {
+    fovea()
+        .args([
+            "sequence", "--method", "vafr", "--res", "160x180", "--lights", "1",
+        ])
+        .args([
+            "--frames",
+            "2",
+            "--video",
+            "off",
+            "-q",
+            "--backend",
+            backend,
+            "--out",
+        ])
+        .arg(dir.join(name))
+        .env("XDG_RUNTIME_DIR", dir)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn sequence_records_its_backend() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = sequence(dir.path(), "cpu", "cpu");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("cpu/sequence.json")).unwrap())
+            .unwrap();
+    assert_eq!(m["backend"], "cpu");
+}
+
+#[cfg(feature = "gpu")]
+#[test]
+fn gpu_sequence_frames_equal_the_cpu_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = sequence(dir.path(), "gpu", "gpu");
+    if !out.status.success() {
+        let err = String::from_utf8_lossy(&out.stderr);
+        if err.contains("no GPU adapter")
+            && std::env::var("FOVEA_REQUIRE_GPU").as_deref() != Ok("1")
+        {
+            eprintln!("[fovea-cli] SKIPPED gpu_sequence_frames_equal_the_cpu_ones: {err}");
+            return;
+        }
+        panic!("{err}");
+    }
+    assert!(sequence(dir.path(), "cpu", "cpu").status.success());
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("gpu/sequence.json")).unwrap())
+            .unwrap();
+    assert_eq!(m["backend"], "gpu");
+    for i in 0..2 {
+        let read = |name: &str| {
+            image::open(dir.path().join(format!("{name}/frame_{i:05}.png")))
+                .unwrap()
+                .into_rgb8()
+        };
+        let (g, c) = (read("gpu"), read("cpu"));
+        let diffs: Vec<i32> = g
+            .as_raw()
+            .iter()
+            .zip(c.as_raw())
+            .map(|(&a, &b)| (i32::from(a) - i32::from(b)).abs())
+            .collect();
+        let max = diffs.iter().max().copied().unwrap_or(0);
+        let mean = diffs.iter().map(|&d| f64::from(d)).sum::<f64>() / diffs.len() as f64;
+        eprintln!("[fovea-cli] GPU vs CPU sequence frame {i}: max {max} codes, mean {mean:.4}");
+        // The render test's bound (2/64 + 2e-3 relative) is at most 9 codes after the sRGB
+        // curve's steepest part; the mean stays far below one code.
+        assert!(max <= 9, "{max}");
+        assert!(mean <= 0.05, "{mean}");
+    }
+}

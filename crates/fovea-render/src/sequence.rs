@@ -155,6 +155,12 @@ impl Track {
         self.ctx.frame()
     }
 
+    /// The track's frame context, e.g. to plug in another executor of the trace or
+    /// reconstruct stage ([`FrameContext::set_tracer`], [`FrameContext::set_reconstructor`]).
+    pub fn context_mut(&mut self) -> &mut FrameContext {
+        &mut self.ctx
+    }
+
     /// Screen buffers allocated by this track so far.
     pub fn screen_allocations(&self) -> u64 {
         self.ctx.screen_allocations()
