@@ -179,12 +179,7 @@ fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend
             })
         }
     };
-    let tris: Vec<[[f32; 3]; 3]> = world
-        .tris
-        .verts
-        .iter()
-        .map(|v| [v[0].into(), v[1].into(), v[2].into()])
-        .collect();
+    let tris = world.tris.vertex_arrays();
     let tracer = GpuTracer::new(&ctx, &tris)?;
     let s = tracer.stats();
     let gpu_bvh = serde_json::json!({

@@ -86,12 +86,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let display = DisplayProfile::preset(&preset)?;
     let camera = EyeCamera::from_desc(&desc, &display)?;
     let ctx = GpuContext::new(&GpuRequest::default())?;
-    let tris: Vec<[[f32; 3]; 3]> = world
-        .tris
-        .verts
-        .iter()
-        .map(|v| [v[0].into(), v[1].into(), v[2].into()])
-        .collect();
+    let tris = world.tris.vertex_arrays();
     let gpu = GpuTracer::new(&ctx, &tris)?;
     let s = gpu.stats();
     println!(

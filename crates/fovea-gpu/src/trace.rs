@@ -21,7 +21,7 @@ use obvhs::BvhBuildParams;
 use crate::device::GpuContext;
 use crate::error::{GpuError, Result};
 use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
-use crate::transfer::{read_buffer, upload};
+use crate::transfer::{run_1d, upload};
 
 /// The module: `closest_hit` and `any_hit`, [`TraceUniform`] at binding 0.
 pub const SHADER: ShaderSource = ShaderSource {
@@ -346,76 +346,42 @@ impl GpuTracer {
             if any_hit { "shadow" } else { "closest-hit" }
         );
         self.ctx.check_storage_binding(&what, n * RAY_BYTES)?;
-        let device = self.ctx.device();
         let pipeline = if any_hit { &scene.any } else { &scene.closest };
         let block = TraceUniform {
             ray_count: rays.len() as u32,
             node_count: self.stats.nodes as u32,
             _pad: [0; 2],
         };
-        let readback = self.ctx.scoped(&what, || {
-            let uniform = upload(
-                &self.ctx,
-                "trace parameters",
-                bytemuck::bytes_of(&block),
-                wgpu::BufferUsages::UNIFORM,
-            );
-            let ray_buf = upload(
-                &self.ctx,
-                "rays",
-                bytemuck::cast_slice(rays),
-                wgpu::BufferUsages::STORAGE,
-            );
-            let output = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("hits"),
-                size: n * HIT_BYTES,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            });
-            let readback = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("hits readback"),
-                size: n * HIT_BYTES,
-                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-                mapped_at_creation: false,
-            });
-            let entries = [
+        let (uniform, ray_buf) = self.ctx.scoped(&what, || {
+            (
+                upload(
+                    &self.ctx,
+                    "trace parameters",
+                    bytemuck::bytes_of(&block),
+                    wgpu::BufferUsages::UNIFORM,
+                ),
+                upload(
+                    &self.ctx,
+                    "rays",
+                    bytemuck::cast_slice(rays),
+                    wgpu::BufferUsages::STORAGE,
+                ),
+            )
+        })?;
+        let raw = run_1d(
+            &self.ctx,
+            &what,
+            pipeline,
+            &[
                 uniform.as_entire_binding(),
                 scene.nodes.as_entire_binding(),
                 scene.tris.as_entire_binding(),
                 scene.prim_ids.as_entire_binding(),
                 ray_buf.as_entire_binding(),
-                output.as_entire_binding(),
-            ];
-            let entries: Vec<wgpu::BindGroupEntry> = entries
-                .into_iter()
-                .enumerate()
-                .map(|(k, resource)| wgpu::BindGroupEntry {
-                    binding: k as u32,
-                    resource,
-                })
-                .collect();
-            let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("trace bindings"),
-                layout: &pipeline.get_bind_group_layout(0),
-                entries: &entries,
-            });
-            let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("trace"),
-            });
-            {
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("trace"),
-                    timestamp_writes: None,
-                });
-                pass.set_pipeline(pipeline);
-                pass.set_bind_group(0, &bind, &[]);
-                pass.dispatch_workgroups(n.div_ceil(WORKGROUP_SIZE as u64) as u32, 1, 1);
-            }
-            encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, n * HIT_BYTES);
-            self.ctx.queue().submit([encoder.finish()]);
-            readback
-        })?;
-        let raw = read_buffer(&self.ctx, &readback, &what)?;
+            ],
+            n,
+            HIT_BYTES,
+        )?;
         Ok(bytemuck::cast_slice::<u8, HitGpu>(&raw).to_vec())
     }
 }

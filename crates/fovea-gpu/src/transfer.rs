@@ -65,3 +65,67 @@ pub(crate) fn read_buffers(
     }
     Ok(())
 }
+
+/// Runs `pipeline` once per item over `n` items (one invocation each, in workgroups of
+/// [`WORKGROUP_SIZE`](crate::shaders::WORKGROUP_SIZE) along x) with `inputs` bound at
+/// bindings `0..k` of group 0 and a fresh output buffer of `out_bytes` per item at binding `k`,
+/// and returns the output's bytes. Everything runs inside an error scope named `what`.
+pub(crate) fn run_1d(
+    ctx: &GpuContext,
+    what: &str,
+    pipeline: &wgpu::ComputePipeline,
+    inputs: &[wgpu::BindingResource<'_>],
+    n: u64,
+    out_bytes: u64,
+) -> Result<Vec<u8>> {
+    let device = ctx.device();
+    let size = n.max(1) * out_bytes;
+    let readback = ctx.scoped(what, || {
+        let output = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("output"),
+            size,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let readback = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        let entries: Vec<wgpu::BindGroupEntry> = inputs
+            .iter()
+            .cloned()
+            .chain([output.as_entire_binding()])
+            .enumerate()
+            .map(|(k, resource)| wgpu::BindGroupEntry {
+                binding: k as u32,
+                resource,
+            })
+            .collect();
+        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(what),
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        });
+        let mut encoder =
+            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(what) });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(what),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &bind, &[]);
+            pass.dispatch_workgroups(
+                n.max(1).div_ceil(crate::shaders::WORKGROUP_SIZE as u64) as u32,
+                1,
+                1,
+            );
+        }
+        encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, size);
+        ctx.queue().submit([encoder.finish()]);
+        readback
+    })?;
+    read_buffer(ctx, &readback, what)
+}

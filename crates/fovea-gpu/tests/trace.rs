@@ -196,12 +196,7 @@ fn the_built_in_scene_traces_as_the_cpu_renderer_does() {
     let world = World::new(scene, Backend::Obvhs).unwrap();
     let display = DisplayProfile::preset("vive-pro-eye").unwrap();
     let camera = EyeCamera::from_desc(&desc, &display).unwrap();
-    let tris: Vec<Tri> = world
-        .tris
-        .verts
-        .iter()
-        .map(|v| [v[0].into(), v[1].into(), v[2].into()])
-        .collect();
+    let tris: Vec<Tri> = world.tris.vertex_arrays();
     let gpu = GpuTracer::new(&ctx, &tris).unwrap();
     // Primary rays through every 3rd pixel each way.
     let primary: Vec<GpuRay> = (0..display.height_px)

@@ -16,7 +16,7 @@ pub mod vafr;
 use crate::device::GpuContext;
 use crate::error::Result;
 use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
-use crate::transfer::{read_buffer, upload};
+use crate::transfer::{run_1d, upload};
 
 /// Bytes per input point (`vec2<f32>`).
 const IN_BYTES: u64 = 8;
@@ -145,70 +145,34 @@ impl GpuMapping {
             points.len()
         );
         self.ctx.check_storage_binding(&what, n * OUT_BYTES)?;
-        let device = self.ctx.device();
         let pipeline = match direction {
             Direction::Forward => &self.forward,
             Direction::Inverse => &self.inverse,
         };
-        let readback = self.ctx.scoped(&what, || {
+        let input_buf = self.ctx.scoped(&what, || {
             let contents: &[u8] = if input.is_empty() {
                 &[0u8; IN_BYTES as usize]
             } else {
                 bytemuck::cast_slice(&input)
             };
-            let input_buf = upload(
+            upload(
                 &self.ctx,
                 "points in",
                 contents,
                 wgpu::BufferUsages::STORAGE,
-            );
-            let output = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("points out"),
-                size: n * OUT_BYTES,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            });
-            let readback = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("points readback"),
-                size: n * OUT_BYTES,
-                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-                mapped_at_creation: false,
-            });
-            let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("mapping bindings"),
-                layout: &pipeline.get_bind_group_layout(0),
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: self.uniform.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: input_buf.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: output.as_entire_binding(),
-                    },
-                ],
-            });
-            let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("mapping"),
-            });
-            {
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("mapping"),
-                    timestamp_writes: None,
-                });
-                pass.set_pipeline(pipeline);
-                pass.set_bind_group(0, &bind, &[]);
-                pass.dispatch_workgroups(n.div_ceil(WORKGROUP_SIZE as u64) as u32, 1, 1);
-            }
-            encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, n * OUT_BYTES);
-            self.ctx.queue().submit([encoder.finish()]);
-            readback
+            )
         })?;
-        let raw = read_buffer(&self.ctx, &readback, &what)?;
+        let raw = run_1d(
+            &self.ctx,
+            &what,
+            pipeline,
+            &[
+                self.uniform.as_entire_binding(),
+                input_buf.as_entire_binding(),
+            ],
+            n,
+            OUT_BYTES,
+        )?;
         let values: &[[f32; 4]] = bytemuck::cast_slice(&raw);
         Ok(values
             .iter()

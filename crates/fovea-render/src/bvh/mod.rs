@@ -151,6 +151,14 @@ impl Triangles {
         self.verts.is_empty()
     }
 
+    /// Every triangle's vertices as plain arrays (what `fovea-gpu`'s tracer uploads).
+    pub fn vertex_arrays(&self) -> Vec<[[f32; 3]; 3]> {
+        self.verts
+            .iter()
+            .map(|v| [v[0].to_array(), v[1].to_array(), v[2].to_array()])
+            .collect()
+    }
+
     /// FNV-1a over the bits of every vertex coordinate, in order: equal for the same
     /// triangles, different (with overwhelming likelihood) for others.
     pub fn fingerprint(&self) -> u64 {
