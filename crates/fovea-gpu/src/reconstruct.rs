@@ -138,20 +138,11 @@ impl GpuReconstructor {
     /// Compiles the pass on `ctx`.
     pub fn new(ctx: &GpuContext) -> Result<Self> {
         let device = ctx.device();
-        let pipeline = ctx.scoped("building the reconstruct pipeline", || {
-            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(SHADER.file),
-                source: wgpu::ShaderSource::Wgsl(SHADER.source.into()),
-            });
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("reconstruct"),
-                layout: None,
-                module: &module,
-                entry_point: Some("reconstruct"),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        })?;
+        let pipeline = ctx
+            .scoped("building the reconstruct pipeline", || {
+                SHADER.pipelines(device).pop()
+            })?
+            .ok_or_else(|| GpuError::Input("the reconstruct module has no entry point".into()))?;
         Ok(Self {
             ctx: ctx.clone(),
             pipeline,

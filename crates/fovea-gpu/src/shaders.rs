@@ -19,6 +19,32 @@ pub struct ShaderSource {
     pub uniform: (&'static str, usize),
 }
 
+impl ShaderSource {
+    /// Compiles the module on `device` and creates one compute pipeline per entry point, in
+    /// the order of [`Self::entry_points`] (layouts derived from the shader). Call inside an
+    /// error scope ([`GpuContext::scoped`](crate::GpuContext::scoped)): wgpu reports a bad
+    /// module there, not here.
+    pub(crate) fn pipelines(&self, device: &wgpu::Device) -> Vec<wgpu::ComputePipeline> {
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(self.file),
+            source: wgpu::ShaderSource::Wgsl(self.source.into()),
+        });
+        self.entry_points
+            .iter()
+            .map(|&entry| {
+                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(entry),
+                    layout: None,
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    cache: None,
+                })
+            })
+            .collect()
+    }
+}
+
 /// Workgroup size of every compute entry point (`WORKGROUP_SIZE` in `common.wgsl`).
 pub const WORKGROUP_SIZE: u32 = 64;
 

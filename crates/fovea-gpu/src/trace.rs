@@ -194,47 +194,46 @@ impl GpuTracer {
             std::mem::size_of_val(tris.as_slice()) as u64,
         )?;
         let device = ctx.device();
-        let scene = ctx.scoped(
+        let (nodes_buf, tris_buf, ids_buf, pipelines) = ctx.scoped(
             "uploading the scene and building the trace pipelines",
             || {
-                let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                    label: Some(SHADER.file),
-                    source: wgpu::ShaderSource::Wgsl(SHADER.source.into()),
-                });
-                let pipeline = |entry: &str| {
-                    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                        label: Some(entry),
-                        layout: None,
-                        module: &module,
-                        entry_point: Some(entry),
-                        compilation_options: Default::default(),
-                        cache: None,
-                    })
-                };
-                SceneBuffers {
-                    nodes: upload(
+                (
+                    upload(
                         ctx,
                         "bvh nodes",
                         bytemuck::cast_slice(&nodes),
                         wgpu::BufferUsages::STORAGE,
                     ),
-                    tris: upload(
+                    upload(
                         ctx,
                         "triangles",
                         bytemuck::cast_slice(&tris),
                         wgpu::BufferUsages::STORAGE,
                     ),
-                    prim_ids: upload(
+                    upload(
                         ctx,
                         "triangle ids",
                         bytemuck::cast_slice(&bvh.primitive_indices),
                         wgpu::BufferUsages::STORAGE,
                     ),
-                    closest: pipeline("closest_hit"),
-                    any: pipeline("any_hit"),
-                }
+                    SHADER.pipelines(device),
+                )
             },
         )?;
+        // `closest_hit`, `any_hit`: the order of the module's entry points.
+        let mut pipelines = pipelines.into_iter();
+        let (Some(closest), Some(any)) = (pipelines.next(), pipelines.next()) else {
+            return Err(GpuError::Input(
+                "the trace module lacks its closest_hit and any_hit entry points".into(),
+            ));
+        };
+        let scene = SceneBuffers {
+            nodes: nodes_buf,
+            tris: tris_buf,
+            prim_ids: ids_buf,
+            closest,
+            any,
+        };
         Ok(Self {
             ctx: ctx.clone(),
             stats: BvhStats {

@@ -63,28 +63,21 @@ impl GpuMapping {
         let device = ctx.device();
         let (uniform, forward, inverse) =
             ctx.scoped(&format!("building the {name} pipelines"), || {
-                let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                    label: Some(shader.file),
-                    source: wgpu::ShaderSource::Wgsl(shader.source.into()),
-                });
                 let uniform = upload(
                     ctx,
                     "mapping parameters",
                     uniform_bytes,
                     wgpu::BufferUsages::UNIFORM,
                 );
-                let pipeline = |entry: &str| {
-                    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                        label: Some(entry),
-                        layout: None,
-                        module: &module,
-                        entry_point: Some(entry),
-                        compilation_options: Default::default(),
-                        cache: None,
-                    })
-                };
-                (uniform, pipeline("forward"), pipeline("inverse"))
+                // `forward`, `inverse`: the order of the module's entry points.
+                let mut p = shader.pipelines(device).into_iter();
+                (uniform, p.next(), p.next())
             })?;
+        let (Some(forward), Some(inverse)) = (forward, inverse) else {
+            return Err(crate::GpuError::Input(format!(
+                "the {name} module lacks its forward and inverse entry points"
+            )));
+        };
         Ok(Self {
             ctx: ctx.clone(),
             name,
