@@ -156,8 +156,8 @@ fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend
         BackendArg::Gpu => BackendChoice::Gpu,
         _ => BackendChoice::Auto,
     };
-    // The largest binding: the polar texels, or the triangles (48 bytes each).
-    let bytes = frame_bytes.max(world.tris.len() as u64 * 48);
+    // The largest binding: the polar texels, or the triangles.
+    let bytes = frame_bytes.max(world.tris.len() as u64 * fovea_gpu::trace::TRIANGLE_BYTES);
     let request = GpuRequest {
         storage_binding_bytes: bytes,
         buffer_bytes: bytes,

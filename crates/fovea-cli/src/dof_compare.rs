@@ -92,12 +92,11 @@ fn parse_window(text: &str, w: u32, h: u32) -> Result<[u32; 2]> {
 }
 
 pub fn run(args: DofCompareArgs) -> Result<()> {
-    // Checked before the scene loads; the view's display may take the file camera's field of
-    // view (see `Loaded::display`).
-    params(&args, &args.display.display(Headset::VivePro)?)?;
+    // Checked before the scene loads: they depend on the display's size, which the file
+    // camera's field of view (see `Loaded::display`) does not change.
+    let params = params(&args, &args.display.display(Headset::VivePro)?)?;
     let prepared = prepare(&args.scene, &args.display, Headset::VivePro)?;
     let display = prepared.camera.display.clone();
-    let params = params(&args, &display)?;
     let g = args.gaze.resolve(&display, &prepared.camera)?;
     let quiet = args.quiet || args.json;
     let t0 = std::time::Instant::now();

@@ -28,7 +28,7 @@ use crate::choices::{self, AccumulationChoice, Headset, Scenario};
 use crate::common::{DisplayArgs, InsetSmoothingArgs, MethodOptions};
 use crate::render::memory_limit;
 use crate::scene_args::{parse_vec3, prepare, SceneArgs};
-use crate::sequence::{gaze_trajectory, read_camera_path};
+use crate::sequence::{gaze_trajectory, read_camera_path, read_gaze_csv};
 use crate::temporal_args::TemporalArgs;
 
 /// The default camera slide over the sequence (`--camera-move`).
@@ -151,8 +151,9 @@ pub fn run(args: FlickerArgs) -> Result<()> {
     let prepared = prepare(&args.scene, &args.display, Headset::VivePro)?;
     let display = prepared.camera.display.clone();
     let duration_s = args.frames as f64 / args.fps;
+    let gaze_csv_text = read_gaze_csv(args.gaze_csv.as_deref())?;
     let gazes = gaze_trajectory(
-        args.gaze_csv.as_deref(),
+        args.gaze_csv.as_deref().zip(gaze_csv_text.as_deref()),
         args.scenario.into(),
         args.seed,
         args.quiet,

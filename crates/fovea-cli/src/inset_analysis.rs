@@ -71,9 +71,10 @@ pub fn run(args: InsetAnalysisArgs) -> Result<()> {
     };
     params.validate()?;
     params.check_display(&display)?;
+    // The file camera's field of view (see `Loaded::display`) may change the display's field
+    // of view, not the size checked above.
     let prepared = prepare(&args.scene, &args.display, Headset::VivePro)?;
     let display = prepared.camera.display.clone();
-    params.check_display(&display)?;
     let g = args.gaze.resolve(&display, &prepared.camera)?;
     let analysis = run_inset(&prepared.world, &prepared.camera, &g, &params)?;
     let json = write_json(&analysis, &args.out)?;

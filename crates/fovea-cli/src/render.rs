@@ -107,9 +107,10 @@ pub struct RenderArgs {
     #[arg(long, value_enum, ignore_case = true, default_value_t = Stereo::Rep)]
     pub stereo: Stereo,
     /// Which executor runs the stages a GPU can run (today the primary rays of the trace
-    /// stage and the reconstruct stage, for polar methods; every other stage runs on the CPU): cpu, gpu (any adapter, lavapipe included;
-    /// an error without one) or auto (a hardware GPU when there is one, else the CPU). The GPU
-    /// needs a fovea built with `--features gpu`.
+    /// stage and the reconstruct stage, for polar methods; every other stage runs on the
+    /// CPU): cpu, gpu (any adapter, lavapipe included; an error without one) or auto (a
+    /// hardware GPU when there is one, else the CPU). The GPU needs a fovea built with
+    /// `--features gpu`.
     #[arg(long, value_enum, ignore_case = true, default_value_t = BackendArg::Auto)]
     pub backend: BackendArg,
     /// No progress bar.

@@ -113,9 +113,10 @@ pub struct SequenceArgs {
     pub quiet: bool,
 }
 
-/// The gaze of a sequence: an eye-tracker CSV, or a synthesised scenario of `duration_s`.
+/// The gaze of a sequence: an eye-tracker CSV (its path, for messages, and its text, see
+/// [`read_gaze_csv`]), or a synthesised scenario of `duration_s`.
 pub fn gaze_trajectory(
-    gaze_csv: Option<&Path>,
+    gaze_csv: Option<(&Path, &str)>,
     scenario: GazeScenario,
     seed: u64,
     quiet: bool,
@@ -123,9 +124,8 @@ pub fn gaze_trajectory(
     duration_s: f64,
 ) -> Result<GazeTrajectory> {
     let (w, h) = (d.width_px as f64, d.height_px as f64);
-    if let Some(p) = gaze_csv {
-        let text = read_text_input(p, "gaze CSV")?;
-        let (t, report) = parse_csv(&text, w, h, &CsvOptions::default())
+    if let Some((p, text)) = gaze_csv {
+        let (t, report) = parse_csv(text, w, h, &CsvOptions::default())
             .with_context(|| format!("gaze CSV {}", p.display()))?;
         if !quiet {
             eprintln!(
@@ -136,6 +136,12 @@ pub fn gaze_trajectory(
         return Ok(t);
     }
     Ok(scenario.trajectory(d, seed, duration_s)?)
+}
+
+/// The text of `--gaze-csv`, read once (it decides the gaze and, hashed, whether a folder
+/// resumes).
+pub fn read_gaze_csv(p: Option<&Path>) -> Result<Option<String>> {
+    p.map(|p| read_text_input(p, "gaze CSV")).transpose()
 }
 
 pub fn run(args: SequenceArgs) -> Result<()> {
@@ -167,8 +173,9 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     let prepared = prepare(&args.scene, &args.display, Headset::VivePro)?;
     let display = prepared.camera.display.clone();
     let duration_s = args.frames as f64 / args.fps;
+    let gaze_csv_text = read_gaze_csv(args.gaze_csv.as_deref())?;
     let traj = gaze_trajectory(
-        args.gaze_csv.as_deref(),
+        args.gaze_csv.as_deref().zip(gaze_csv_text.as_deref()),
         args.scenario.into(),
         args.seed,
         args.quiet,
@@ -184,13 +191,9 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     };
     let gazes = traj.resample(args.fps, args.frames as usize)?;
     // The CSV's contents, not only its path, decide the frames.
-    let gaze_csv_hash = match &args.gaze_csv {
-        Some(p) => Some(format!(
-            "{:016x}",
-            fnv1a(read_text_input(p, "gaze CSV")?.as_bytes())
-        )),
-        None => None,
-    };
+    let gaze_csv_hash = gaze_csv_text
+        .as_ref()
+        .map(|t| format!("{:016x}", fnv1a(t.as_bytes())));
     let mut settings = FrameSettings::new(method);
     settings.mapping = config;
     settings.memory_limit_bytes = memory_limit;

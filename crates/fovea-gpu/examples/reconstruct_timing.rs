@@ -20,16 +20,9 @@ use fovea_core::Image;
 use fovea_gpu::{GpuContext, GpuReconstructor, GpuRequest, ReconstructTimes};
 use fovea_post::inverse_map::{reconstruct_into, ReconstructFilter, SampleBuffers};
 
-fn cpu_ms() -> f64 {
-    cpu_time::ProcessTime::try_now()
-        .map(|t| t.as_duration().as_secs_f64() * 1e3)
-        .unwrap_or(f64::NAN)
-}
+mod common;
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(|a, b| a.total_cmp(b));
-    v[v.len() / 2]
-}
+use common::{cpu_ms, median};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);

@@ -28,16 +28,9 @@ use fovea_render::world::World;
 use glam::Vec3;
 use rayon::prelude::*;
 
-fn cpu_ms() -> f64 {
-    cpu_time::ProcessTime::try_now()
-        .map(|t| t.as_duration().as_secs_f64() * 1e3)
-        .unwrap_or(f64::NAN)
-}
+mod common;
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(|a, b| a.total_cmp(b));
-    v[v.len() / 2]
-}
+use common::{cpu_ms, median};
 
 /// Median wall and CPU ms of `runs` runs of `f` after one warm-up.
 fn time(runs: usize, mut f: impl FnMut()) -> (f64, f64) {

@@ -13,10 +13,9 @@
 struct TraceParams {
     // Rays in this batch.
     ray_count: u32,
-    // Nodes in the tree (≥ 1; an empty scene never reaches the shader).
-    node_count: u32,
     _pad0: u32,
     _pad1: u32,
+    _pad2: u32,
 }
 
 // obvhs's Bvh2Node, repacked: an inner node when prim_count == 0 (children at first_index and

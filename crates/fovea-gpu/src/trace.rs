@@ -20,8 +20,8 @@ use obvhs::BvhBuildParams;
 
 use crate::device::GpuContext;
 use crate::error::{GpuError, Result};
-use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
-use crate::transfer::{run_1d, upload};
+use crate::shaders::ShaderSource;
+use crate::transfer::{batch_len, run_1d, upload};
 
 /// The module: `closest_hit` and `any_hit`, [`TraceUniform`] at binding 0.
 pub const SHADER: ShaderSource = ShaderSource {
@@ -34,6 +34,10 @@ pub const SHADER: ShaderSource = ShaderSource {
     uniform: ("TraceParams", std::mem::size_of::<TraceUniform>()),
 };
 
+/// Bytes per triangle on the device (`Tri` in `trace.wgsl`: three `vec4<f32>`): the largest
+/// binding a scene needs is its triangle count times this.
+pub const TRIANGLE_BYTES: u64 = std::mem::size_of::<[f32; 12]>() as u64;
+
 /// The traversal stack of `trace.wgsl` (`STACK_SIZE`): the deepest tree it can walk.
 pub const STACK_SIZE: usize = 64;
 
@@ -43,9 +47,7 @@ pub const STACK_SIZE: usize = 64;
 pub struct TraceUniform {
     /// Rays in the batch.
     pub ray_count: u32,
-    /// Nodes in the tree.
-    pub node_count: u32,
-    _pad: [u32; 2],
+    _pad: [u32; 3],
 }
 
 /// A ray as the shader reads it: origin, `t_min`, direction (any length; the hit's `t` is in
@@ -287,14 +289,7 @@ impl GpuTracer {
         let Some(scene) = &self.scene else {
             return Ok(vec![miss; rays.len()]);
         };
-        let limits = self.ctx.limits();
-        let by_binding = limits
-            .max_storage_buffer_binding_size
-            .min(limits.max_buffer_size)
-            / RAY_BYTES.max(HIT_BYTES);
-        let by_dispatch =
-            limits.max_compute_workgroups_per_dimension as u64 * WORKGROUP_SIZE as u64;
-        let batch = by_binding.min(by_dispatch).clamp(1, 1 << 22) as usize;
+        let batch = batch_len(&self.ctx, RAY_BYTES.max(HIT_BYTES));
         let mut out = Vec::with_capacity(rays.len());
         for chunk in rays.chunks(batch) {
             // Rays the shader must not see (non-finite, empty interval) miss here.
@@ -348,8 +343,7 @@ impl GpuTracer {
         let pipeline = if any_hit { &scene.any } else { &scene.closest };
         let block = TraceUniform {
             ray_count: rays.len() as u32,
-            node_count: self.stats.nodes as u32,
-            _pad: [0; 2],
+            _pad: [0; 3],
         };
         let (uniform, ray_buf) = self.ctx.scoped(&what, || {
             (

@@ -15,8 +15,8 @@ pub mod vafr;
 
 use crate::device::GpuContext;
 use crate::error::Result;
-use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
-use crate::transfer::{run_1d, upload};
+use crate::shaders::ShaderSource;
+use crate::transfer::{batch_len, run_1d, upload};
 
 /// Bytes per input point (`vec2<f32>`).
 const IN_BYTES: u64 = 8;
@@ -100,14 +100,7 @@ impl GpuMapping {
     /// Maps `points` in batches that fit the device's limits (binding size, workgroups per
     /// dispatch).
     pub fn run(&self, direction: Direction, points: &[[f32; 2]]) -> Result<Vec<Option<[f32; 2]>>> {
-        let limits = self.ctx.limits();
-        let by_binding = limits
-            .max_storage_buffer_binding_size
-            .min(limits.max_buffer_size)
-            / OUT_BYTES;
-        let by_dispatch =
-            limits.max_compute_workgroups_per_dimension as u64 * WORKGROUP_SIZE as u64;
-        let batch = by_binding.min(by_dispatch).clamp(1, 1 << 22) as usize;
+        let batch = batch_len(&self.ctx, OUT_BYTES);
         let mut out = Vec::with_capacity(points.len());
         for chunk in points.chunks(batch) {
             out.extend(self.run_batch(direction, chunk)?);

@@ -48,7 +48,7 @@ pub trait TraceExecutor: Send {
     fn closest_hits(&mut self, rays: &[Ray]) -> std::result::Result<Vec<Option<Hit>>, String>;
 }
 
-/// The name of the CPU trace in [`TraceCounts::backend`].
+/// The name of the CPU trace in [`FrameStats::trace_backend`](super::FrameStats::trace_backend).
 pub const CPU: &str = "cpu";
 
 /// What the trace and shade stages did.
@@ -122,33 +122,31 @@ pub fn trace_chunk(
     // per-column counts need the search.
     let uniform = plan.rays.per_column.is_empty().then_some(plan.rays.uniform);
     let ray_of = |r: u32| -> Option<(Ray, f32)> {
-        {
-            let t = match uniform {
-                Some(n) => (r / n) as usize,
-                None => starts.partition_point(|&s| s <= r) - 1,
-            };
-            let n = starts[t + 1] - starts[t];
-            let k = order[t] as usize;
-            let o = plan.rays.pattern(n).0[(r - starts[t]) as usize];
-            let (i, j) = ((k % row_len) as u32, j0 + (k / row_len) as u32);
-            if !mapping.is_shaded(layer, i, j) || known.is_some_and(|m| *m.get(i, j)) {
-                return None;
-            }
-            let s = SamplePoint {
-                layer,
-                u: i as f64 + o[0] + jitter[0],
-                v: j as f64 + o[1] + jitter[1],
-            };
-            let p = mapping.inverse(s)?;
-            let spread = plan.footprint.spread_rad(mapping, display, gaze, i, p);
-            // Each of n rays covers 1/n of the texel: its cone is 1/√n of the texel's.
-            let spread = if n == 1 {
-                spread
-            } else {
-                spread / (n as f32).sqrt()
-            };
-            Some((camera.ray(p), spread))
+        let t = match uniform {
+            Some(n) => (r / n) as usize,
+            None => starts.partition_point(|&s| s <= r) - 1,
+        };
+        let n = starts[t + 1] - starts[t];
+        let k = order[t] as usize;
+        let o = plan.rays.pattern(n).0[(r - starts[t]) as usize];
+        let (i, j) = ((k % row_len) as u32, j0 + (k / row_len) as u32);
+        if !mapping.is_shaded(layer, i, j) || known.is_some_and(|m| *m.get(i, j)) {
+            return None;
         }
+        let s = SamplePoint {
+            layer,
+            u: i as f64 + o[0] + jitter[0],
+            v: j as f64 + o[1] + jitter[1],
+        };
+        let p = mapping.inverse(s)?;
+        let spread = plan.footprint.spread_rad(mapping, display, gaze, i, p);
+        // Each of n rays covers 1/n of the texel: its cone is 1/√n of the texel's.
+        let spread = if n == 1 {
+            spread
+        } else {
+            spread / (n as f32).sqrt()
+        };
+        Some((camera.ray(p), spread))
     };
     let Some(tracer) = tracer else {
         (0..total)
@@ -159,35 +157,31 @@ pub fn trace_chunk(
     };
     let rays: Vec<Option<(Ray, f32)>> = (0..total).into_par_iter().map(ray_of).collect();
     let batch: Vec<Ray> = rays.iter().flatten().map(|&(ray, _)| ray).collect();
-    let hits = tracer
-        .closest_hits(&batch)
-        .map_err(|message| RenderError::Executor {
-            stage: "trace",
-            backend: tracer.backend().to_string(),
-            message,
-        })?;
+    let backend = tracer.backend().to_string();
+    let failed = |message: String| RenderError::Executor {
+        stage: "trace",
+        backend: backend.clone(),
+        message,
+    };
+    let hits = tracer.closest_hits(&batch).map_err(failed)?;
     if hits.len() != batch.len() {
-        return Err(RenderError::Executor {
-            stage: "trace",
-            backend: tracer.backend().to_string(),
-            message: format!("{} hits for {} rays", hits.len(), batch.len()),
-        });
+        return Err(failed(format!(
+            "{} hits for {} rays",
+            hits.len(),
+            batch.len()
+        )));
     }
-    // Where each ray's hit is in `hits` (rays of texels that are not traced have none).
-    let mut next = 0usize;
-    let slot: Vec<usize> = rays
-        .iter()
-        .map(|r| {
-            let k = next;
-            next += usize::from(r.is_some());
-            k
-        })
+    // Each traced ray with its hit, in order (rays of texels that are not traced have none).
+    let mut hits = hits.into_iter();
+    let traced: Vec<Option<(Ray, f32, Option<Hit>)>> = rays
+        .into_iter()
+        .map(|r| r.map(|(ray, spread)| (ray, spread, hits.next().flatten())))
         .collect();
-    rays.par_iter()
-        .zip(slot.par_iter())
-        .map(|(r, &k)| {
-            r.map(|(ray, spread)| match &hits[k] {
-                Some(hit) => surface(world, &ray, hit, spread),
+    traced
+        .into_par_iter()
+        .map(|r| {
+            r.map(|(ray, spread, hit)| match hit {
+                Some(hit) => surface(world, &ray, &hit, spread),
                 None => GSample::miss(ray.dir),
             })
         })
