@@ -389,6 +389,12 @@ fn a_photometric_sun_is_exposed_automatically_and_clipping_is_warned() {
     );
     assert_eq!(stats["exposure"]["mode"], "auto");
     let stops = stats["exposure"]["stops"].as_f64().unwrap();
+    println!(
+        "auto: {stops:+.2} stops (EV100 {:.2}), {:.1} % white pixels, mean code {:.0}",
+        stats["exposure"]["ev100"].as_f64().unwrap(),
+        100.0 * white(&img),
+        mean(&img)
+    );
     assert!(stops < -8.0, "a 6,830 lx sun needs a strong cut: {stops}");
     assert!(white(&img) < 0.01, "{}", white(&img));
     assert!((40.0..220.0).contains(&mean(&img)), "{}", mean(&img));
@@ -398,6 +404,11 @@ fn a_photometric_sun_is_exposed_automatically_and_clipping_is_warned() {
     assert!(
         err.contains("warning:") && err.contains("clip to white"),
         "{err}"
+    );
+    println!(
+        "--exposure 0: {:.1} % white pixels, clipped fraction {:.3}",
+        100.0 * white(&img),
+        stats["exposure"]["clipped_fraction"].as_f64().unwrap()
     );
     assert!(white(&img) > 0.5, "{}", white(&img));
     assert!(stats["exposure"]["clipped_fraction"].as_f64().unwrap() > 0.5);
