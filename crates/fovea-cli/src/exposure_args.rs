@@ -126,6 +126,34 @@ pub fn exposure_json(exposure: Exposure, e: &FrameExposure) -> serde_json::Value
     })
 }
 
+/// The one exposure of frames shown or written in a row (a per-frame auto exposure would
+/// flicker): the stops asked for, or, for `auto` (the default for photometric lights), the
+/// auto exposure of a full-resolution frame of `camera` with `settings`' shading, metered
+/// before anything else is rendered.
+pub fn metered_stops(
+    exposure: &ExposureArgs,
+    world: &fovea_render::world::World,
+    camera: &fovea_render::camera::EyeCamera,
+    settings: &fovea_render::pipeline::FrameSettings,
+) -> Result<f32> {
+    use fovea_render::pipeline::{render_frame, FrameSettings};
+    let chosen = exposure.choose(world.scene.light_units)?;
+    if let Some(stops) = chosen.0.fixed_stops() {
+        return Ok(stops);
+    }
+    let mut meter = FrameSettings::new(fovea_core::mapping::Method::Full);
+    meter.shading = settings.shading;
+    meter.memory_limit_bytes = settings.memory_limit_bytes;
+    let frame = render_frame(
+        world,
+        camera,
+        &meter,
+        camera.display.centre_gaze(),
+        &|_, _| {},
+    )?;
+    Ok(expose(&frame.color, &frame.depth, chosen, ToneCurve::Reinhard).stops)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -28,7 +28,7 @@ use crate::choices::{self, AccumulationChoice, Headset, Scenario};
 use crate::common::{DisplayArgs, InsetSmoothingArgs, MethodOptions};
 use crate::render::memory_limit;
 use crate::scene_args::{parse_vec3, prepare, SceneArgs};
-use crate::sequence::{gaze_trajectory, read_camera_path, read_gaze_csv};
+use crate::sequence::{gaze_trajectory, path_cameras, read_camera_path, read_gaze_csv};
 use crate::temporal_args::TemporalArgs;
 
 /// The default camera slide over the sequence (`--camera-move`).
@@ -162,15 +162,12 @@ pub fn run(args: FlickerArgs) -> Result<()> {
     )?
     .resample(args.fps, args.frames as usize)?;
     let cameras: Vec<EyeCamera> = match &args.camera_path {
-        Some(p) => {
-            let (path, _) = read_camera_path(p)?;
-            (0..args.frames as usize)
-                .map(|i| {
-                    let (pos, look, up) = path.at(i as f64 / args.fps);
-                    Ok(EyeCamera::new(pos, look - pos, up, &display)?)
-                })
-                .collect::<Result<_>>()?
-        }
+        Some(p) => path_cameras(
+            &read_camera_path(p)?.0,
+            args.frames as usize,
+            args.fps,
+            &display,
+        )?,
         None => {
             let m = parse_vec3("camera-move", &args.camera_move)?;
             camera_slide(&prepared.camera, m.to_array(), args.frames as usize)?

@@ -24,6 +24,7 @@ mod scene_args;
 mod sequence;
 mod table;
 mod temporal_args;
+mod view;
 
 /// Perception-driven foveated rendering and depth of field for head-mounted displays.
 #[derive(Parser, Debug)]
@@ -69,6 +70,10 @@ enum Command {
     /// VaFR Table 1 and shading-rate figures, speed per stage, DOF filters, inset gradients,
     /// flicker, and every method's quality against full resolution by eccentricity band.
     Report(Box<report::ReportArgs>),
+    /// Open a window on a scene where the mouse, a gaze CSV or an eye tracker's UDP stream is
+    /// the gaze: switch methods, DOF and overlays live, A/B against full resolution, record
+    /// the viewing for `fovea sequence` (builds with `--features view`).
+    View(Box<view::ViewArgs>),
 }
 
 /// Ends quietly, as other command-line tools do, when stdout is a pipe whose reader has gone
@@ -144,6 +149,7 @@ fn main() -> ExitCode {
         Command::InsetAnalysis(a) => inset_analysis::run(*a),
         Command::Flicker(a) => flicker::run(*a),
         Command::Report(a) => report::run(*a),
+        Command::View(a) => view::run(*a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -17,14 +17,13 @@ use serde::Serialize;
 use fovea_core::display::DisplayProfile;
 use fovea_core::gaze::csv::{parse_csv, CsvOptions};
 use fovea_core::gaze::GazeTrajectory;
-use fovea_core::mapping::Method;
 use fovea_core::optics::AccommodationParams;
 use fovea_eval::experiments::scenario::GazeScenario;
 use fovea_post::tonemap::ToneCurve;
 use fovea_render::camera::{Eye, EyeCamera, HmdRig};
 use fovea_render::camera_path::CameraPath;
 use fovea_render::eye::FocusDistance;
-use fovea_render::pipeline::{render_frame, FrameSettings};
+use fovea_render::pipeline::FrameSettings;
 use fovea_render::plan::FramePlan;
 use fovea_render::sequence::{Sequence, SequenceDriver, Track};
 use fovea_render::temporal::TemporalSettings;
@@ -32,7 +31,7 @@ use fovea_render::temporal::TemporalSettings;
 use crate::choices::{self, BackendArg, Headset, MethodChoice, Scenario, Switch, Video};
 use crate::common::{read_text_input, DisplayArgs, FrameOptions, MethodOptions};
 use crate::dof_args::DofArgs;
-use crate::exposure_args::{expose, ExposureArgs};
+use crate::exposure_args::ExposureArgs;
 use crate::render::memory_limit;
 use crate::scene_args::{prepare, SceneArgs};
 use crate::temporal_args::TemporalArgs;
@@ -223,12 +222,7 @@ pub fn run(args: SequenceArgs) -> Result<()> {
         })
         .collect::<Result<_>>()?;
     let cameras: Vec<EyeCamera> = match &camera_path {
-        Some(p) => (0..args.frames as usize)
-            .map(|i| {
-                let (pos, look, up) = p.at(i as f64 / args.fps);
-                Ok(EyeCamera::new(pos, look - pos, up, &display)?)
-            })
-            .collect::<Result<_>>()?,
+        Some(p) => path_cameras(p, args.frames as usize, args.fps, &display)?,
         None => vec![prepared.camera.clone(); args.frames as usize],
     };
     // Both eyes' cameras, for the vergence of a tracker's binocular gaze.
@@ -390,10 +384,6 @@ fn sequence_exposure(
     camera_path: Option<&CameraPath>,
     settings: &FrameSettings,
 ) -> Result<f32> {
-    let chosen = args.exposure.choose(prepared.world.scene.light_units)?;
-    if let Some(stops) = chosen.0.fixed_stops() {
-        return Ok(stops);
-    }
     let display = &prepared.camera.display;
     let camera = match camera_path {
         Some(p) => {
@@ -402,17 +392,7 @@ fn sequence_exposure(
         }
         None => prepared.camera.clone(),
     };
-    let mut meter = FrameSettings::new(Method::Full);
-    meter.shading = settings.shading;
-    meter.memory_limit_bytes = settings.memory_limit_bytes;
-    let frame = render_frame(
-        &prepared.world,
-        &camera,
-        &meter,
-        display.centre_gaze(),
-        &|_, _| {},
-    )?;
-    Ok(expose(&frame.color, &frame.depth, chosen, ToneCurve::Reinhard).stops)
+    crate::exposure_args::metered_stops(&args.exposure, &prepared.world, &camera, settings)
 }
 
 /// `frames.csv`: the eye state of every frame.
@@ -443,6 +423,21 @@ pub fn eye_csv(seq: &Sequence) -> String {
         );
     }
     csv
+}
+
+/// The eye camera of each of `frames` frames at `fps` along `path`, rendering `display`.
+pub fn path_cameras(
+    path: &CameraPath,
+    frames: usize,
+    fps: f64,
+    display: &DisplayProfile,
+) -> Result<Vec<EyeCamera>> {
+    (0..frames)
+        .map(|i| {
+            let (pos, look, up) = path.at(i as f64 / fps);
+            Ok(EyeCamera::new(pos, look - pos, up, display)?)
+        })
+        .collect()
 }
 
 /// A camera path CSV and its text.

@@ -146,6 +146,64 @@ fn a_failing_section_is_reported_in_place_and_the_rest_is_written() {
     );
 }
 
+/// The flicker section follows a recorded viewing (`fovea view --record`: gaze.csv,
+/// camera.csv) when given one, and says so in its text and its reproduce line.
+#[test]
+fn the_flicker_section_follows_a_recorded_viewing() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("gaze.csv"),
+        "t_s,x_px,y_px,depth_m,confidence\n0,100,80,,1\n0.011111,150,90,,1\n0.022222,160,100,,0\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("camera.csv"),
+        "t,x,y,z,look_x,look_y,look_z,up_x,up_y,up_z\n0,0,1.5,6,0,1.4,5,0,1,0\n0.05,0.3,1.5,6,0.3,1.4,5,0,1,0\n",
+    )
+    .unwrap();
+    let out = d.join("report");
+    let run = fovea()
+        .args([
+            "report",
+            "--quick",
+            "--sections",
+            "flicker",
+            "--flicker-frames",
+            "3",
+        ])
+        .args(["--res", "320x180", "-q", "--gaze-csv"])
+        .arg(d.join("gaze.csv"))
+        .arg("--camera-path")
+        .arg(d.join("camera.csv"))
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert_eq!(section(&json(&out), "flicker")["status"], "ok");
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(
+        md.contains("the gaze of ") && md.contains("gaze.csv"),
+        "{md}"
+    );
+    assert!(md.contains("the camera following "), "{md}");
+    assert!(
+        md.contains("--camera-path ") && md.contains("--gaze-csv "),
+        "{md}"
+    );
+    let v = fovea()
+        .args(["report", "--verify"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(v.status.success(), "{}", String::from_utf8_lossy(&v.stdout));
+}
+
 #[test]
 fn bad_options_are_refused_before_anything_runs() {
     let dir = tempfile::tempdir().unwrap();

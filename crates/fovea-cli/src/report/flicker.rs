@@ -11,6 +11,7 @@ use fovea_eval::experiments::scenario::{camera_slide, GazeScenario};
 use fovea_render::sequence::Sequence;
 
 use crate::flicker::{measure, write_outputs, DEFAULT_CAMERA_MOVE};
+use crate::sequence::{gaze_trajectory, path_cameras, read_camera_path, read_gaze_csv};
 
 use super::doc::{Cell, Section, Table};
 use super::Ctx;
@@ -37,10 +38,22 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
     let share = (frames as f32 / 120.0).min(1.0);
     let m = slide * share;
     let camera_move = format!("{},{},{}", m.x, m.y, m.z);
-    let gazes = SCENARIO
-        .trajectory(&ctx.display, args.seed, frames as f64 / FPS)?
-        .resample(FPS, frames as usize)?;
-    let cameras = camera_slide(&ctx.camera, m.to_array(), frames as usize)?;
+    // The gaze and camera of a recording (`fovea view --record`) when given, else the
+    // synthesised scenario and the camera slide.
+    let gaze_text = read_gaze_csv(args.gaze_csv.as_deref())?;
+    let gazes = gaze_trajectory(
+        args.gaze_csv.as_deref().zip(gaze_text.as_deref()),
+        SCENARIO,
+        args.seed,
+        args.quiet,
+        &ctx.display,
+        frames as f64 / FPS,
+    )?
+    .resample(FPS, frames as usize)?;
+    let cameras = match &args.camera_path {
+        Some(p) => path_cameras(&read_camera_path(p)?.0, frames as usize, FPS, &ctx.display)?,
+        None => camera_slide(&ctx.camera, m.to_array(), frames as usize)?,
+    };
     let world = &ctx.loaded.world;
     let seq = Sequence::plan(
         world,
@@ -56,13 +69,25 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
     let written = write_outputs(
         &result,
         &ctx.display,
-        Some(SCENARIO.name()),
-        Some(&camera_move),
+        args.gaze_csv.is_none().then_some(SCENARIO.name()),
+        args.camera_path.is_none().then_some(camera_move.as_str()),
         &out,
     )?;
+    let gaze_words = match &args.gaze_csv {
+        Some(p) => format!("the gaze of {}", p.display()),
+        None => format!(
+            "the `{}` gaze scenario (seed {})",
+            SCENARIO.name(),
+            args.seed
+        ),
+    };
+    let camera_words = match &args.camera_path {
+        Some(p) => format!("the camera following {}", p.display()),
+        None => format!("the camera sliding {camera_move} m (right, up, back)"),
+    };
     sec.text(format!(
-        "{} frames at {} fps of the `{}` gaze scenario (seed {}), the camera sliding {} m (right, up, back); the reference is full resolution with {} samples per pixel. Flicker = RMS of the frame-to-frame change the reference does not make, % of the display range.",
-        frames, FPS, SCENARIO.name(), args.seed, camera_move, params.reference_spp
+        "{} frames at {} fps of {gaze_words}, {camera_words}; the reference is full resolution with {} samples per pixel. Flicker = RMS of the frame-to-frame change the reference does not make, % of the display range.",
+        frames, FPS, params.reference_spp
     ));
     let first = result
         .variants
@@ -115,12 +140,18 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         sec.text(line);
     }
     let method_names: Vec<&str> = params.methods.iter().map(|m| m.name()).collect();
+    let mut motion = match &args.camera_path {
+        Some(p) => format!(" --camera-path {}", p.display()),
+        None => format!(" --camera-move={camera_move}"),
+    };
+    if let Some(p) = &args.gaze_csv {
+        motion += &format!(" --gaze-csv {}", p.display());
+    }
     sec.text(format!(
-        "Reproduce: fovea flicker {}{} --frames {} --camera-move={} --methods {} --seed {}; per-frame values in {}.",
+        "Reproduce: fovea flicker {}{} --frames {}{motion} --methods {} --seed {}; per-frame values in {}.",
         super::scene_flags(&args.scene),
         super::display_flags(&args.display),
         frames,
-        camera_move,
         method_names.join(","),
         args.seed,
         ctx.link(&out.join("flicker-frames.csv"))

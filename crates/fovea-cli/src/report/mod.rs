@@ -56,6 +56,14 @@ pub struct ReportArgs {
     /// Frames of the flicker sequence (default 120; 6 with --quick).
     #[arg(long)]
     pub flicker_frames: Option<u32>,
+    /// The flicker sequence's gaze from an eye-tracker CSV (as `fovea sequence --gaze-csv`,
+    /// e.g. the gaze.csv of `fovea view --record`) instead of synthesised saccades and pursuit.
+    #[arg(long)]
+    pub gaze_csv: Option<PathBuf>,
+    /// The flicker sequence's camera path CSV (as `fovea sequence --camera-path`, e.g. the
+    /// camera.csv of `fovea view --record`) instead of the camera slide.
+    #[arg(long)]
+    pub camera_path: Option<PathBuf>,
     /// Resolutions of the speed table, comma-separated (default: the headset, 2k and 4k; the
     /// headset only with --quick).
     #[arg(long)]

@@ -1,0 +1,561 @@
+//! The viewer's frames: a [`FrameRequest`] (view settings, display, camera pose, gaze) run
+//! through the same frame plan and stages as `fovea render` (`fovea_render::pipeline`), on the
+//! GPU executors when the viewer was given them, and turned into the 8-bit image the window
+//! shows ([`ViewFrame`]). [`RenderWorker`] runs it on its own thread, newest request first, so
+//! the window stays responsive while a CPU frame takes its time, and refines a reduced-scale
+//! frame to full scale when the view is still.
+
+use std::sync::mpsc::{self, Receiver, Sender};
+use std::sync::{Arc, Condvar, Mutex};
+use std::thread::JoinHandle;
+
+use glam::Vec3;
+
+use fovea_core::display::{DisplayProfile, Gaze};
+use fovea_core::gaze::GazeSample;
+use fovea_core::units::{CyclesPerDegree, Degrees};
+use fovea_core::Image;
+use fovea_post::tonemap::{to_srgb8, ToneCurve};
+use fovea_render::camera::EyeCamera;
+use fovea_render::eye::{EyeState, EyeTracker};
+use fovea_render::lod::{LodParams, LodScene, LodStats};
+use fovea_render::pipeline::{
+    render_planned, FrameContext, FrameInputs, FrameSettings, FrameStats, ReconstructExecutor,
+    Stage, StageTimes, Stopwatch, TraceExecutor,
+};
+use fovea_render::plan::FramePlan;
+use fovea_render::scene::Light;
+use fovea_render::temporal::{TemporalAccumulator, TemporalSettings};
+use fovea_render::world::World;
+
+use crate::controls::{EyesChoice, LightsChoice, ViewSettings};
+use crate::error::{Result, ViewerError};
+
+/// Eccentricities of the ring overlay, degrees.
+pub const RING_DEG: [f64; 6] = [5.0, 10.0, 20.0, 30.0, 45.0, 60.0];
+
+/// Where the eye camera is: position, view direction and up, world space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pose {
+    /// Eye position, metres.
+    pub position: Vec3,
+    /// View direction (unit).
+    pub forward: Vec3,
+    /// Up (unit).
+    pub up: Vec3,
+}
+
+impl Pose {
+    /// The pose of a camera.
+    pub fn of(camera: &EyeCamera) -> Self {
+        Self {
+            position: camera.position,
+            forward: camera.forward,
+            up: camera.up,
+        }
+    }
+
+    /// The camera at this pose rendering `display`.
+    pub fn camera(&self, display: &DisplayProfile) -> Result<EyeCamera> {
+        Ok(EyeCamera::new(
+            self.position,
+            self.forward,
+            self.up,
+            display,
+        )?)
+    }
+}
+
+/// One frame to render.
+#[derive(Clone, Debug)]
+pub struct FrameRequest {
+    /// A number the frame comes back with.
+    pub id: u64,
+    /// The view settings.
+    pub view: ViewSettings,
+    /// The display at full scale.
+    pub display: DisplayProfile,
+    /// The eye camera's pose (the head's, with both eyes).
+    pub pose: Pose,
+    /// The gaze, pixels of the full-scale display.
+    pub gaze: GazeSample,
+    /// Seconds since the previous frame's gaze (the accommodation filter's step); 0 renders
+    /// the previous eye state again (a refinement).
+    pub dt_s: f64,
+}
+
+/// A rendered frame, ready to show.
+#[derive(Clone, Debug)]
+pub struct ViewFrame {
+    /// The request's id.
+    pub id: u64,
+    /// Width, pixels (both eyes: twice the display's).
+    pub width: u32,
+    /// Height, pixels.
+    pub height: u32,
+    /// 8-bit sRGB, RGBA, row by row.
+    pub rgba: Vec<u8>,
+    /// The statistics of each eye's frame.
+    pub stats: Vec<FrameStats>,
+    /// The request.
+    pub request: FrameRequest,
+    /// The (first) eye's camera.
+    pub camera: EyeCamera,
+    /// The eye state the frame was rendered for.
+    pub eye: EyeState,
+    /// The scale rendered (1: full).
+    pub scale: f32,
+    /// Eccentricity rings ([`RING_DEG`]) as polylines in frame pixels (one eye).
+    pub rings: Vec<Vec<[f32; 2]>>,
+    /// The level of detail, when on.
+    pub lod: Option<LodStats>,
+    /// Wall time of the whole frame, milliseconds.
+    pub wall_ms: f64,
+    /// The executors that ran (`cpu`, or `gpu` for the primary rays / reconstruction).
+    pub backend: String,
+}
+
+/// Renders requests with one world, reusing buffers and the temporal history from frame to
+/// frame.
+pub struct FrameRenderer {
+    world: World,
+    all_lights: Vec<Light>,
+    base: FrameSettings,
+    ipd_m: f32,
+    ctx: [FrameContext; 2],
+    tracker: EyeTracker,
+    last_eye: Option<EyeState>,
+    accumulator: Option<(TemporalAccumulator, String)>,
+    lod: Option<LodScene>,
+}
+
+impl FrameRenderer {
+    /// A renderer of `world` with `base` settings (the panel changes the rest), both eyes
+    /// `ipd_m` apart; `tracer` and `reconstructor` run the stages they support (one eye).
+    pub fn new(
+        world: World,
+        base: FrameSettings,
+        ipd_m: f32,
+        tracer: Option<Box<dyn TraceExecutor>>,
+        reconstructor: Option<Box<dyn ReconstructExecutor>>,
+    ) -> Result<Self> {
+        let mut ctx = [FrameContext::new(), FrameContext::new()];
+        if let Some(t) = tracer {
+            ctx[0].set_tracer(t);
+        }
+        if let Some(r) = reconstructor {
+            ctx[0].set_reconstructor(r);
+        }
+        Ok(Self {
+            all_lights: world.lights.clone(),
+            world,
+            base,
+            ipd_m,
+            ctx,
+            tracker: EyeTracker::new(Default::default())?,
+            last_eye: None,
+            accumulator: None,
+            lod: None,
+        })
+    }
+
+    /// The world.
+    pub fn world(&self) -> &World {
+        &self.world
+    }
+
+    /// Renders one request.
+    pub fn render(&mut self, req: &FrameRequest) -> Result<ViewFrame> {
+        let t0 = Stopwatch::start();
+        let view = &req.view;
+        let mut settings = view.frame_settings(&self.base)?;
+        self.world.lights = match view.lights {
+            LightsChoice::One => self.all_lights.iter().take(1).cloned().collect(),
+            LightsChoice::All => self.all_lights.clone(),
+        };
+        let scale = view.scale.clamp(0.05, 1.0);
+        let display = scaled_display(&req.display, scale)?;
+        if scale < 1.0 {
+            // VaFR's buffer follows the acuity model, not the display: at a reduced scale it
+            // would shade as many samples as at full scale. Capped at the reduced display's
+            // Nyquist rate (VaFR Sec. 3.3, the headset cap), it shades what that display can
+            // show. The full-scale frame is uncapped, as `fovea render`.
+            let (px, py) = display.centre_ppd_axes();
+            let vafr = &mut settings.mapping.vafr;
+            vafr.acuity = vafr.acuity.clamped(CyclesPerDegree(0.5 * px.min(py)))?;
+        }
+        let camera = req.pose.camera(&display)?;
+        let sx = f64::from(display.width_px) / f64::from(req.display.width_px);
+        let sy = f64::from(display.height_px) / f64::from(req.display.height_px);
+        let mut sample = req.gaze;
+        sample.x_px = (sample.x_px * sx).clamp(0.0, f64::from(display.width_px));
+        sample.y_px = (sample.y_px * sy).clamp(0.0, f64::from(display.height_px));
+        sample.right = sample.right.map(|(x, y)| (x * sx, y * sy));
+        let mut times = StageTimes::default();
+        let t = Stopwatch::start();
+        let eye = match (&self.last_eye, req.dt_s > 0.0) {
+            (Some(last), false) => {
+                let mut e = *last;
+                e.gaze = display.gaze(sample.x_px, sample.y_px)?;
+                e
+            }
+            _ => self.tracker.update(
+                &self.world,
+                &camera,
+                &sample,
+                settings.dof.as_ref(),
+                None,
+                req.dt_s.max(1e-3),
+            )?,
+        };
+        self.last_eye = Some(eye);
+        times.add(Stage::Plan, &t);
+
+        // The level of detail of this gaze and focus (Liu Eq. 14), shared by both eyes.
+        let (lod_world, lod_stats) = if view.lod {
+            let (w, st) = self.lod_world(&camera, &settings, &eye)?;
+            (Some(w), Some(st))
+        } else {
+            self.lod = None;
+            (None, None)
+        };
+        let world = lod_world.as_ref().unwrap_or(&self.world);
+
+        let mut frames = Vec::new();
+        match view.eyes {
+            EyesChoice::One => {
+                // Temporal history belongs to one display, method and setting.
+                let key = format!("{}x{} {:?}", display.width_px, display.height_px, settings);
+                if view.temporal {
+                    if self.accumulator.as_ref().is_none_or(|(_, k)| *k != key) {
+                        self.accumulator =
+                            Some((TemporalAccumulator::new(TemporalSettings::default())?, key));
+                    }
+                } else {
+                    self.accumulator = None;
+                }
+                let jitter = self
+                    .accumulator
+                    .as_ref()
+                    .map_or([0.0, 0.0], |(a, _)| a.jitter(settings.method));
+                let plan = FramePlan::new(world, &camera, &settings, &eye, jitter)?;
+                let inputs = FrameInputs {
+                    accumulator: self.accumulator.as_mut().map(|(a, _)| a),
+                    prefill: None,
+                };
+                render_planned(
+                    &mut self.ctx[0],
+                    world,
+                    &camera,
+                    &plan,
+                    inputs,
+                    times,
+                    &|_, _| {},
+                )?;
+            }
+            EyesChoice::Both => {
+                self.accumulator = None;
+                let rig = fovea_render::camera::HmdRig::new(
+                    camera.position,
+                    camera.forward,
+                    camera.up,
+                    self.ipd_m,
+                )?;
+                let (_, pair) =
+                    fovea_render::stereo::fixating_eyes(world, &rig, &display, &eye.gaze)?;
+                for (k, (cam, gaze)) in pair.into_iter().enumerate() {
+                    let mut e = eye;
+                    e.gaze = gaze;
+                    let plan = FramePlan::new(world, &cam, &settings, &e, [0.0, 0.0])?;
+                    render_planned(
+                        &mut self.ctx[k],
+                        world,
+                        &cam,
+                        &plan,
+                        FrameInputs::default(),
+                        if k == 0 { times } else { StageTimes::default() },
+                        &|_, _| {},
+                    )?;
+                }
+            }
+        }
+        let eyes = if view.eyes == EyesChoice::Both { 2 } else { 1 };
+        for ctx in &self.ctx[..eyes] {
+            frames.push(
+                ctx.frame()
+                    .ok_or_else(|| ViewerError::Render("the pipeline returned no frame".into()))?,
+            );
+        }
+        let (w, h) = (display.width_px, display.height_px);
+        let width = w * eyes as u32;
+        let mut rgba = vec![255u8; (width * h * 4) as usize];
+        for (k, f) in frames.iter().enumerate() {
+            let rgb = eye_rgb(f, view)?;
+            for y in 0..h as usize {
+                for x in 0..w as usize {
+                    let src = (y * w as usize + x) * 3;
+                    let dst = (y * width as usize + k * w as usize + x) * 4;
+                    rgba[dst..dst + 3].copy_from_slice(&rgb[src..src + 3]);
+                }
+            }
+        }
+        let rings = if view.overlays.rings {
+            rings(&camera, &eye.gaze)
+        } else {
+            Vec::new()
+        };
+        let stats: Vec<FrameStats> = frames.iter().map(|f| f.stats.clone()).collect();
+        let backend = stats.first().map_or("cpu".to_string(), |s| {
+            if s.trace_backend == "cpu" && s.reconstruct_backend == "cpu" {
+                "cpu".to_string()
+            } else {
+                format!(
+                    "primary rays {}, reconstruct {}",
+                    s.trace_backend, s.reconstruct_backend
+                )
+            }
+        });
+        Ok(ViewFrame {
+            id: req.id,
+            width,
+            height: h,
+            rgba,
+            stats,
+            request: req.clone(),
+            camera,
+            eye,
+            scale,
+            rings,
+            lod: lod_stats,
+            wall_ms: t0.elapsed_ms().0,
+            backend,
+        })
+    }
+
+    /// The frame's world with gaze-contingent level of detail (as `fovea render --lod on`).
+    fn lod_world(
+        &mut self,
+        camera: &EyeCamera,
+        settings: &FrameSettings,
+        eye: &EyeState,
+    ) -> Result<(World, LodStats)> {
+        if self.lod.is_none() {
+            self.lod = Some(LodScene::new(
+                self.world.scene.clone(),
+                LodParams::default(),
+            )?);
+        }
+        let lod = self.lod.as_ref().expect("set above");
+        let focus = match eye.focus {
+            Some(f) => f.metres(),
+            None => fovea_render::dof::auto_focus_m(&self.world, camera, &eye.gaze)?,
+        };
+        let eye_model = settings
+            .dof
+            .as_ref()
+            .map_or(fovea_core::optics::EyeModel::default(), |d| d.eye);
+        let gaze_dir = camera.ray(eye.gaze.point).dir;
+        let (mut w, st) = lod.frame_world(
+            camera,
+            gaze_dir,
+            &eye_model,
+            focus,
+            self.world.caster.backend(),
+        )?;
+        w.lights = self.world.lights.clone();
+        Ok((w, st))
+    }
+}
+
+/// `display` at `scale` of its pixels, the same field of view.
+pub fn scaled_display(display: &DisplayProfile, scale: f32) -> Result<DisplayProfile> {
+    if scale >= 1.0 {
+        return Ok(display.clone());
+    }
+    let w = ((display.width_px as f32 * scale).round() as u32).max(16);
+    let h = ((display.height_px as f32 * scale).round() as u32).max(16);
+    Ok(DisplayProfile::with_vertical_fov(
+        &display.name,
+        w,
+        h,
+        Degrees(display.vfov.0),
+    )?)
+}
+
+/// One eye's 8-bit sRGB pixels (RGB): the frame through the tone curve, or the CoC map, with
+/// the density overlay blended over it.
+fn eye_rgb(f: &fovea_render::pipeline::Frame, view: &ViewSettings) -> Result<Vec<u8>> {
+    let mut rgb = match (&f.coc, view.overlays.coc) {
+        (Some(coc), true) => false_colour(coc, |v| v.abs().max(0.01), 0.01, 64.0),
+        _ => to_srgb8(&f.color, view.exposure_stops, ToneCurve::Reinhard),
+    };
+    if let (Some(d), true) = (&f.density, view.overlays.density) {
+        let over = false_colour(d, |v| v.max(1e-3), 1e-3, 10.0);
+        for (p, o) in rgb.iter_mut().zip(over) {
+            *p = ((u16::from(*p) + u16::from(o)) / 2) as u8;
+        }
+    }
+    Ok(rgb)
+}
+
+/// A false-colour view of a scalar image, log-scaled from `lo` (blue) to `hi` (red).
+fn false_colour(img: &Image<f32>, f: impl Fn(f32) -> f32, lo: f32, hi: f32) -> Vec<u8> {
+    let (l0, l1) = (lo.ln(), hi.ln());
+    img.data()
+        .iter()
+        .flat_map(|&v| {
+            let v = f(v);
+            let u = if v.is_finite() {
+                ((v.ln() - l0) / (l1 - l0)).clamp(0.0, 1.0)
+            } else {
+                1.0
+            };
+            // Blue → cyan → green → yellow → red.
+            let r = (1.5 - (4.0 * u - 3.0).abs()).clamp(0.0, 1.0);
+            let g = (1.5 - (4.0 * u - 2.0).abs()).clamp(0.0, 1.0);
+            let b = (1.5 - (4.0 * u - 1.0).abs()).clamp(0.0, 1.0);
+            [(r * 255.0) as u8, (g * 255.0) as u8, (b * 255.0) as u8]
+        })
+        .collect()
+}
+
+/// The eccentricity rings around `gaze` on `camera`'s screen: for each of [`RING_DEG`], the
+/// screen points of the directions at that angle from the gaze direction (points off the
+/// screen are left out, so a ring may come in pieces joined across its gap).
+pub fn rings(camera: &EyeCamera, gaze: &Gaze) -> Vec<Vec<[f32; 2]>> {
+    let g = camera.ray(gaze.point).dir.normalize();
+    let a = if g.y.abs() < 0.9 { Vec3::Y } else { Vec3::X };
+    let u = g.cross(a).normalize();
+    let v = g.cross(u);
+    RING_DEG
+        .iter()
+        .map(|&e| {
+            let (s, c) = (e.to_radians().sin() as f32, e.to_radians().cos() as f32);
+            (0..=96)
+                .filter_map(|k| {
+                    let phi = k as f32 / 96.0 * std::f32::consts::TAU;
+                    let d = c * g + s * (phi.cos() * u + phi.sin() * v);
+                    camera
+                        .screen_point_of(d)
+                        .map(|p| [p.x_px as f32, p.y_px as f32])
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// What the worker hands back.
+pub type Rendered = Result<ViewFrame>;
+
+/// A thread rendering the newest request (older ones waiting are dropped), and refining a
+/// frame rendered below full scale to full scale when no new request comes.
+pub struct RenderWorker {
+    slot: Arc<(Mutex<Slot>, Condvar)>,
+    results: Receiver<Rendered>,
+    handle: Option<JoinHandle<()>>,
+}
+
+#[derive(Default)]
+struct Slot {
+    next: Option<FrameRequest>,
+    busy: bool,
+    quit: bool,
+}
+
+impl RenderWorker {
+    /// Starts the thread; `refine`: render a still view again at full scale.
+    pub fn start(mut renderer: FrameRenderer, refine: bool) -> Self {
+        let slot = Arc::new((Mutex::new(Slot::default()), Condvar::new()));
+        let (tx, results): (Sender<Rendered>, _) = mpsc::channel();
+        let shared = slot.clone();
+        let handle = std::thread::Builder::new()
+            .name("fovea-view-render".into())
+            .spawn(move || {
+                let (lock, cv) = &*shared;
+                let mut last: Option<FrameRequest> = None;
+                loop {
+                    let req = {
+                        let Ok(mut s) = lock.lock() else { return };
+                        loop {
+                            if s.quit {
+                                return;
+                            }
+                            if let Some(r) = s.next.take() {
+                                s.busy = true;
+                                break r;
+                            }
+                            // A still view rendered below full scale: the full-scale frame.
+                            if let Some(mut r) =
+                                last.take().filter(|r| refine && r.view.scale < 1.0)
+                            {
+                                r.view.scale = 1.0;
+                                r.dt_s = 0.0;
+                                s.busy = true;
+                                break r;
+                            }
+                            s.busy = false;
+                            let Ok(g) = cv.wait(s) else { return };
+                            s = g;
+                        }
+                    };
+                    let out = renderer.render(&req);
+                    last = Some(req);
+                    if tx.send(out).is_err() {
+                        return;
+                    }
+                }
+            })
+            .ok();
+        Self {
+            slot,
+            results,
+            handle,
+        }
+    }
+
+    /// Asks for a frame, replacing any request still waiting.
+    pub fn submit(&self, req: FrameRequest) {
+        let (lock, cv) = &*self.slot;
+        if let Ok(mut s) = lock.lock() {
+            s.next = Some(req);
+            cv.notify_one();
+        }
+    }
+
+    /// Whether the thread is rendering or has a request waiting.
+    pub fn busy(&self) -> bool {
+        let (lock, _) = &*self.slot;
+        lock.lock().is_ok_and(|s| s.busy || s.next.is_some())
+    }
+
+    /// The next finished frame, if any.
+    pub fn try_recv(&self) -> Option<Rendered> {
+        match self.results.try_recv() {
+            Ok(r) => Some(r),
+            Err(mpsc::TryRecvError::Empty) => None,
+            Err(mpsc::TryRecvError::Disconnected) => {
+                Some(Err(ViewerError::Render("the render thread stopped".into())))
+            }
+        }
+    }
+
+    /// Waits for the next finished frame.
+    pub fn recv(&self) -> Rendered {
+        self.results
+            .recv()
+            .unwrap_or_else(|_| Err(ViewerError::Render("the render thread stopped".into())))
+    }
+}
+
+impl Drop for RenderWorker {
+    fn drop(&mut self) {
+        let (lock, cv) = &*self.slot;
+        if let Ok(mut s) = lock.lock() {
+            s.quit = true;
+            cv.notify_one();
+        }
+        if let Some(h) = self.handle.take() {
+            let _ = h.join();
+        }
+    }
+}
