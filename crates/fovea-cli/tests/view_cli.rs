@@ -156,6 +156,53 @@ fn the_screenshot_equals_the_offline_render() {
     assert!(stats["frames"][0]["rays_primary"].as_u64().unwrap() > 0);
 }
 
+/// No Vulkan device at all (the loader pointed at no driver): the frames render on the CPU
+/// and the window is drawn by the CPU, each with a notice; the screenshot is still the
+/// offline render.
+#[test]
+fn no_vulkan_device_falls_back_to_the_cpu_with_a_notice() {
+    if !display_or_skip("no_vulkan_device_falls_back_to_the_cpu_with_a_notice") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let csv = d.join("gaze.csv");
+    std::fs::write(&csv, "t,x,y\n0,100,120\n1,100,120\n").unwrap();
+    let shot = d.join("shot.png");
+    let out = run_ok(
+        fovea()
+            .env("VK_ICD_FILENAMES", d.join("no-driver.json"))
+            .args([
+                "view",
+                "--res",
+                "320x180",
+                "--lights",
+                "2",
+                "--backend",
+                "auto",
+            ])
+            .args(["--frames", "1", "--gaze-csv"])
+            .arg(&csv)
+            .arg("--screenshot")
+            .arg(&shot),
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("note: rendering on the CPU"), "{err}");
+    assert!(err.contains("drawn by the CPU"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    let offline = d.join("render.png");
+    run_ok(
+        fovea()
+            .arg("render")
+            .args(VIEW)
+            .args(["--gaze", "100,120", "--out"])
+            .arg(&offline),
+    );
+    let psnr = luma_psnr(&rgb(&shot), &rgb(&offline));
+    println!("software-presented screenshot against fovea render: luma PSNR {psnr:.2} dB");
+    assert!(psnr >= 40.0, "{psnr} dB");
+}
+
 /// A viewing recorded with a moving gaze and camera replays through `fovea sequence` to the
 /// same frames.
 #[test]

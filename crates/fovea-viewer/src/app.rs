@@ -23,6 +23,7 @@ use crate::controls::{key_actions, panel, Action, EyesChoice, ViewSettings};
 use crate::error::{Result, ViewerError};
 use crate::frame::{FrameRenderer, FrameRequest, Pose, RenderWorker, ViewFrame};
 use crate::gaze_input::{GazeReplay, GazeStream, PointerGaze, ReplayMode};
+use crate::present::{fit, Presenter};
 use crate::record::Recorder;
 use crate::{GazeSource, Summary, ViewerConfig};
 
@@ -32,16 +33,6 @@ const LOOK_RAD_PER_PX: f32 = 0.003;
 /// Frames a still view with auto focus is rendered again while the accommodation filter
 /// settles (its time constant is a few hundred milliseconds).
 const SETTLE_FRAMES: u32 = 30;
-
-/// The wgpu device drawing the window and egui's renderer on it.
-struct Gfx {
-    surface: wgpu::Surface<'static>,
-    device: wgpu::Device,
-    queue: wgpu::Queue,
-    config: wgpu::SurfaceConfiguration,
-    renderer: egui_wgpu::Renderer,
-    adapter: String,
-}
 
 /// What decides a frame in the window: the view settings, the pose, the gaze (x, y, valid)
 /// and the display's name. A still view (the same key) is not rendered again.
@@ -69,7 +60,7 @@ struct App {
     quiet: bool,
 
     window: Option<Arc<Window>>,
-    gfx: Option<Gfx>,
+    presenter: Option<Presenter>,
     egui_ctx: egui::Context,
     egui_state: Option<egui_winit::State>,
     texture: Option<egui::TextureHandle>,
@@ -156,7 +147,7 @@ pub fn run(cfg: ViewerConfig) -> Result<Summary> {
         move_speed: cfg.move_speed_m_s,
         quiet: cfg.quiet,
         window: None,
-        gfx: None,
+        presenter: None,
         egui_ctx: egui::Context::default(),
         egui_state: None,
         texture: None,
@@ -196,7 +187,7 @@ pub fn run(cfg: ViewerConfig) -> Result<Summary> {
     if let Some(e) = app.error.take() {
         return Err(e);
     }
-    if app.gfx.is_none() {
+    if app.presenter.is_none() {
         return Err(ViewerError::Window(
             "the window never opened (the display server closed it)".into(),
         ));
@@ -207,9 +198,9 @@ pub fn run(cfg: ViewerConfig) -> Result<Summary> {
         fps: app.shown as f64 / elapsed.max(1e-9),
         mean_frame_ms: app.render_ms_sum / app.shown.max(1) as f64,
         adapter: app
-            .gfx
+            .presenter
             .as_ref()
-            .map_or(String::new(), |g| g.adapter.clone()),
+            .map_or(String::new(), Presenter::describe),
         backend: app.backend.clone(),
         stream: app.stream.as_ref().map(|s| s.counts),
         written: std::mem::take(&mut app.written),
@@ -254,73 +245,27 @@ impl App {
                 )
                 .map_err(|e| ViewerError::Window(format!("cannot open a window: {e}")))?,
         );
-        let desc = wgpu::InstanceDescriptor {
-            display: Some(Box::new(event_loop.owned_display_handle())),
-            ..wgpu::InstanceDescriptor::new_without_display_handle()
-        }
-        .with_env();
-        let instance = wgpu::Instance::new(desc);
-        let surface = instance.create_surface(window.clone()).map_err(|e| {
-            ViewerError::Window(format!("cannot draw into the window with wgpu: {e}"))
-        })?;
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            compatible_surface: Some(&surface),
-            force_fallback_adapter: false,
-            apply_limit_buckets: false,
-        }))
-        .map_err(|e| {
-            ViewerError::Window(format!(
-                "no Vulkan device can draw the window ({e}); install a Vulkan driver (Debian: \
-                 mesa-vulkan-drivers gives the software lavapipe) — `fovea render` and \
-                 `fovea sequence` need none"
-            ))
-        })?;
-        let info = adapter.get_info();
-        let adapter_name = format!("{} ({:?}, {})", info.name, info.backend, info.driver);
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("fovea-view"),
-            ..Default::default()
-        }))
-        .map_err(|e| ViewerError::Window(format!("cannot open {adapter_name}: {e}")))?;
-        let caps = surface.get_capabilities(&adapter);
-        let format = egui_wgpu::preferred_framebuffer_format(&caps.formats)
-            .map_err(|e| ViewerError::Window(format!("no surface format for egui: {e}")))?;
-        let px = window.inner_size();
-        let config = wgpu::SurfaceConfiguration {
-            format,
-            view_formats: vec![format],
-            ..surface
-                .get_default_config(&adapter, px.width.max(1), px.height.max(1))
-                .ok_or_else(|| {
-                    ViewerError::Window(format!("{adapter_name} cannot present to this window"))
-                })?
+        let presenter = Presenter::new(event_loop, &window, self.quiet)?;
+        let max_side = match &presenter {
+            Presenter::Gpu(g) => Some(g.max_texture_side()),
+            Presenter::Soft(_) => None,
         };
-        surface.configure(&device, &config);
-        let renderer = egui_wgpu::Renderer::new(&device, format, Default::default());
-        let max_side = device.limits().max_texture_dimension_2d as usize;
         self.egui_state = Some(egui_winit::State::new(
             self.egui_ctx.clone(),
             egui::ViewportId::ROOT,
             &window,
             Some(window.scale_factor() as f32),
             None,
-            Some(max_side),
+            max_side,
         ));
         if !self.quiet {
             eprintln!(
-                "window: drawn by {adapter_name}; frames rendered by {}",
+                "window: drawn by {}; frames rendered by {}",
+                presenter.describe(),
                 self.backend
             );
         }
-        self.gfx = Some(Gfx {
-            surface,
-            device,
-            queue,
-            config,
-            renderer,
-            adapter: adapter_name,
-        });
+        self.presenter = Some(presenter);
         self.window = Some(window);
         Ok(())
     }
@@ -591,8 +536,8 @@ impl App {
             0.0
         };
         lines.push(format!("{fps:.1} fps | backend: {}", self.backend));
-        if let Some(g) = &self.gfx {
-            lines.push(format!("window: {}", g.adapter));
+        if let Some(p) = &self.presenter {
+            lines.push(format!("window: {}", p.describe()));
         }
         let Some(f) = &self.latest else {
             lines.push("rendering the first frame…".into());
@@ -697,8 +642,14 @@ impl App {
             )
         });
         let mut frame_rect = self.frame_rect;
-        let output = ctx.run_ui(input, |ui| {
+        // Without a device for egui (the software presenter) the pass still reads the keys
+        // and the pointer; only the frame is drawn.
+        let draws_egui = self.presenter.as_ref().is_some_and(Presenter::draws_egui);
+        let mut output = ctx.run_ui(input, |ui| {
             actions.extend(key_actions(ui.ctx()));
+            if !draws_egui {
+                return;
+            }
             if view.panel {
                 egui::Panel::left("controls").show(ui, |ui| {
                     actions.extend(panel(ui, &mut view, PRESET_NAMES, &self.display.name));
@@ -716,9 +667,7 @@ impl App {
                     return;
                 };
                 let Some(tex) = &texture else { return };
-                let k = (avail.width() / *tw as f32).min(avail.height() / *th as f32);
-                let size = egui::vec2(*tw as f32 * k, *th as f32 * k);
-                let rect = egui::Rect::from_center_size(avail.center(), size);
+                let rect = fit(avail, *tw, *th);
                 frame_rect = rect;
                 let painter = ui.painter_at(avail);
                 painter.image(
@@ -782,64 +731,24 @@ impl App {
         let Some(state) = self.egui_state.as_mut() else {
             return Ok(());
         };
-        state.handle_platform_output(&window, output.platform_output);
-        let Some(gfx) = self.gfx.as_mut() else {
-            return Ok(());
-        };
-        let jobs = ctx.tessellate(output.shapes, output.pixels_per_point);
-        for (id, deltas) in &output.textures_delta.set {
-            for delta in deltas {
-                gfx.renderer
-                    .update_texture(&gfx.device, &gfx.queue, *id, delta);
+        state.handle_platform_output(&window, std::mem::take(&mut output.platform_output));
+        match self.presenter.as_mut() {
+            Some(Presenter::Gpu(g)) => g.present(&ctx, &window, output)?,
+            Some(Presenter::Soft(soft)) => {
+                let rect = soft.present(&window, self.latest.as_ref())?;
+                // The pointer is in points; the software presenter works in pixels.
+                let k = 1.0 / window.scale_factor() as f32;
+                self.frame_rect = egui::Rect::from_min_max(
+                    (rect.min.to_vec2() * k).to_pos2(),
+                    (rect.max.to_vec2() * k).to_pos2(),
+                );
+                let hud = self.hud();
+                window.set_title(&format!(
+                    "fovea view | {}",
+                    hud.iter().take(3).cloned().collect::<Vec<_>>().join(" | ")
+                ));
             }
-        }
-        let sd = egui_wgpu::ScreenDescriptor {
-            size_in_pixels: [gfx.config.width, gfx.config.height],
-            pixels_per_point: output.pixels_per_point,
-        };
-        let surface_texture = match gfx.surface.get_current_texture() {
-            wgpu::CurrentSurfaceTexture::Success(t)
-            | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
-            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
-                gfx.surface.configure(&gfx.device, &gfx.config);
-                return Ok(());
-            }
-            _ => return Ok(()),
-        };
-        let mut encoder = gfx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("fovea-view"),
-            });
-        gfx.renderer
-            .update_buffers(&gfx.device, &gfx.queue, &mut encoder, &jobs, &sd);
-        let target = surface_texture
-            .texture
-            .create_view(&wgpu::TextureViewDescriptor::default());
-        {
-            let pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("egui"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &target,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                        store: wgpu::StoreOp::Store,
-                    },
-                    depth_slice: None,
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            gfx.renderer.render(&mut pass.forget_lifetime(), &jobs, &sd);
-        }
-        gfx.queue.submit([encoder.finish()]);
-        window.pre_present_notify();
-        gfx.queue.present(surface_texture);
-        for id in &output.textures_delta.free {
-            gfx.renderer.free_texture(id);
+            None => {}
         }
         Ok(())
     }
@@ -903,10 +812,8 @@ impl ApplicationHandler for App {
         match event {
             WindowEvent::CloseRequested => event_loop.exit(),
             WindowEvent::Resized(size) => {
-                if let Some(g) = &mut self.gfx {
-                    g.config.width = size.width.max(1);
-                    g.config.height = size.height.max(1);
-                    g.surface.configure(&g.device, &g.config);
+                if let Some(p) = &mut self.presenter {
+                    p.resize(size.width, size.height);
                 }
             }
             WindowEvent::KeyboardInput { event, .. } => {

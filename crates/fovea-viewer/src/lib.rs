@@ -17,6 +17,7 @@ pub mod controls;
 pub mod error;
 pub mod frame;
 pub mod gaze_input;
+pub mod present;
 pub mod record;
 
 use std::path::PathBuf;
