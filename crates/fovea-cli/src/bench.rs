@@ -13,11 +13,12 @@ use fovea_core::display::DisplayProfile;
 use fovea_core::mapping::Method;
 use fovea_eval::experiments::bench::{
     run as run_bench, BenchEvent, BenchParams, BenchResult, BenchRun, BenchScene, DofTiming,
-    StereoTiming,
+    RayRate, StereoTiming,
 };
 use fovea_eval::EvalError;
 use fovea_post::dof::FilterKind;
 use fovea_render::camera::{EyeCamera, HmdRig};
+use fovea_render::pipeline::trace_shade::{SHADE_BATCH, TRACE_BATCH};
 use fovea_render::pipeline::{FrameSettings, Stage};
 use fovea_render::world::World;
 use fovea_render::RenderError;
@@ -261,16 +262,47 @@ fn print_summary(r: &BenchResult) {
         r.threads,
     );
     for b in &r.bvh_throughput {
-        if b.available {
-            println!(
-                "BVH {:>6}: {:.2} Mrays/s primary, build {:.0} ms{}",
-                b.backend,
-                json_number(b.primary_mrays_per_s).unwrap_or(0.0),
-                json_number(b.build_ms).unwrap_or(0.0),
-                if b.chosen { " (chosen)" } else { "" }
-            );
-        } else {
+        if !b.available {
             println!("BVH {:>6}: not in this build", b.backend);
+            continue;
+        }
+        println!(
+            "BVH {:>6}: build {:.0} ms{}",
+            b.backend,
+            json_number(b.build_ms).unwrap_or(0.0),
+            if b.chosen { " (chosen)" } else { "" }
+        );
+        for (what, single, batched, how) in [
+            (
+                "primary",
+                b.primary_single,
+                b.primary_batched,
+                format!("batches of {TRACE_BATCH}"),
+            ),
+            (
+                "shadow",
+                b.shadow_single,
+                b.shadow_batched,
+                format!("light by light over {SHADE_BATCH} samples"),
+            ),
+        ] {
+            let (Some(one), Some(many)) = (single, batched) else {
+                continue;
+            };
+            let rate = |r: &RayRate| {
+                format!(
+                    "{:.2} Mrays/s, {:.2} per CPU-s, {:.0} % CPU",
+                    r.mrays_per_s,
+                    r.mrays_per_cpu_s,
+                    100.0 * r.cpu_share
+                )
+            };
+            println!(
+                "    {what:<7} one at a time {} | {how} {} | {:.2}x per CPU-s",
+                rate(&one),
+                rate(&many),
+                many.mrays_per_cpu_s / one.mrays_per_cpu_s.max(1e-12)
+            );
         }
     }
 }

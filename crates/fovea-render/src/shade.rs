@@ -166,17 +166,7 @@ pub fn direct_with_visibility(world: &World, g: &GSample, counts: &mut RayCounts
     let mut mask = 0u64;
     for_each_light(world, g, |index, l, dist, c| {
         counts.shadow += 1;
-        let shadow = Ray {
-            origin,
-            dir: l,
-            t_min: 0.0,
-            t_max: if dist.is_finite() {
-                dist * (1.0 - 1e-4)
-            } else {
-                f32::INFINITY
-            },
-        };
-        if !world.caster.occluded(&shadow) {
+        if !world.caster.occluded(&shadow_ray(origin, l, dist)) {
             sum += c;
             if index < 64 {
                 mask |= 1 << index;
@@ -246,53 +236,138 @@ pub fn culled_env_basis(world: &World, g: &GSample, mode: ShadingMode) -> Vec3 {
 fn for_each_light(world: &World, g: &GSample, mut f: impl FnMut(usize, Vec3, f32, Vec3)) {
     let origin = offset_origin(g);
     for (index, light) in world.lights.iter().enumerate() {
-        let (l, dist, radiance) = match *light {
-            Light::Point {
-                position,
-                intensity,
-                range,
-            } => {
-                let d = position - origin;
-                let dist = d.length();
-                if dist > range || dist < 1e-6 {
-                    continue;
-                }
-                (d / dist, dist, intensity / (dist * dist))
+        if let Some((l, dist, c)) = light_at(light, g, origin) {
+            f(index, l, dist, c);
+        }
+    }
+}
+
+/// What `light` gives the surface at `g` seen from `origin` (its offset position): the
+/// direction to the light, its distance and the unshadowed radiance (BRDF × cos × the light's
+/// falloff), or `None` when it does not light it (out of range or cone, behind, zero BRDF).
+#[inline]
+fn light_at(light: &Light, g: &GSample, origin: Vec3) -> Option<(Vec3, f32, Vec3)> {
+    let (l, dist, radiance) = match *light {
+        Light::Point {
+            position,
+            intensity,
+            range,
+        } => {
+            let d = position - origin;
+            let dist = d.length();
+            if dist > range || dist < 1e-6 {
+                return None;
             }
-            Light::Spot {
-                position,
-                direction,
-                intensity,
-                cos_inner,
-                cos_outer,
-                range,
-            } => {
-                let d = position - origin;
-                let dist = d.length();
-                if dist > range || dist < 1e-6 {
-                    continue;
-                }
-                let l = d / dist;
-                let c = (-l).dot(direction);
-                let k = ((c - cos_outer) / (cos_inner - cos_outer).max(1e-6)).clamp(0.0, 1.0);
-                if k <= 0.0 {
-                    continue;
-                }
-                (l, dist, intensity * (k * k) / (dist * dist))
+            (d / dist, dist, intensity / (dist * dist))
+        }
+        Light::Spot {
+            position,
+            direction,
+            intensity,
+            cos_inner,
+            cos_outer,
+            range,
+        } => {
+            let d = position - origin;
+            let dist = d.length();
+            if dist > range || dist < 1e-6 {
+                return None;
             }
-            Light::Directional {
-                direction,
-                irradiance,
-            } => (-direction, f32::INFINITY, irradiance),
+            let l = d / dist;
+            let c = (-l).dot(direction);
+            let k = ((c - cos_outer) / (cos_inner - cos_outer).max(1e-6)).clamp(0.0, 1.0);
+            if k <= 0.0 {
+                return None;
+            }
+            (l, dist, intensity * (k * k) / (dist * dist))
+        }
+        Light::Directional {
+            direction,
+            irradiance,
+        } => (-direction, f32::INFINITY, irradiance),
+    };
+    if g.face_normal.dot(l) <= 0.0 && g.normal.dot(l) <= 0.0 {
+        return None;
+    }
+    let brdf = brdf_cos(g, l);
+    if brdf == Vec3::ZERO {
+        return None;
+    }
+    Some((l, dist, brdf * radiance))
+}
+
+/// The shadow ray from `origin` towards a light `dist` away along `l` (stopping just short
+/// of it; unbounded for a directional light).
+#[inline]
+fn shadow_ray(origin: Vec3, l: Vec3, dist: f32) -> Ray {
+    Ray {
+        origin,
+        dir: l,
+        t_min: 0.0,
+        t_max: if dist.is_finite() {
+            dist * (1.0 - 1e-4)
+        } else {
+            f32::INFINITY
+        },
+    }
+}
+
+/// [`direct`] of a batch of surface samples (neighbours in a chunk), into `out`: the shadow
+/// rays are cast light by light, each light's rays of the whole batch as one
+/// [`crate::bvh::RayCaster::occluded_batch`] — rays from nearby points towards one light
+/// traverse the same BVH nodes, where [`direct`] alternates between the lights at every
+/// sample. Each sample sums its lights in [`direct`]'s order, so the values are the same, bit
+/// for bit (`tests/shade_batch.rs`).
+pub fn direct_batch(world: &World, gs: &[&GSample], out: &mut [Vec3], counts: &mut RayCounts) {
+    let origins: Vec<Vec3> = gs.iter().map(|g| offset_origin(g)).collect();
+    out.iter_mut().for_each(|o| *o = Vec3::ZERO);
+    let mut rays = Vec::with_capacity(gs.len());
+    let mut lit = Vec::with_capacity(gs.len());
+    let mut blocked = Vec::with_capacity(gs.len());
+    for light in &world.lights {
+        rays.clear();
+        lit.clear();
+        for (s, (g, &origin)) in gs.iter().zip(&origins).enumerate() {
+            if let Some((l, dist, c)) = light_at(light, g, origin) {
+                rays.push(shadow_ray(origin, l, dist));
+                lit.push((s, c));
+            }
+        }
+        counts.shadow += rays.len() as u64;
+        blocked.clear();
+        blocked.resize(rays.len(), false);
+        world.caster.occluded_batch(&rays, &mut blocked);
+        for (&(s, c), &b) in lit.iter().zip(&blocked) {
+            if !b {
+                out[s] += c;
+            }
+        }
+    }
+}
+
+/// [`shade`] in [`ShadingMode::Direct`] of a batch of G-buffer samples (hits and misses;
+/// `keys[s]` is sample `s`'s key), into `out`: the lights' shadow rays are cast per light over
+/// the batch ([`direct_batch`]), the environment's per sample as in [`shade`]. The same values
+/// as [`shade`], bit for bit.
+pub fn shade_direct_batch(
+    world: &World,
+    gs: &[&GSample],
+    keys: &[u64],
+    env_light: EnvLight,
+    out: &mut [Vec3],
+    counts: &mut RayCounts,
+) {
+    let hits: Vec<&GSample> = gs.iter().copied().filter(|g| g.is_hit()).collect();
+    let mut direct = vec![Vec3::ZERO; hits.len()];
+    direct_batch(world, &hits, &mut direct, counts);
+    let mut direct = direct.into_iter();
+    for ((g, &key), o) in gs.iter().zip(keys).zip(out.iter_mut()) {
+        *o = if g.is_hit() {
+            let d = direct.next().unwrap_or(Vec3::ZERO);
+            g.emissive + d + environment_light(world, g, env_light, key, counts)
+        } else {
+            world.scene.environment.radiance(-g.to_eye)
         };
-        if g.face_normal.dot(l) <= 0.0 && g.normal.dot(l) <= 0.0 {
-            continue;
-        }
-        let brdf = brdf_cos(g, l);
-        if brdf == Vec3::ZERO {
-            continue;
-        }
-        f(index, l, dist, brdf * radiance);
     }
 }
 

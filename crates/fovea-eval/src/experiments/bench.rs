@@ -25,13 +25,16 @@ use fovea_render::bvh::{self, Backend, Ray};
 use fovea_render::camera::{EyeCamera, HmdRig};
 use fovea_render::dof::{auto_focus_m, coc_params, px_per_degree, DofSettings, FocusMode};
 use fovea_render::eye::EyeState;
+use fovea_render::pipeline::trace_shade::{SHADE_BATCH, TRACE_BATCH};
 use fovea_render::pipeline::{
     render_planned, FrameContext, FrameInputs, FrameSettings, FrameStats, Stage, StageMs,
     StageTimes, Stopwatch,
 };
 use fovea_render::plan::FramePlan;
+use fovea_render::scene::Light;
 use fovea_render::stereo::{fixating_eyes, render_stereo, StereoMode};
 use fovea_render::world::World;
+use glam::Vec3;
 
 use crate::error::{EvalError, Result};
 
@@ -166,7 +169,35 @@ impl BenchParams {
     }
 }
 
-/// One BVH backend's primary-ray throughput.
+/// A ray rate: rays cast over wall time and over the process's CPU time.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct RayRate {
+    /// Rays cast.
+    pub rays: u64,
+    /// Millions of rays per second of wall time, all threads.
+    pub mrays_per_s: f64,
+    /// Millions of rays per CPU-second (the process's CPU time summed over its threads): what
+    /// a machine shared with other work still measures.
+    pub mrays_per_cpu_s: f64,
+    /// The process's CPU time over the wall time (2.0: two cores busy throughout).
+    pub cpu_share: f64,
+}
+
+impl RayRate {
+    fn of(rays: u64, (wall_ms, cpu_ms): (f64, f64)) -> Self {
+        Self {
+            rays,
+            mrays_per_s: rays as f64 / (wall_ms * 1e3).max(1e-9),
+            mrays_per_cpu_s: rays as f64 / (cpu_ms * 1e3).max(1e-9),
+            cpu_share: cpu_ms / wall_ms.max(1e-9),
+        }
+    }
+}
+
+/// One BVH backend's throughput: primary rays and shadow rays, one at a time and in the
+/// batches the renderer casts (`fovea_render::pipeline::trace_shade`: [`TRACE_BATCH`]
+/// neighbouring texels' primary rays; each light's shadow rays of [`SHADE_BATCH`]
+/// neighbouring samples), measured side by side.
 #[derive(Clone, Debug, Serialize)]
 pub struct BvhThroughput {
     /// Backend name.
@@ -175,8 +206,20 @@ pub struct BvhThroughput {
     pub available: bool,
     /// Build time, milliseconds (when available).
     pub build_ms: Option<f64>,
-    /// Primary rays per second, millions, all threads (when available).
+    /// Primary rays per second one at a time, millions, all threads (when available):
+    /// `primary_single.mrays_per_s`.
     pub primary_mrays_per_s: Option<f64>,
+    /// Primary rays one at a time (`RayCaster::intersect`).
+    pub primary_single: Option<RayRate>,
+    /// Primary rays in the renderer's batches (`RayCaster::intersect_batch`; Embree: one ray
+    /// stream, traversed in packets).
+    pub primary_batched: Option<RayRate>,
+    /// Shadow rays from the primary hits towards every light, sample by sample, one ray at a
+    /// time (how the renderer cast them before batching).
+    pub shadow_single: Option<RayRate>,
+    /// The same shadow rays light by light over batches of neighbouring samples
+    /// (`RayCaster::occluded_batch`), as the renderer casts them.
+    pub shadow_batched: Option<RayRate>,
     /// Whether the world uses this backend.
     pub chosen: bool,
 }
@@ -497,6 +540,10 @@ fn bvh_throughput(world: &World, camera: &EyeCamera, rays: u64) -> Result<Vec<Bv
                 available: false,
                 build_ms: None,
                 primary_mrays_per_s: None,
+                primary_single: None,
+                primary_batched: None,
+                shadow_single: None,
+                shadow_batched: None,
                 chosen: false,
             });
             continue;
@@ -504,46 +551,177 @@ fn bvh_throughput(world: &World, camera: &EyeCamera, rays: u64) -> Result<Vec<Bv
         let t = Instant::now();
         let caster = bvh::build(b, &world.tris)?;
         let build_ms = t.elapsed().as_secs_f64() * 1e3;
-        let mrays = primary_throughput(caster.as_ref(), camera, rays);
+        let t = Throughputs::measure(caster.as_ref(), world, camera, rays);
         out.push(BvhThroughput {
             backend: b.name(),
             available: true,
             build_ms: Some(build_ms),
-            primary_mrays_per_s: Some(mrays),
+            primary_mrays_per_s: Some(t.primary_single.mrays_per_s),
+            primary_single: Some(t.primary_single),
+            primary_batched: Some(t.primary_batched),
+            shadow_single: t.shadow_single,
+            shadow_batched: t.shadow_batched,
             chosen: b.name() == chosen,
         });
     }
     Ok(out)
 }
 
-/// Primary-ray throughput of `caster` through `camera`: about `n` rays on a regular grid over
-/// the screen, Mrays/s (wall time, all threads).
-fn primary_throughput(caster: &dyn bvh::RayCaster, camera: &EyeCamera, n: u64) -> f64 {
-    let d = &camera.display;
-    let (w, h) = (d.width_px as u64, d.height_px as u64);
-    let side = ((n as f64) * (w as f64 / h as f64)).sqrt().max(1.0) as u64;
-    let rows = (n / side).max(1);
-    let t = Instant::now();
-    let hits: u64 = (0..rows)
-        .into_par_iter()
-        .map(|j| {
-            let mut c = 0u64;
-            for i in 0..side {
-                let x = (i as f32 + 0.5) * w as f32 / side as f32;
-                let y = (j as f32 + 0.5) * h as f32 / rows as f32;
-                let r = Ray {
-                    origin: camera.position,
-                    dir: camera.direction(x, y),
-                    t_min: 0.0,
-                    t_max: f32::INFINITY,
-                };
-                c += caster.intersect(&r).is_some() as u64;
+/// The four rates of one backend.
+struct Throughputs {
+    primary_single: RayRate,
+    primary_batched: RayRate,
+    shadow_single: Option<RayRate>,
+    shadow_batched: Option<RayRate>,
+}
+
+impl Throughputs {
+    /// About `n` primary rays on a regular grid over `camera`'s screen (row by row), cast one
+    /// at a time and in batches of [`TRACE_BATCH`] along the rows; then shadow rays from
+    /// (up to `n` / lights of) their hits towards every light of `world`, about `n` in all,
+    /// sample by sample and light by light over batches of [`SHADE_BATCH`] samples. Single
+    /// and batched runs alternate (single, batched, single, batched) and each rate is the
+    /// better of its two, so a burst of other work on the machine hits both alike.
+    fn measure(caster: &dyn bvh::RayCaster, world: &World, camera: &EyeCamera, n: u64) -> Self {
+        let d = &camera.display;
+        let (w, h) = (d.width_px as u64, d.height_px as u64);
+        let side = ((n as f64) * (w as f64 / h as f64)).sqrt().max(1.0) as u64;
+        let rows = (n / side).max(1);
+        let ray = |i: u64, j: u64| Ray {
+            origin: camera.position,
+            dir: camera.direction(
+                (i as f32 + 0.5) * w as f32 / side as f32,
+                (j as f32 + 0.5) * h as f32 / rows as f32,
+            ),
+            t_min: 0.0,
+            t_max: f32::INFINITY,
+        };
+        let single = || -> Vec<Option<bvh::Hit>> {
+            (0..rows)
+                .into_par_iter()
+                .flat_map_iter(|j| (0..side).map(move |i| caster.intersect(&ray(i, j))))
+                .collect()
+        };
+        let batched = || -> Vec<Option<bvh::Hit>> {
+            (0..rows)
+                .into_par_iter()
+                .flat_map_iter(|j| {
+                    let rs: Vec<Ray> = (0..side).map(|i| ray(i, j)).collect();
+                    let mut hits = vec![None; rs.len()];
+                    for (r, o) in rs
+                        .chunks(TRACE_BATCH as usize)
+                        .zip(hits.chunks_mut(TRACE_BATCH as usize))
+                    {
+                        caster.intersect_batch(r, o);
+                    }
+                    hits
+                })
+                .collect()
+        };
+        let timed = |f: &mut dyn FnMut() -> u64| -> RayRate {
+            let t = Stopwatch::start();
+            let rays = std::hint::black_box(f());
+            RayRate::of(rays, t.elapsed_ms())
+        };
+        let best = |a: RayRate, b: RayRate| {
+            if b.mrays_per_cpu_s > a.mrays_per_cpu_s {
+                b
+            } else {
+                a
             }
-            c
-        })
-        .sum();
-    std::hint::black_box(hits);
-    (side * rows) as f64 / t.elapsed().as_secs_f64() / 1e6
+        };
+        let count = side * rows;
+        let mut hits = Vec::new();
+        let (mut ps, mut pb) = (None::<RayRate>, None::<RayRate>);
+        for _ in 0..2 {
+            let s = timed(&mut || {
+                std::hint::black_box(single());
+                count
+            });
+            ps = Some(ps.map_or(s, |p| best(p, s)));
+            let b = timed(&mut || {
+                hits = batched();
+                count
+            });
+            pb = Some(pb.map_or(b, |p| best(p, b)));
+        }
+        // Shadow rays from the hit points (pulled back along the ray), towards each light.
+        let lights = &world.lights;
+        let points: Vec<Vec3> = (0..rows)
+            .flat_map(|j| (0..side).map(move |i| (i, j)))
+            .zip(&hits)
+            .filter_map(|((i, j), h)| {
+                h.map(|h| {
+                    let r = ray(i, j);
+                    r.origin + r.dir * (h.t * (1.0 - 1e-4))
+                })
+            })
+            .take((n as usize / lights.len().max(1)).max(1))
+            .collect();
+        let shadow = |p: Vec3, light: &Light| -> Ray {
+            let (dir, dist) = match *light {
+                Light::Point { position, .. } | Light::Spot { position, .. } => {
+                    let v = position - p;
+                    (v.normalize_or_zero(), v.length() * (1.0 - 1e-4))
+                }
+                Light::Directional { direction, .. } => (-direction, f32::INFINITY),
+            };
+            Ray {
+                origin: p,
+                dir,
+                t_min: 0.0,
+                t_max: dist,
+            }
+        };
+        let (mut ss, mut sb) = (None::<RayRate>, None::<RayRate>);
+        if !lights.is_empty() && !points.is_empty() {
+            let rays = (points.len() * lights.len()) as u64;
+            for _ in 0..2 {
+                let s = timed(&mut || {
+                    let blocked: usize = points
+                        .par_chunks(SHADE_BATCH)
+                        .map(|ps| {
+                            ps.iter()
+                                .map(|&p| {
+                                    lights
+                                        .iter()
+                                        .filter(|l| caster.occluded(&shadow(p, l)))
+                                        .count()
+                                })
+                                .sum::<usize>()
+                        })
+                        .sum();
+                    std::hint::black_box(blocked);
+                    rays
+                });
+                ss = Some(ss.map_or(s, |p| best(p, s)));
+                let b = timed(&mut || {
+                    let blocked: usize = points
+                        .par_chunks(SHADE_BATCH)
+                        .map(|ps| {
+                            let mut out = vec![false; ps.len()];
+                            let mut n = 0;
+                            for l in lights {
+                                let rs: Vec<Ray> = ps.iter().map(|&p| shadow(p, l)).collect();
+                                caster.occluded_batch(&rs, &mut out);
+                                n += out.iter().filter(|&&o| o).count();
+                            }
+                            n
+                        })
+                        .sum();
+                    std::hint::black_box(blocked);
+                    rays
+                });
+                sb = Some(sb.map_or(b, |p| best(p, b)));
+            }
+        }
+        Self {
+            primary_single: ps.expect("measured above"),
+            primary_batched: pb.expect("measured above"),
+            shadow_single: ss,
+            shadow_batched: sb,
+        }
+    }
 }
 
 /// Jiffies of the whole machine from `/proc/stat`: (stolen by the hypervisor, all).

@@ -98,10 +98,32 @@ impl EmbreeCaster {
 
     #[inline]
     fn context() -> sys::RTCIntersectContext {
+        Self::context_with(sys::RTCIntersectContextFlags::INCOHERENT)
+    }
+
+    #[inline]
+    fn context_with(flags: sys::RTCIntersectContextFlags) -> sys::RTCIntersectContext {
         sys::RTCIntersectContext {
-            flags: sys::RTCIntersectContextFlags::INCOHERENT,
+            flags,
             filter: None,
             instID: [INVALID_ID],
+        }
+    }
+
+    #[inline]
+    fn rtc_ray_hit(ray: &Ray) -> sys::RTCRayHit {
+        sys::RTCRayHit {
+            ray: Self::rtc_ray(ray),
+            hit: sys::RTCHit {
+                Ng_x: 0.0,
+                Ng_y: 0.0,
+                Ng_z: 0.0,
+                u: 0.0,
+                v: 0.0,
+                primID: INVALID_ID,
+                geomID: INVALID_ID,
+                instID: [INVALID_ID],
+            },
         }
     }
 }
@@ -121,19 +143,7 @@ impl RayCaster for EmbreeCaster {
     }
 
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let mut rh = sys::RTCRayHit {
-            ray: Self::rtc_ray(ray),
-            hit: sys::RTCHit {
-                Ng_x: 0.0,
-                Ng_y: 0.0,
-                Ng_z: 0.0,
-                u: 0.0,
-                v: 0.0,
-                primID: INVALID_ID,
-                geomID: INVALID_ID,
-                instID: [INVALID_ID],
-            },
-        };
+        let mut rh = Self::rtc_ray_hit(ray);
         let mut ctx = Self::context();
         unsafe { sys::rtcIntersect1(self.scene, &mut ctx, &mut rh) };
         (rh.hit.geomID != INVALID_ID).then(|| Hit {
@@ -149,5 +159,54 @@ impl RayCaster for EmbreeCaster {
         unsafe { sys::rtcOccluded1(self.scene, &mut ctx, &mut r) };
         // Embree sets tfar to −∞ when the ray is occluded.
         r.tfar == f32::NEG_INFINITY
+    }
+
+    /// One `rtcIntersect1M` stream with the coherent flag: Embree gathers the rays into
+    /// packets and traverses them together.
+    fn intersect_batch(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        let mut rh: Vec<sys::RTCRayHit> = rays.iter().map(Self::rtc_ray_hit).collect();
+        let mut ctx = Self::context_with(sys::RTCIntersectContextFlags::COHERENT);
+        for chunk in rh.chunks_mut(u32::MAX as usize) {
+            // SAFETY: `chunk` is `len` contiguous, initialised RTCRayHit structs with the
+            // stride given; the scene is committed and outlives the call.
+            unsafe {
+                sys::rtcIntersect1M(
+                    self.scene,
+                    &mut ctx,
+                    chunk.as_mut_ptr(),
+                    chunk.len() as u32,
+                    std::mem::size_of::<sys::RTCRayHit>(),
+                )
+            };
+        }
+        for (o, r) in out.iter_mut().zip(&rh) {
+            *o = (r.hit.geomID != INVALID_ID).then(|| Hit {
+                t: r.ray.tfar,
+                tri: r.hit.primID,
+                bary: glam::Vec2::new(r.hit.u, r.hit.v),
+            });
+        }
+    }
+
+    /// One `rtcOccluded1M` stream with the coherent flag (the renderer's batches are the
+    /// shadow rays of neighbouring samples towards one light).
+    fn occluded_batch(&self, rays: &[Ray], out: &mut [bool]) {
+        let mut rs: Vec<sys::RTCRay> = rays.iter().map(Self::rtc_ray).collect();
+        let mut ctx = Self::context_with(sys::RTCIntersectContextFlags::COHERENT);
+        for chunk in rs.chunks_mut(u32::MAX as usize) {
+            // SAFETY: as in `intersect_batch`, for RTCRay.
+            unsafe {
+                sys::rtcOccluded1M(
+                    self.scene,
+                    &mut ctx,
+                    chunk.as_mut_ptr(),
+                    chunk.len() as u32,
+                    std::mem::size_of::<sys::RTCRay>(),
+                )
+            };
+        }
+        for (o, r) in out.iter_mut().zip(&rs) {
+            *o = r.tfar == f32::NEG_INFINITY;
+        }
     }
 }

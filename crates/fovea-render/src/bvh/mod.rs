@@ -115,6 +115,21 @@ pub trait RayCaster: Send + Sync {
     fn intersect(&self, ray: &Ray) -> Option<Hit>;
     /// Whether anything lies in `[t_min, t_max]` (shadow rays).
     fn occluded(&self, ray: &Ray) -> bool;
+    /// [`RayCaster::intersect`] of every ray of a batch, into `out` (the same length). The
+    /// renderer hands over coherent batches (primary rays of neighbouring texels); the default
+    /// casts one ray at a time, a backend with packet or stream traversal (Embree) overrides it.
+    fn intersect_batch(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        for (r, o) in rays.iter().zip(out.iter_mut()) {
+            *o = self.intersect(r);
+        }
+    }
+    /// [`RayCaster::occluded`] of every ray of a batch, into `out` (the same length): the
+    /// renderer hands over the shadow rays of neighbouring samples towards one light.
+    fn occluded_batch(&self, rays: &[Ray], out: &mut [bool]) {
+        for (r, o) in rays.iter().zip(out.iter_mut()) {
+            *o = self.occluded(r);
+        }
+    }
 }
 
 /// The scene's triangles flattened in one array, with where each came from.

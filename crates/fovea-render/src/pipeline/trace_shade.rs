@@ -30,8 +30,8 @@ use crate::camera::EyeCamera;
 use crate::cull_fill::{fill_culled, shade_or_cull, CullBuffers, SampleCull};
 use crate::error::{RenderError, Result};
 use crate::plan::FramePlan;
-use crate::shade::{shade, RayCounts};
-use crate::trace::{surface, trace_sample, GSample};
+use crate::shade::{shade, shade_direct_batch, RayCounts, ShadingMode};
+use crate::trace::{surface, GSample};
 use crate::world::World;
 
 /// Another executor of the trace stage's ray casting (e.g. the GPU's, `fovea-gpu`): the
@@ -149,10 +149,30 @@ pub fn trace_chunk(
         Some((camera.ray(p), spread))
     };
     let Some(tracer) = tracer else {
-        (0..total)
+        // On the CPU: batches of neighbouring texels' rays, each cast as one
+        // `intersect_batch` (Embree traverses them as packets).
+        let blocks: Vec<Vec<Option<GSample>>> = (0..total.div_ceil(TRACE_BATCH))
             .into_par_iter()
-            .map(|r| ray_of(r).map(|(ray, spread)| trace_sample(world, &ray, spread)))
-            .collect_into_vec(gbuf);
+            .map(|b| {
+                let r0 = b * TRACE_BATCH;
+                let rays: Vec<Option<(Ray, f32)>> =
+                    (r0..(r0 + TRACE_BATCH).min(total)).map(ray_of).collect();
+                let batch: Vec<Ray> = rays.iter().flatten().map(|&(ray, _)| ray).collect();
+                let mut hits = vec![None; batch.len()];
+                world.caster.intersect_batch(&batch, &mut hits);
+                let mut hits = hits.into_iter();
+                rays.into_iter()
+                    .map(|r| {
+                        r.map(|(ray, spread)| match hits.next().flatten() {
+                            Some(hit) => surface(world, &ray, &hit, spread),
+                            None => GSample::miss(ray.dir),
+                        })
+                    })
+                    .collect()
+            })
+            .collect();
+        gbuf.clear();
+        gbuf.extend(blocks.into_iter().flatten());
         return Ok(());
     };
     let rays: Vec<Option<(Ray, f32)>> = (0..total).into_par_iter().map(ray_of).collect();
@@ -189,6 +209,14 @@ pub fn trace_chunk(
     Ok(())
 }
 
+/// Primary rays cast together by [`trace_chunk`] on the CPU (one
+/// [`crate::bvh::RayCaster::intersect_batch`]).
+pub const TRACE_BATCH: u32 = 64;
+
+/// Texels shaded together by [`shade_chunk`]'s batched direct lighting: each light's shadow
+/// rays of this many neighbouring texels are cast as one batch.
+pub const SHADE_BATCH: usize = 256;
+
 /// Shade: every texel of `chunk` whose rays hit (`gbuf`, texel-major from `starts`) shaded —
 /// the mean of its rays — or culled by the plan's DOF roulette (decided by the ray nearest the texel
 /// centre, whose depth is the texel's), and scattered into the chunk's colour and depth
@@ -215,6 +243,61 @@ pub fn shade_chunk(
     } = chunk;
     let shading = plan.settings.shading;
     let cull = plan.culling.as_ref();
+    // Direct shading of one ray per texel without culling (the default frame): the shadow
+    // rays go light by light over batches of neighbouring texels.
+    if let (ShadingMode::Direct { env_light }, None, true) = (
+        shading,
+        cull,
+        plan.rays.per_column.is_empty() && plan.rays.uniform == 1,
+    ) {
+        let key_of = |k: u32| ((layer as u64) << 48) ^ ((j0 as u64 * row_len as u64) + k as u64);
+        // Per batch: each texel's colour and depth (none where nothing was traced), and the
+        // batch's secondary rays.
+        type Batch = (Vec<Option<(Rgb, f32)>>, RayCounts);
+        let blocks: Vec<Batch> = order
+            .par_chunks(SHADE_BATCH)
+            .enumerate()
+            .map(|(b, ks)| {
+                let t0 = b * SHADE_BATCH;
+                let reps: Vec<Option<&GSample>> = (0..ks.len())
+                    .map(|i| gbuf[starts[t0 + i] as usize].as_ref())
+                    .collect();
+                let gs: Vec<&GSample> = reps.iter().flatten().copied().collect();
+                let keys: Vec<u64> = ks
+                    .iter()
+                    .zip(&reps)
+                    .filter(|(_, r)| r.is_some())
+                    .map(|(&k, _)| key_of(k))
+                    .collect();
+                let mut rc = RayCounts::default();
+                let mut values = vec![Vec3::ZERO; gs.len()];
+                shade_direct_batch(world, &gs, &keys, env_light, &mut values, &mut rc);
+                let mut values = values.into_iter();
+                let out = reps
+                    .iter()
+                    .map(|r| {
+                        r.map(|g| {
+                            let v = values.next().unwrap_or(Vec3::ZERO);
+                            (v.to_array(), camera.view_depth(-g.to_eye, g.t))
+                        })
+                    })
+                    .collect();
+                (out, rc)
+            })
+            .collect();
+        for (ks, (values, rc)) in order.chunks(SHADE_BATCH).zip(blocks) {
+            counts.secondary += rc;
+            for (&k, v) in ks.iter().zip(values) {
+                let Some((c, d)) = v else { continue };
+                depth[k as usize] = d;
+                color[k as usize] = c;
+                if d.is_finite() {
+                    counts.shaded += 1;
+                }
+            }
+        }
+        return;
+    }
     type Shaded = (Option<Rgb>, f32, Option<SampleCull>, RayCounts);
     let shaded: Vec<Option<Shaded>> = order
         .par_iter()
