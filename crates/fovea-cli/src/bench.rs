@@ -261,6 +261,7 @@ fn print_summary(r: &BenchResult) {
         r.bvh,
         r.threads,
     );
+    let threads = r.threads;
     for b in &r.bvh_throughput {
         if !b.available {
             println!("BVH {:>6}: not in this build", b.backend);
@@ -289,11 +290,15 @@ fn print_summary(r: &BenchResult) {
             let (Some(one), Some(many)) = (single, batched) else {
                 continue;
             };
+            // Per CPU-second, and as `threads` busy threads would cast them (the machine's
+            // share of other work left out).
             let rate = |r: &RayRate| {
                 format!(
-                    "{:.2} Mrays/s, {:.2} per CPU-s, {:.0} % CPU",
+                    "{:.2} Mrays/s, {:.2} per CPU-s = {:.2} at {} threads, {:.0} % CPU",
                     r.mrays_per_s,
                     r.mrays_per_cpu_s,
+                    r.mrays_per_cpu_s * threads as f64,
+                    threads,
                     100.0 * r.cpu_share
                 )
             };

@@ -247,18 +247,24 @@ fn for_each_light(world: &World, g: &GSample, mut f: impl FnMut(usize, Vec3, f32
 /// falloff), or `None` when it does not light it (out of range or cone, behind, zero BRDF).
 #[inline]
 fn light_at(light: &Light, g: &GSample, origin: Vec3) -> Option<(Vec3, f32, Vec3)> {
+    // The unit direction to a light at `position` and its distance, within `range`.
+    let towards = |position: Vec3, range: f32| -> Option<(Vec3, f32)> {
+        let d = position - origin;
+        let dist = d.length();
+        if dist > range || dist < 1e-6 {
+            None
+        } else {
+            Some((d / dist, dist))
+        }
+    };
     let (l, dist, radiance) = match *light {
         Light::Point {
             position,
             intensity,
             range,
         } => {
-            let d = position - origin;
-            let dist = d.length();
-            if dist > range || dist < 1e-6 {
-                return None;
-            }
-            (d / dist, dist, intensity / (dist * dist))
+            let (l, dist) = towards(position, range)?;
+            (l, dist, intensity / (dist * dist))
         }
         Light::Spot {
             position,
@@ -268,12 +274,7 @@ fn light_at(light: &Light, g: &GSample, origin: Vec3) -> Option<(Vec3, f32, Vec3
             cos_outer,
             range,
         } => {
-            let d = position - origin;
-            let dist = d.length();
-            if dist > range || dist < 1e-6 {
-                return None;
-            }
-            let l = d / dist;
+            let (l, dist) = towards(position, range)?;
             let c = (-l).dot(direction);
             let k = ((c - cos_outer) / (cos_inner - cos_outer).max(1e-6)).clamp(0.0, 1.0);
             if k <= 0.0 {

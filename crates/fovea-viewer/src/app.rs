@@ -328,13 +328,7 @@ impl App {
                 }
             };
             if let Some(p) = &self.camera_path {
-                let (pos, look, up) = p.at(t);
-                self.pose = Pose::of(&fovea_render::camera::EyeCamera::new(
-                    pos,
-                    look - pos,
-                    up,
-                    &display,
-                )?);
+                self.pose = Pose::along(p, t, &display)?;
             }
             let req = FrameRequest {
                 id: i,
@@ -366,19 +360,17 @@ impl App {
             };
             self.pointer.update(t, pointer, self.frame_rect, eyes, w, h)
         };
+        // Before the first gaze (the pointer never over the frame, no packet yet): the screen
+        // centre, the gaze the frame is foveated at (recorded as such, so a replay renders
+        // the same frames; the CSV reader would put the first measured gaze there instead
+        // of a gap's).
         let gaze = gaze.or(self.gaze).unwrap_or_else(|| {
             let c = display.centre_gaze();
             GazeSample::new(t, c.point.x_px, c.point.y_px)
         });
         self.gaze = Some(gaze);
         if let Some(p) = &self.camera_path {
-            let (pos, look, up) = p.at(t);
-            self.pose = Pose::of(&fovea_render::camera::EyeCamera::new(
-                pos,
-                look - pos,
-                up,
-                &display,
-            )?);
+            self.pose = Pose::along(p, t, &display)?;
         }
         if self.worker.busy() {
             return Ok(());
@@ -397,6 +389,10 @@ impl App {
             || (self.view.effective_dof().is_some() && self.settling < SETTLE_FRAMES);
         if same && !animating {
             return Ok(());
+        }
+        if !same {
+            // A new view: the last screenshot or refusal no longer applies.
+            self.status.clear();
         }
         self.settling = if same { self.settling + 1 } else { 0 };
         let dt = (t - self.last_gaze_t).clamp(1e-3, 0.5);
@@ -771,7 +767,20 @@ impl App {
             self.move_camera(dt);
         }
         while let Some(r) = self.worker.try_recv() {
-            self.receive(r?)?;
+            match r {
+                Ok(frame) => self.receive(frame)?,
+                // In the window a refused frame (say, a preset whose buffers exceed the memory
+                // limit) is said in the HUD and the last frame stays; headless, it is the
+                // run's error.
+                Err(e) if self.script.is_none() => {
+                    self.status = format!("frame refused: {e}");
+                    if !self.quiet {
+                        eprintln!("{}", self.status);
+                    }
+                    self.dirty = true;
+                }
+                Err(e) => return Err(e),
+            }
         }
         if let Some(s) = &self.script {
             if s.next >= s.frames && s.waiting.is_none() {

@@ -55,6 +55,17 @@ impl Pose {
         }
     }
 
+    /// The pose of a camera path at `t_s` seconds, as `fovea sequence --camera-path` places
+    /// its camera (`display` only checks it).
+    pub fn along(
+        path: &fovea_render::camera_path::CameraPath,
+        t_s: f64,
+        display: &DisplayProfile,
+    ) -> Result<Self> {
+        let (pos, look, up) = path.at(t_s);
+        Ok(Self::of(&EyeCamera::new(pos, look - pos, up, display)?))
+    }
+
     /// The camera at this pose rendering `display`.
     pub fn camera(&self, display: &DisplayProfile) -> Result<EyeCamera> {
         Ok(EyeCamera::new(

@@ -2,9 +2,11 @@
 //! `fovea sequence`, `flicker` and `report` read back (`--gaze-csv`, `--camera-path`), so a
 //! look-around becomes a reproducible measurement.
 //!
-//! `gaze.csv`: `t_s,x_px,y_px,depth_m,confidence` — the display's pixels, the tracker's
-//! vergence depth when it gave one, confidence 1 for a valid gaze and 0 for a gap (the CSV
-//! reader holds the last valid gaze there, as the viewer did). `camera.csv`:
+//! `gaze.csv`: `t_s,x_norm,y_norm,depth_m,confidence` — the gaze as a fraction of the screen
+//! (0 = left/top, 1 = right/bottom; so a viewing that switched headsets, or a replay at
+//! another resolution, reads right), the tracker's vergence depth when it gave one,
+//! confidence 1 for a valid gaze and 0 for a gap (the CSV reader holds the last valid gaze
+//! there, as the viewer did). `camera.csv`:
 //! `t,x,y,z,look_x,look_y,look_z,up_x,up_y,up_z` — the eye's position, a point one metre along
 //! its view and its up vector. Times are seconds from the first frame, strictly increasing.
 //! Both files are flushed after every frame, so a viewer that is killed leaves every frame
@@ -46,7 +48,7 @@ impl Recorder {
             Ok(w)
         };
         Ok(Self {
-            gaze: open("gaze.csv", "t_s,x_px,y_px,depth_m,confidence")?,
+            gaze: open("gaze.csv", "t_s,x_norm,y_norm,depth_m,confidence")?,
             camera: open("camera.csv", "t,x,y,z,look_x,look_y,look_z,up_x,up_y,up_z")?,
             dir: dir.to_path_buf(),
             last_t: None,
@@ -64,8 +66,8 @@ impl Recorder {
         self.frames
     }
 
-    /// Records one frame shown at `t_s` (seconds from the first frame): its gaze (display
-    /// pixels) and its eye camera. A time not after the previous frame's is skipped (the
+    /// Records one frame shown at `t_s` (seconds from the first frame): its gaze (pixels of
+    /// `camera`'s display) and its eye camera. A time not after the previous frame's is skipped (the
     /// readers need strictly increasing times).
     pub fn record(&mut self, t_s: f64, gaze: &GazeSample, camera: &EyeCamera) -> Result<()> {
         if !t_s.is_finite() || self.last_t.is_some_and(|t| t_s <= t) {
@@ -79,10 +81,12 @@ impl Recorder {
         let up = camera.up;
         let gaze_path = self.dir.join("gaze.csv");
         let camera_path = self.dir.join("camera.csv");
+        let d = &camera.display;
         writeln!(
             self.gaze,
-            "{t_s:.6},{:.4},{:.4},{depth},{conf}",
-            gaze.x_px, gaze.y_px
+            "{t_s:.6},{:.9},{:.9},{depth},{conf}",
+            gaze.x_px / f64::from(d.width_px),
+            gaze.y_px / f64::from(d.height_px)
         )
         .and_then(|_| self.gaze.flush())
         .map_err(|e| io_error(&gaze_path, e))?;
@@ -136,9 +140,13 @@ mod tests {
         let (t, report) = parse_csv(&text, 1440.0, 1600.0, &CsvOptions::default()).unwrap();
         assert_eq!(report.rows, 3);
         let s = t.samples();
-        assert_eq!((s[0].x_px, s[0].y_px, s[0].valid), (100.0, 200.0, true));
+        let near = |a: f64, b: f64| (a - b).abs() < 1e-5;
+        assert!(near(s[0].x_px, 100.0) && near(s[0].y_px, 200.0) && s[0].valid);
         assert_eq!(s[1].depth_m, Some(1.25));
-        assert_eq!((s[2].x_px, s[2].y_px, s[2].valid), (500.0, 600.0, false));
+        assert!(near(s[2].x_px, 500.0) && near(s[2].y_px, 600.0) && !s[2].valid);
+        // Normalised: the same gaze on a display of half the pixels.
+        let (t, _) = parse_csv(&text, 720.0, 800.0, &CsvOptions::default()).unwrap();
+        assert!(near(t.samples()[0].x_px, 50.0) && near(t.samples()[0].y_px, 100.0));
         let text = std::fs::read_to_string(dir.path().join("camera.csv")).unwrap();
         let path = CameraPath::parse(&text).unwrap();
         let (pos, look, up) = path.at(0.1);

@@ -479,6 +479,10 @@ impl BenchResult {
                     serde_json::json!({
                         "backend": b.backend, "available": true,
                         "build_ms": b.build_ms, "primary_mrays_per_s": b.primary_mrays_per_s,
+                        "primary_single": b.primary_single,
+                        "primary_batched": b.primary_batched,
+                        "shadow_single": b.shadow_single,
+                        "shadow_batched": b.shadow_batched,
                         "chosen": b.chosen,
                     })
                 } else {

@@ -151,28 +151,25 @@ pub fn trace_chunk(
     let Some(tracer) = tracer else {
         // On the CPU: batches of neighbouring texels' rays, each cast as one
         // `intersect_batch` (Embree traverses them as packets).
-        let blocks: Vec<Vec<Option<GSample>>> = (0..total.div_ceil(TRACE_BATCH))
-            .into_par_iter()
-            .map(|b| {
-                let r0 = b * TRACE_BATCH;
+        gbuf.clear();
+        gbuf.resize(total as usize, None);
+        gbuf.par_chunks_mut(TRACE_BATCH as usize)
+            .enumerate()
+            .for_each(|(b, out)| {
+                let r0 = b as u32 * TRACE_BATCH;
                 let rays: Vec<Option<(Ray, f32)>> =
-                    (r0..(r0 + TRACE_BATCH).min(total)).map(ray_of).collect();
+                    (r0..r0 + out.len() as u32).map(ray_of).collect();
                 let batch: Vec<Ray> = rays.iter().flatten().map(|&(ray, _)| ray).collect();
                 let mut hits = vec![None; batch.len()];
                 world.caster.intersect_batch(&batch, &mut hits);
                 let mut hits = hits.into_iter();
-                rays.into_iter()
-                    .map(|r| {
-                        r.map(|(ray, spread)| match hits.next().flatten() {
-                            Some(hit) => surface(world, &ray, &hit, spread),
-                            None => GSample::miss(ray.dir),
-                        })
-                    })
-                    .collect()
-            })
-            .collect();
-        gbuf.clear();
-        gbuf.extend(blocks.into_iter().flatten());
+                for (o, r) in out.iter_mut().zip(rays) {
+                    *o = r.map(|(ray, spread)| match hits.next().flatten() {
+                        Some(hit) => surface(world, &ray, &hit, spread),
+                        None => GSample::miss(ray.dir),
+                    });
+                }
+            });
         return Ok(());
     };
     let rays: Vec<Option<(Ray, f32)>> = (0..total).into_par_iter().map(ray_of).collect();
