@@ -20,7 +20,7 @@ use anyhow::Result;
 use serde::Serialize;
 
 use fovea_core::mapping::FoveationMapping;
-use fovea_render::pipeline::{ReconstructExecutor, TraceExecutor};
+use fovea_render::pipeline::{FrameContext, ReconstructExecutor, TraceExecutor};
 use fovea_render::world::World;
 
 use crate::choices::BackendArg;
@@ -71,6 +71,22 @@ impl Backend {
         }
     }
 
+    /// Whether a GPU runs a stage (the primary rays or the reconstruction).
+    pub fn on_gpu(&self) -> bool {
+        self.tracer.is_some() || self.executor.is_some()
+    }
+
+    /// Moves the GPU executors, if any, into a frame context (each frame rendered with it
+    /// then runs the stages they support on the GPU).
+    pub fn install(&mut self, ctx: &mut FrameContext) {
+        if let Some(tracer) = self.tracer.take() {
+            ctx.set_tracer(tracer);
+        }
+        if let Some(executor) = self.executor.take() {
+            ctx.set_reconstructor(executor);
+        }
+    }
+
     /// The JSON of the frame's stats: what was asked, what ran, which stage ran where.
     pub fn json(
         &self,
@@ -102,37 +118,29 @@ impl Backend {
     }
 }
 
-/// Resolves `--backend` for a frame of `mapping` of `world` (`stereo`: `--eyes both`).
-/// `frame_bytes`: the largest single GPU buffer the frame's reconstruction needs (its polar
-/// texels), checked against the adapter before anything runs.
+/// Resolves `--backend` for a one-eye frame of `mapping` of `world`. The largest single GPU
+/// buffer the frame's reconstruction needs (its polar texels, [`polar_texel_bytes`]) is
+/// checked against the adapter before anything runs.
 pub fn resolve(
     requested: BackendArg,
     mapping: &dyn FoveationMapping,
     world: &World,
-    stereo: bool,
-    frame_bytes: u64,
 ) -> Result<Backend> {
     if requested == BackendArg::Cpu {
         return Ok(Backend::cpu(requested, "asked for"));
     }
-    let why_not = if stereo {
-        Some("the GPU path runs one eye (--eyes one)".to_string())
-    } else if mapping.polar_layout().is_none() {
-        Some(format!(
+    if mapping.polar_layout().is_none() {
+        let why = format!(
             "the GPU path reconstructs polar methods only (vafr, kfr, lafr, visual-polar, \
              liu-hybrid), not {}",
             mapping.method()
-        ))
-    } else {
-        None
-    };
-    if let Some(why) = why_not {
+        );
         if requested == BackendArg::Gpu {
             anyhow::bail!("--backend gpu: {why}; use --backend cpu or auto");
         }
         return Ok(Backend::cpu(requested, &format!("auto: {why}")));
     }
-    gpu(requested, world, frame_bytes)
+    gpu(requested, world, polar_texel_bytes(mapping))
 }
 
 #[cfg(not(feature = "gpu"))]
@@ -296,7 +304,7 @@ impl ReconstructExecutor for GpuExecutor {
 
 /// Bytes of the largest GPU buffer a polar frame's reconstruction needs: its texels, 16 bytes
 /// each, every column padded by two rows (`fovea_post::inverse_map::PolarColumns`).
-pub fn polar_texel_bytes(mapping: &dyn FoveationMapping) -> u64 {
+fn polar_texel_bytes(mapping: &dyn FoveationMapping) -> u64 {
     match mapping.polar_layout() {
         Some(layout) => {
             let h = mapping.buffers().first().map_or(0, |b| b.height);

@@ -355,21 +355,10 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     // Which executors run the trace and reconstruct stages; refused here, before any ray is
     // traced.
-    let mut backend = crate::backend::resolve(
-        args.backend,
-        plan.mapping(),
-        world,
-        false,
-        crate::backend::polar_texel_bytes(plan.mapping()),
-    )?;
+    let mut backend = crate::backend::resolve(args.backend, plan.mapping(), world)?;
     let pb = progress_bar(args.quiet, method.name());
     let mut ctx = FrameContext::new();
-    if let Some(tracer) = backend.tracer.take() {
-        ctx.set_tracer(tracer);
-    }
-    if let Some(executor) = backend.executor.take() {
-        ctx.set_reconstructor(executor);
-    }
+    backend.install(&mut ctx);
     render_planned(
         &mut ctx,
         world,
@@ -662,26 +651,15 @@ fn lod_world(
     eye_state: &EyeState,
     keep: f32,
 ) -> Result<(fovea_render::world::World, fovea_render::lod::LodStats)> {
-    use fovea_render::dof::auto_focus_m;
     use fovea_render::lod::{LodParams, LodScene};
-    let world = &prepared.world;
-    let camera = &prepared.camera;
     let params = LodParams {
         keep_ratio: keep,
         ..Default::default()
     };
-    let lod = LodScene::new(world.scene.clone(), params)?;
-    let gaze = eye_state.gaze;
-    let focus = match eye_state.focus {
-        Some(f) => f.metres(),
-        None => auto_focus_m(world, camera, &gaze)?,
-    };
+    let lod = LodScene::new(prepared.world.scene.clone(), params)?;
     let eye = settings
         .dof
         .as_ref()
         .map_or(fovea_core::optics::EyeModel::default(), |d| d.eye);
-    let gaze_dir = camera.ray(gaze.point).dir;
-    let (mut w, st) = lod.frame_world(camera, gaze_dir, &eye, focus, world.caster.backend())?;
-    w.lights = world.lights.clone();
-    Ok((w, st))
+    Ok(lod.world_for(&prepared.world, &prepared.camera, &eye, eye_state)?)
 }

@@ -122,19 +122,30 @@ pub fn gaze_trajectory(
     d: &DisplayProfile,
     duration_s: f64,
 ) -> Result<GazeTrajectory> {
-    let (w, h) = (d.width_px as f64, d.height_px as f64);
     if let Some((p, text)) = gaze_csv {
-        let (t, report) = parse_csv(text, w, h, &CsvOptions::default())
-            .with_context(|| format!("gaze CSV {}", p.display()))?;
-        if !quiet {
-            eprintln!(
-                "gaze CSV: {} rows, {} valid, {} held (gaps), {} clamped to the screen",
-                report.rows, report.valid, report.held, report.clamped
-            );
-        }
-        return Ok(t);
+        return csv_trajectory(p, text, quiet, d);
     }
     Ok(scenario.trajectory(d, seed, duration_s)?)
+}
+
+/// The gaze of an eye-tracker CSV (its path, for messages, and its text) on `d`'s screen; a
+/// line on stderr counts its rows, gaps and clamps unless `quiet`.
+pub fn csv_trajectory(
+    p: &Path,
+    text: &str,
+    quiet: bool,
+    d: &DisplayProfile,
+) -> Result<GazeTrajectory> {
+    let (w, h) = (d.width_px as f64, d.height_px as f64);
+    let (t, report) = parse_csv(text, w, h, &CsvOptions::default())
+        .with_context(|| format!("gaze CSV {}", p.display()))?;
+    if !quiet {
+        eprintln!(
+            "gaze CSV: {} rows, {} valid, {} held (gaps), {} clamped to the screen",
+            report.rows, report.valid, report.held, report.clamped
+        );
+    }
+    Ok(t)
 }
 
 /// The text of `--gaze-csv`, read once (it decides the gaze and, hashed, whether a folder
@@ -251,18 +262,8 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     // first frame's plan, before anything is written; frames of another backend differ in
     // the last bits, so the backend is part of what a resumed folder must match.
     let first = FramePlan::new(world, &seq.cameras[0], &settings, &seq.eyes[0], [0.0, 0.0])?;
-    let mut backend = crate::backend::resolve(
-        args.backend,
-        first.mapping(),
-        world,
-        false,
-        crate::backend::polar_texel_bytes(first.mapping()),
-    )?;
-    let backend_name = if backend.executor.is_some() || backend.tracer.is_some() {
-        "gpu"
-    } else {
-        "cpu"
-    };
+    let mut backend = crate::backend::resolve(args.backend, first.mapping(), world)?;
+    let backend_name = if backend.on_gpu() { "gpu" } else { "cpu" };
     // The settings the frames depend on: a folder rendered with others is not resumed.
     let method_name = choices::name(&args.method);
     let scenario_name = choices::name(&args.scenario);
@@ -317,12 +318,7 @@ pub fn run(args: SequenceArgs) -> Result<()> {
         pb
     };
     let mut track = Track::new(method.name(), settings, temporal)?;
-    if let Some(tracer) = backend.tracer.take() {
-        track.context_mut().set_tracer(tracer);
-    }
-    if let Some(executor) = backend.executor.take() {
-        track.context_mut().set_reconstructor(executor);
-    }
+    backend.install(track.context_mut());
     let mut driver = SequenceDriver::new(world, &seq, vec![track])?;
     let out = &args.out;
     let counts = driver.run(

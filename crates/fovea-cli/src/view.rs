@@ -115,8 +115,7 @@ pub fn run(_args: ViewArgs) -> Result<()> {
 
 #[cfg(feature = "view")]
 pub fn run(args: ViewArgs) -> Result<()> {
-    use anyhow::{bail, Context};
-    use fovea_core::gaze::csv::{parse_csv, CsvOptions};
+    use anyhow::bail;
     use fovea_core::mapping::Method;
     use fovea_render::eye::EyeState;
     use fovea_render::pipeline::FrameSettings;
@@ -192,14 +191,8 @@ pub fn run(args: ViewArgs) -> Result<()> {
     probe.dof = None;
     let eye = EyeState::looking_at(display.centre_gaze());
     let plan = FramePlan::new(&prepared.world, &prepared.camera, &probe, &eye, [0.0, 0.0])?;
-    let mut backend = crate::backend::resolve(
-        args.backend,
-        plan.mapping(),
-        &prepared.world,
-        false,
-        crate::backend::polar_texel_bytes(plan.mapping()),
-    )?;
-    let cpu_path = backend.tracer.is_none() && backend.executor.is_none();
+    let mut backend = crate::backend::resolve(args.backend, plan.mapping(), &prepared.world)?;
+    let cpu_path = !backend.on_gpu();
     let headless = args.frames.is_some();
     let scale = args
         .scale
@@ -221,19 +214,7 @@ pub fn run(args: ViewArgs) -> Result<()> {
 
     let gaze = if let Some(p) = &args.gaze_csv {
         let text = crate::common::read_text_input(p, "gaze CSV")?;
-        let (t, report) = parse_csv(
-            &text,
-            display.width_px as f64,
-            display.height_px as f64,
-            &CsvOptions::default(),
-        )
-        .with_context(|| format!("gaze CSV {}", p.display()))?;
-        if !args.quiet {
-            eprintln!(
-                "gaze CSV: {} rows, {} valid, {} held (gaps), {} clamped to the screen",
-                report.rows, report.valid, report.held, report.clamped
-            );
-        }
+        let t = crate::sequence::csv_trajectory(p, &text, args.quiet, &display)?;
         let mode = match args.replay {
             Replay::RealTime => ReplayMode::RealTime,
             Replay::Stepped => ReplayMode::Stepped,

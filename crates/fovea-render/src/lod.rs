@@ -26,7 +26,9 @@ use fovea_core::units::Metres;
 
 use crate::bvh::Backend;
 use crate::camera::EyeCamera;
+use crate::dof::auto_focus_m;
 use crate::error::{RenderError, Result};
+use crate::eye::EyeState;
 use crate::scene::{Mesh, Scene};
 use crate::world::World;
 
@@ -185,6 +187,27 @@ impl LodScene {
         let limits = eye.dof_limits(Metres(focus_m))?;
         let flags = self.flags(camera, gaze_dir, &limits);
         self.world(&flags, backend)
+    }
+
+    /// [`Self::frame_world`] for a frame of `world` seen by `camera` in `state`: the eye
+    /// focused where the state says (auto focus at its gaze when it has no focus, a frame
+    /// without depth of field), the pupil and criterion of `eye`, `world`'s BVH backend and
+    /// lights.
+    pub fn world_for(
+        &self,
+        world: &World,
+        camera: &EyeCamera,
+        eye: &EyeModel,
+        state: &EyeState,
+    ) -> Result<(World, LodStats)> {
+        let focus = match state.focus {
+            Some(f) => f.metres(),
+            None => auto_focus_m(world, camera, &state.gaze)?,
+        };
+        let gaze_dir = camera.ray(state.gaze.point).dir;
+        let (mut w, st) = self.frame_world(camera, gaze_dir, eye, focus, world.caster.backend())?;
+        w.lights = world.lights.clone();
+        Ok((w, st))
     }
 }
 

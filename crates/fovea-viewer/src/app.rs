@@ -314,18 +314,14 @@ impl App {
             let i = script.next;
             let t = i as f64 / self.fps;
             let gaze = match &self.replay {
-                Some(r) => {
-                    let mut g = r.at(t);
-                    if r.mode() == ReplayMode::RealTime {
-                        g = r.trajectory().at(r.trajectory().start_s() + t);
-                        g.t_s = t;
-                    }
-                    g
-                }
-                None => {
-                    let c = display.centre_gaze();
-                    GazeSample::new(t, c.point.x_px, c.point.y_px)
-                }
+                // A headless run holds the CSV's last sample past its end, as `fovea
+                // sequence` does, rather than looping.
+                Some(r) if r.mode() == ReplayMode::RealTime => GazeSample {
+                    t_s: t,
+                    ..r.trajectory().at(r.trajectory().start_s() + t)
+                },
+                Some(r) => r.at(t),
+                None => centre_sample(&display, t),
             };
             if let Some(p) = &self.camera_path {
                 self.pose = Pose::along(p, t, &display)?;
@@ -364,10 +360,9 @@ impl App {
         // centre, the gaze the frame is foveated at (recorded as such, so a replay renders
         // the same frames; the CSV reader would put the first measured gaze there instead
         // of a gap's).
-        let gaze = gaze.or(self.gaze).unwrap_or_else(|| {
-            let c = display.centre_gaze();
-            GazeSample::new(t, c.point.x_px, c.point.y_px)
-        });
+        let gaze = gaze
+            .or(self.gaze)
+            .unwrap_or_else(|| centre_sample(&display, t));
         self.gaze = Some(gaze);
         if let Some(p) = &self.camera_path {
             self.pose = Pose::along(p, t, &display)?;
@@ -625,18 +620,8 @@ impl App {
         let mut actions = Vec::new();
         let mut view = self.view.clone();
         let hud = self.hud();
-        let texture = self.texture.clone();
-        let latest = self.latest.as_ref().map(|f| {
-            (
-                f.width,
-                f.height,
-                f.rings.clone(),
-                f.request.view.eyes,
-                f.request.gaze,
-                f.request.display.width_px,
-                f.scale,
-            )
-        });
+        let texture = self.texture.as_ref();
+        let latest = self.latest.as_ref();
         let mut frame_rect = self.frame_rect;
         // Without a device for egui (the software presenter) the pass still reads the keys
         // and the pointer; only the frame is drawn.
@@ -658,12 +643,11 @@ impl App {
             });
             egui::CentralPanel::no_frame().show(ui, |ui| {
                 let avail = ui.available_rect_before_wrap();
-                let Some((tw, th, rings, eyes, gaze, dw, scale)) = &latest else {
+                let (Some(f), Some(tex)) = (latest, texture) else {
                     ui.centered_and_justified(|ui| ui.label("rendering…"));
                     return;
                 };
-                let Some(tex) = &texture else { return };
-                let rect = fit(avail, *tw, *th);
+                let rect = fit(avail, f.width, f.height);
                 frame_rect = rect;
                 let painter = ui.painter_at(avail);
                 painter.image(
@@ -672,25 +656,30 @@ impl App {
                     egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0)),
                     egui::Color32::WHITE,
                 );
-                // The gaze and the rings, in each eye's half.
-                let n = if *eyes == EyesChoice::Both { 2 } else { 1 };
+                // The gaze (display pixels) and the rings (frame pixels), in each eye's half.
+                let n = f.stats.len().max(1);
                 let eye_w = rect.width() / n as f32;
-                let px = eye_w / (*dw as f32 * *scale).max(1.0);
+                let per_frame_px = eye_w / (f.width as f32 / n as f32);
+                let per_display_px = eye_w / f.request.display.width_px as f32;
+                let ring_stroke = egui::Stroke::new(1.0, egui::Color32::from_white_alpha(140));
+                let gaze = &f.request.gaze;
+                let colour = if gaze.valid {
+                    egui::Color32::from_rgb(255, 80, 40)
+                } else {
+                    egui::Color32::GRAY
+                };
                 for e in 0..n {
                     let origin = rect.min + egui::vec2(e as f32 * eye_w, 0.0);
-                    let to_screen = |p: [f32; 2]| origin + egui::vec2(p[0] * px, p[1] * px);
-                    let ring_stroke = egui::Stroke::new(1.0, egui::Color32::from_white_alpha(140));
-                    for ring in rings {
-                        let pts: Vec<egui::Pos2> = ring.iter().map(|&p| to_screen(p)).collect();
+                    for ring in &f.rings {
+                        let pts: Vec<egui::Pos2> = ring
+                            .iter()
+                            .map(|p| origin + egui::vec2(p[0], p[1]) * per_frame_px)
+                            .collect();
                         painter.add(egui::Shape::line(pts, ring_stroke));
                     }
-                    let g = to_screen([gaze.x_px as f32 * *scale, gaze.y_px as f32 * *scale]);
-                    let c = if gaze.valid {
-                        egui::Color32::from_rgb(255, 80, 40)
-                    } else {
-                        egui::Color32::GRAY
-                    };
-                    painter.circle_stroke(g, 6.0, egui::Stroke::new(1.5, c));
+                    let g =
+                        origin + egui::vec2(gaze.x_px as f32, gaze.y_px as f32) * per_display_px;
+                    painter.circle_stroke(g, 6.0, egui::Stroke::new(1.5, colour));
                 }
             });
         });
@@ -868,6 +857,12 @@ impl ApplicationHandler for App {
             Instant::now() + Duration::from_millis(8),
         ));
     }
+}
+
+/// A gaze at the centre of `display`'s screen at time `t_s`.
+fn centre_sample(display: &DisplayProfile, t_s: f64) -> GazeSample {
+    let c = display.centre_gaze();
+    GazeSample::new(t_s, c.point.x_px, c.point.y_px)
 }
 
 /// Writes a frame's pixels as an 8-bit sRGB PNG (RGB).

@@ -191,9 +191,10 @@ impl FrameRenderer {
             // would shade as many samples as at full scale. Capped at the reduced display's
             // Nyquist rate (VaFR Sec. 3.3, the headset cap), it shades what that display can
             // show. The full-scale frame is uncapped, as `fovea render`.
-            let (px, py) = display.centre_ppd_axes();
             let vafr = &mut settings.mapping.vafr;
-            vafr.acuity = vafr.acuity.clamped(CyclesPerDegree(0.5 * px.min(py)))?;
+            vafr.acuity = vafr
+                .acuity
+                .clamped(CyclesPerDegree(display.nyquist_cpd()))?;
         }
         let camera = req.pose.camera(&display)?;
         let sx = f64::from(display.width_px) / f64::from(req.display.width_px);
@@ -301,7 +302,7 @@ impl FrameRenderer {
         let width = w * eyes as u32;
         let mut rgba = vec![255u8; (width * h * 4) as usize];
         for (k, f) in frames.iter().enumerate() {
-            let rgb = eye_rgb(f, view)?;
+            let rgb = eye_rgb(f, view);
             for y in 0..h as usize {
                 for x in 0..w as usize {
                     let src = (y * w as usize + x) * 3;
@@ -343,7 +344,8 @@ impl FrameRenderer {
         })
     }
 
-    /// The frame's world with gaze-contingent level of detail (as `fovea render --lod on`).
+    /// The frame's world with gaze-contingent level of detail (as `fovea render --lod on`;
+    /// the simplified meshes are built once, when LOD is first turned on).
     fn lod_world(
         &mut self,
         camera: &EyeCamera,
@@ -357,24 +359,11 @@ impl FrameRenderer {
             )?);
         }
         let lod = self.lod.as_ref().expect("set above");
-        let focus = match eye.focus {
-            Some(f) => f.metres(),
-            None => fovea_render::dof::auto_focus_m(&self.world, camera, &eye.gaze)?,
-        };
         let eye_model = settings
             .dof
             .as_ref()
             .map_or(fovea_core::optics::EyeModel::default(), |d| d.eye);
-        let gaze_dir = camera.ray(eye.gaze.point).dir;
-        let (mut w, st) = lod.frame_world(
-            camera,
-            gaze_dir,
-            &eye_model,
-            focus,
-            self.world.caster.backend(),
-        )?;
-        w.lights = self.world.lights.clone();
-        Ok((w, st))
+        Ok(lod.world_for(&self.world, camera, &eye_model, eye)?)
     }
 }
 
@@ -395,7 +384,7 @@ pub fn scaled_display(display: &DisplayProfile, scale: f32) -> Result<DisplayPro
 
 /// One eye's 8-bit sRGB pixels (RGB): the frame through the tone curve, or the CoC map, with
 /// the density overlay blended over it.
-fn eye_rgb(f: &fovea_render::pipeline::Frame, view: &ViewSettings) -> Result<Vec<u8>> {
+fn eye_rgb(f: &fovea_render::pipeline::Frame, view: &ViewSettings) -> Vec<u8> {
     let mut rgb = match (&f.coc, view.overlays.coc) {
         (Some(coc), true) => false_colour(coc, |v| v.abs().max(0.01), 0.01, 64.0),
         _ => to_srgb8(&f.color, view.exposure_stops, ToneCurve::Reinhard),
@@ -406,7 +395,7 @@ fn eye_rgb(f: &fovea_render::pipeline::Frame, view: &ViewSettings) -> Result<Vec
             *p = ((u16::from(*p) + u16::from(o)) / 2) as u8;
         }
     }
-    Ok(rgb)
+    rgb
 }
 
 /// A false-colour view of a scalar image, log-scaled from `lo` (blue) to `hi` (red).

@@ -25,7 +25,9 @@ use crate::error::{Result, ViewerError};
 pub struct Recorder {
     dir: PathBuf,
     gaze: BufWriter<File>,
+    gaze_path: PathBuf,
     camera: BufWriter<File>,
+    camera_path: PathBuf,
     last_t: Option<f64>,
     frames: u64,
 }
@@ -49,7 +51,9 @@ impl Recorder {
         };
         Ok(Self {
             gaze: open("gaze.csv", "t_s,x_norm,y_norm,depth_m,confidence")?,
+            gaze_path: dir.join("gaze.csv"),
             camera: open("camera.csv", "t,x,y,z,look_x,look_y,look_z,up_x,up_y,up_z")?,
+            camera_path: dir.join("camera.csv"),
             dir: dir.to_path_buf(),
             last_t: None,
             frames: 0,
@@ -79,8 +83,6 @@ impl Recorder {
         let p = camera.position;
         let look = camera.position + camera.forward;
         let up = camera.up;
-        let gaze_path = self.dir.join("gaze.csv");
-        let camera_path = self.dir.join("camera.csv");
         let d = &camera.display;
         writeln!(
             self.gaze,
@@ -89,14 +91,14 @@ impl Recorder {
             gaze.y_px / f64::from(d.height_px)
         )
         .and_then(|_| self.gaze.flush())
-        .map_err(|e| io_error(&gaze_path, e))?;
+        .map_err(|e| io_error(&self.gaze_path, e))?;
         writeln!(
             self.camera,
             "{t_s:.6},{:.7},{:.7},{:.7},{:.7},{:.7},{:.7},{:.7},{:.7},{:.7}",
             p.x, p.y, p.z, look.x, look.y, look.z, up.x, up.y, up.z
         )
         .and_then(|_| self.camera.flush())
-        .map_err(|e| io_error(&camera_path, e))?;
+        .map_err(|e| io_error(&self.camera_path, e))?;
         self.frames += 1;
         Ok(())
     }
