@@ -13,7 +13,7 @@ use fovea_core::display::DisplayProfile;
 use fovea_core::mapping::Method;
 use fovea_eval::experiments::bench::{
     run as run_bench, BenchEvent, BenchParams, BenchResult, BenchRun, BenchScene, DofTiming,
-    RayRate, StereoTiming,
+    KernelTime, RayRate, ReconstructTiming, StereoTiming, RECONSTRUCT_REPS,
 };
 use fovea_eval::EvalError;
 use fovea_post::dof::FilterKind;
@@ -366,5 +366,53 @@ fn print_run(r: &BenchRun) {
             .map_or(String::new(), |f| format!(" ({:.0}% stolen)", f * 100.0)),
         r.speedup,
         r.speedup_cpu,
+    );
+    if let Some(t) = &r.reconstruct {
+        print_reconstruct(t);
+    }
+}
+
+/// The reconstruct kernels side by side and against the write-bandwidth floor.
+fn print_reconstruct(t: &ReconstructTiming) {
+    let time = |k: &KernelTime| {
+        format!(
+            "{:.1} ms (cpu {:.1} ms, {:.0} % CPU)",
+            k.wall_ms,
+            k.cpu_ms,
+            100.0 * k.cpu_share
+        )
+    };
+    let cpu = |k: &KernelTime| {
+        if k.cpu_ms.is_finite() {
+            k.cpu_ms
+        } else {
+            k.wall_ms
+        }
+    };
+    let kernels: Vec<String> = t
+        .kernels
+        .iter()
+        .map(|r| format!("{} {}", r.kernel.name(), time(&r.time)))
+        .collect();
+    let vs_scalar = match (t.kernels.first(), t.kernels.last()) {
+        (Some(a), Some(b)) if a.kernel != b.kernel => format!(
+            " | {} {:.2}x the {} by CPU time",
+            b.kernel.name(),
+            cpu(&a.time) / cpu(&b.time),
+            a.kernel.name()
+        ),
+        _ => String::new(),
+    };
+    println!(
+        "    reconstruct kernels (best of {RECONSTRUCT_REPS}, warm buffers): {}{vs_scalar}",
+        kernels.join(", ")
+    );
+    println!(
+        "    write floor {:.0} MB: {} = {:.1} GB/s | {} at {:.2}x the floor by CPU time",
+        t.output_bytes as f64 / 1e6,
+        time(&t.write_floor),
+        t.write_gb_per_s,
+        t.kernel.name(),
+        t.over_floor
     );
 }

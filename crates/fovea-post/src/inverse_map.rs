@@ -38,6 +38,11 @@ use fovea_core::{FoveaError, Image, Result};
 use crate::pull_push::pull_push;
 use crate::{lerp3, Rgb};
 
+mod kernel;
+
+use kernel::PolarRows;
+pub use kernel::{fast_atan2, PolarKernel};
+
 /// Radius step of the `u(r)` lookup table, pixels.
 pub const LUT_STEP_PX: f64 = 0.125;
 
@@ -147,6 +152,22 @@ pub fn reconstruct_into(
     depth: &mut Image<f32>,
     filter: ReconstructFilter,
 ) -> Result<()> {
+    let kernel = PolarKernel::detect();
+    reconstruct_into_with_kernel(mapping, display, buffers, color, depth, filter, kernel)
+}
+
+/// [`reconstruct_into`] with the polar buffers' inner loops run by `kernel` (an error where
+/// this processor lacks its instructions). Every kernel gives the same frame; this is for
+/// measuring and testing them side by side.
+pub fn reconstruct_into_with_kernel(
+    mapping: &dyn FoveationMapping,
+    display: &DisplayProfile,
+    buffers: &mut SampleBuffers,
+    color: &mut Image<Rgb>,
+    depth: &mut Image<f32>,
+    filter: ReconstructFilter,
+    kernel: PolarKernel,
+) -> Result<()> {
     let (w, h) = (display.width_px, display.height_px);
     let sizes = mapping.buffers();
     if sizes.len() != buffers.color.len()
@@ -187,7 +208,8 @@ pub fn reconstruct_into(
         return Ok(());
     }
     if let Some(layout) = mapping.polar_layout() {
-        return polar(mapping, display, &layout, buffers, color, depth, filter);
+        let out = (color, depth);
+        return polar(mapping, display, &layout, buffers, out, filter, kernel);
     }
     layered(mapping, display, buffers, color, depth)
 }
@@ -327,11 +349,12 @@ fn polar(
     display: &DisplayProfile,
     layout: &fovea_core::mapping::PolarLayout,
     buffers: &SampleBuffers,
-    out_color: &mut Image<Rgb>,
-    out_depth: &mut Image<f32>,
+    (out_color, out_depth): (&mut Image<Rgb>, &mut Image<f32>),
     filter: ReconstructFilter,
+    kernel: PolarKernel,
 ) -> Result<()> {
-    let w = display.width_px;
+    kernel.check()?;
+    let wu = display.width_px as usize;
     let PolarTables {
         centre: c,
         lut,
@@ -340,67 +363,31 @@ fn polar(
         texels_per_px: radial,
         ..
     } = PolarTables::of_layout(mapping, display, layout, buffers, filter)?;
-    let n = lut.len();
-    let cols_end = (last + 1) as f32;
-    let inv_step = (1.0 / LUT_STEP_PX) as f32;
-    let (cx, cy) = (c.x_px as f32, c.y_px as f32);
-    let wu = w as usize;
-    let lastf = last as f32;
     let max_period = layout.period.iter().fold(1.0f64, |a, &b| a.max(b)) as f32;
-    let turn_tolerance = COORD_TOLERANCE_TEXELS / max_period;
+    let dense_end = radial
+        .as_ref()
+        .map_or(0, |t| t.iter().rposition(|&v| v > 1.0).map_or(0, |i| i + 1));
+    let rows = PolarRows {
+        lut: &lut,
+        cx: c.x_px as f32,
+        cy: c.y_px as f32,
+        inv_step: (1.0 / LUT_STEP_PX) as f32,
+        cols_end: (last + 1) as f32,
+        last,
+        turn_tolerance: COORD_TOLERANCE_TEXELS / max_period,
+        columns: &columns,
+        radial: radial.as_deref(),
+        dense_end,
+        points: &kernel::span_points(wu),
+    };
     out_color
         .data_mut()
         .par_chunks_mut(wu)
         .zip(out_depth.data_mut().par_chunks_mut(wu))
         .enumerate()
         .for_each_init(
-            || (vec![0.0f32; wu], vec![0.0f32; wu]),
-            |(us, turns), (y, (row_c, row_d))| {
-                // Pass 1: buffer coordinates of the row's pixels (column u, angle in turns).
-                let dy = y as f32 + 0.5 - cy;
-                let exact = |x: usize| -> (f32, f32) {
-                    let dx = x as f32 + 0.5 - cx;
-                    let t = (dx * dx + dy * dy).sqrt() * inv_step;
-                    let k = (t as usize).min(n - 2);
-                    let f = (t - k as f32).min(1.0);
-                    // (`f > 0` keeps a covered entry next to an uncovered one finite.)
-                    let u = if f > 0.0 {
-                        lut[k] + (lut[k + 1] - lut[k]) * f
-                    } else {
-                        lut[k]
-                    } - 0.5;
-                    // Beyond the buffer (infinite: no sample covers it) or past the last
-                    // column's outer edge: uncovered.
-                    let u = if u <= cols_end {
-                        u.clamp(0.0, lastf)
-                    } else {
-                        f32::INFINITY
-                    };
-                    (u, turn_of(dy, dx))
-                };
-                coordinates_of_row(us, turns, exact, turn_tolerance);
-                // Pass 2: bilinear across the two nearest columns, each read at its angle.
-                for x in 0..wu {
-                    let uc = us[x];
-                    if !uc.is_finite() {
-                        (row_c[x], row_d[x]) = ([0.0; 3], f32::INFINITY);
-                        continue;
-                    }
-                    let i0 = uc as usize;
-                    let i1 = (i0 + 1).min(last);
-                    let fu = uc - i0 as f32;
-                    let [r, g, b, d] =
-                        blend(columns.read(i0, turns[x]), columns.read(i1, turns[x]), fu);
-                    row_d[x] = d;
-                    row_c[x] = match &radial {
-                        Some(t) if t[i0].max(t[i1]) > 1.0 => {
-                            let width = t[i0] + (t[i1] - t[i0]) * fu;
-                            box_across_columns(&columns, uc, width.max(1.0), last, turns[x])
-                        }
-                        _ => [r, g, b],
-                    };
-                }
-            },
+            || rows.scratch(wu),
+            |scratch, (y, (row_c, row_d))| rows.row(kernel, y, scratch, row_c, row_d),
         );
     Ok(())
 }
@@ -447,52 +434,6 @@ pub fn minified_columns(mapping: &dyn FoveationMapping) -> Option<Vec<bool>> {
 /// buffer coordinates by interpolating them linearly between exactly computed pixels.
 pub const COORD_TOLERANCE_TEXELS: f32 = 1.0 / 64.0;
 
-/// Pixels between exactly computed coordinates in pass 1 (a power of two).
-const SPAN: usize = 8;
-
-/// Buffer coordinates `(u, turn)` of every pixel of a row, from `exact(x)`: exact at every
-/// [`SPAN`]-th pixel; in between, linear between the span's ends wherever the exact value at
-/// the span's middle lies within [`COORD_TOLERANCE_TEXELS`] of the line (in `u`, and in the
-/// angle at the largest period), exact otherwise — near the pole, where the coordinates
-/// curve fast, and across the angular wrap, where the angle jumps from 1 back to 0. The
-/// coordinates are smooth elsewhere, so the middle's deviation bounds the span's.
-fn coordinates_of_row(
-    us: &mut [f32],
-    turns: &mut [f32],
-    exact: impl Fn(usize) -> (f32, f32),
-    turn_tolerance: f32,
-) {
-    let w = us.len();
-    if w == 0 {
-        return;
-    }
-    (us[0], turns[0]) = exact(0);
-    let mut x0 = 0;
-    while x0 + 1 < w {
-        let x1 = (x0 + SPAN).min(w - 1);
-        let (u1, t1) = exact(x1);
-        (us[x1], turns[x1]) = (u1, t1);
-        if x1 - x0 >= 2 {
-            let (u0, t0) = (us[x0], turns[x0]);
-            let xm = (x0 + x1) / 2;
-            let (um, tm) = exact(xm);
-            let fm = (xm - x0) as f32 / (x1 - x0) as f32;
-            let linear = (u0 + (u1 - u0) * fm - um).abs() <= COORD_TOLERANCE_TEXELS
-                && (t0 + (t1 - t0) * fm - tm).abs() <= turn_tolerance;
-            let inv = 1.0 / (x1 - x0) as f32;
-            for x in x0 + 1..x1 {
-                (us[x], turns[x]) = if linear {
-                    let f = (x - x0) as f32 * inv;
-                    (u0 + (u1 - u0) * f, t0 + (t1 - t0) * f)
-                } else {
-                    exact(x)
-                };
-            }
-        }
-        x0 = x1;
-    }
-}
-
 /// One column of a polar buffer: where its texels start in [`PolarColumns::texels`], how many
 /// rows it has (they wrap) and its rows per full turn.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -514,6 +455,12 @@ pub struct Column {
 pub struct PolarColumns {
     texels: Vec<[f32; 4]>,
     columns: Vec<Column>,
+    /// [`Column::base`] of every column (the vector kernel gathers these three).
+    bases: Vec<u32>,
+    /// [`Column::rows`] of every column.
+    counts: Vec<u32>,
+    /// [`Column::period`] of every column.
+    periods: Vec<f32>,
 }
 
 impl PolarColumns {
@@ -537,35 +484,64 @@ impl PolarColumns {
             });
             base += rows.max(1) + 2;
         }
-        let mut texels = vec![[0.0, 0.0, 0.0, f32::INFINITY]; base as usize];
-        let mut parts: Vec<(usize, &mut [[f32; 4]])> = Vec::with_capacity(columns.len());
+        // Zeroed by the operating system (lazily, page by page), then every texel written once.
+        let mut texels = crate::alloc::zeroed::<[f32; 4]>(base as usize);
+        // Blocks of neighbouring columns, each its slice of `texels`: reading the buffer's
+        // rows a block wide keeps the reads contiguous while each column is written in order.
+        const BLOCK: usize = 16;
+        let mut parts: Vec<(usize, &mut [[f32; 4]])> = Vec::new();
         let mut rest = texels.as_mut_slice();
-        for (i, (col, &rows)) in columns.iter().zip(&layout.rows).enumerate() {
-            let (head, tail) = rest.split_at_mut(col.rows as usize + 2);
+        for (b, block) in columns.chunks(BLOCK).enumerate() {
+            let len: usize = block.iter().map(|c| c.rows as usize + 2).sum();
+            let (head, tail) = rest.split_at_mut(len);
             rest = tail;
-            if rows > 0 {
-                parts.push((i, head));
-            }
+            parts.push((b * BLOCK, head));
         }
-        parts.into_par_iter().for_each(|(i, dst)| {
-            let rows = dst.len() - 2;
-            let texel = |j: usize| {
-                let c = color.get(i as u32, j as u32);
-                [c[0], c[1], c[2], *depth.get(i as u32, j as u32)]
-            };
-            for (k, t) in dst.iter_mut().enumerate() {
-                *t = texel((k + rows - 1) % rows);
+        parts.into_par_iter().for_each(|(first, dst)| {
+            let n = BLOCK.min(columns.len() - first);
+            let shaded = |c: usize| (layout.rows[first + c].min(bh)) as usize;
+            let mut cols: Vec<&mut [[f32; 4]]> = Vec::with_capacity(n);
+            let mut rest = dst;
+            for c in 0..n {
+                let (head, tail) = rest.split_at_mut(columns[first + c].rows as usize + 2);
+                rest = tail;
+                cols.push(head);
             }
-            // Box width beyond the bilinear lookup's own one row (their convolution spans
-            // the pixel).
-            let extra = rows_per_px.and_then(|r| r.get(i)).map_or(0.0, |&r| r - 1.0);
-            if extra > 1e-3 {
-                box_along_column(&mut dst[1..rows + 1], extra as f64);
-                dst[0] = dst[rows];
-                dst[rows + 1] = dst[1];
+            let max_rows = (0..n).map(shaded).max().unwrap_or(0);
+            for j in 0..max_rows {
+                let crow = &color.row(j as u32)[first..first + n];
+                let drow = &depth.row(j as u32)[first..first + n];
+                for (c, col) in cols.iter_mut().enumerate() {
+                    if j < shaded(c) {
+                        let [r, g, b] = crow[c];
+                        col[1 + j] = [r, g, b, drow[c]];
+                    }
+                }
+            }
+            for (c, col) in cols.into_iter().enumerate() {
+                let rows = shaded(c);
+                if rows == 0 {
+                    col.fill([0.0, 0.0, 0.0, f32::INFINITY]);
+                    continue;
+                }
+                // Box width beyond the bilinear lookup's own one row (their convolution
+                // spans the pixel).
+                let i = first + c;
+                let extra = rows_per_px.and_then(|r| r.get(i)).map_or(0.0, |&r| r - 1.0);
+                if extra > 1e-3 {
+                    box_along_column(&mut col[1..rows + 1], extra as f64);
+                }
+                col[0] = col[rows];
+                col[rows + 1] = col[1];
             }
         });
-        Self { texels, columns }
+        Self {
+            texels,
+            bases: columns.iter().map(|c| c.base).collect(),
+            counts: columns.iter().map(|c| c.rows).collect(),
+            periods: columns.iter().map(|c| c.period).collect(),
+            columns,
+        }
     }
 
     /// The texels `[r, g, b, depth]`, column after column, each column padded by one row
@@ -721,45 +697,6 @@ fn blend(a: [f32; 4], b: [f32; 4], f: f32) -> [f32; 4] {
         a[2] + (b[2] - a[2]) * f,
         if f < 0.5 { a[3] } else { b[3] },
     ]
-}
-
-/// The angle of `(dx, dy)` in turns, in `[0, 1)`.
-#[inline(always)]
-fn turn_of(dy: f32, dx: f32) -> f32 {
-    let t = fast_atan2(dy, dx) * (1.0 / std::f32::consts::TAU);
-    if t < 0.0 {
-        t + 1.0
-    } else {
-        t
-    }
-}
-
-/// `atan2(y, x)` in radians with |error| < 1e-5 (octant reduction and a degree-11 odd
-/// minimax polynomial for atan on [0, 1]); about 5× faster than the libm call, which matters
-/// at tens of millions of pixels per frame.
-#[inline]
-pub fn fast_atan2(y: f32, x: f32) -> f32 {
-    let (ax, ay) = (x.abs(), y.abs());
-    let (mn, mx) = (ax.min(ay), ax.max(ay));
-    // Written with selects rather than branches so that rows of pixels vectorise.
-    let a = if mx > 0.0 { mn / mx } else { 0.0 };
-    let s = a * a;
-    let r = ((((-0.011_719_12 * s + 0.052_653_32) * s - 0.116_432_87) * s + 0.193_543_46) * s
-        - 0.332_623_47)
-        * s
-        * a
-        + 0.999_977_26 * a;
-    let r = if ay > ax {
-        std::f32::consts::FRAC_PI_2 - r
-    } else {
-        r
-    };
-    let r = if x < 0.0 { std::f32::consts::PI - r } else { r };
-    if y < 0.0 {
-        -r
-    } else {
-        r
-    }
 }
 
 /// Shaded rectangle `[i0, i1] × [j0, j1]` of a screen-aligned layer.

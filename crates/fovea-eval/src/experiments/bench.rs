@@ -20,6 +20,7 @@ use fovea_core::units::Metres;
 use fovea_core::Image;
 use fovea_post::dof::coc::coc_map;
 use fovea_post::dof::{DofInput, FilterKind};
+use fovea_post::inverse_map::{reconstruct_into_with_kernel, PolarKernel, SampleBuffers};
 use fovea_post::Rgb;
 use fovea_render::bvh::{self, Backend, Ray};
 use fovea_render::camera::{EyeCamera, HmdRig};
@@ -277,6 +278,142 @@ pub struct StereoTiming {
     pub rep_over_dup_rays: f64,
 }
 
+/// Wall and CPU time of one timed piece of work, best of its repetitions.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct KernelTime {
+    /// Wall milliseconds.
+    pub wall_ms: f64,
+    /// The process's CPU milliseconds, summed over its threads.
+    pub cpu_ms: f64,
+    /// `cpu_ms / wall_ms` (2.0: two cores busy throughout).
+    pub cpu_share: f64,
+}
+
+impl KernelTime {
+    /// The fastest (by CPU time, wall where the CPU clock is missing) of `reps` runs of `f`.
+    fn best_of(reps: u32, mut f: impl FnMut() -> Result<()>) -> Result<Self> {
+        let mut best: Option<Self> = None;
+        for _ in 0..reps.max(1) {
+            let t = Stopwatch::start();
+            f()?;
+            let (wall_ms, cpu_ms) = t.elapsed_ms();
+            let this = Self {
+                wall_ms,
+                cpu_ms,
+                cpu_share: cpu_ms / wall_ms.max(1e-9),
+            };
+            let key = |k: &Self| {
+                if k.cpu_ms.is_finite() {
+                    k.cpu_ms
+                } else {
+                    k.wall_ms
+                }
+            };
+            if best.as_ref().is_none_or(|b| key(&this) < key(b)) {
+                best = Some(this);
+            }
+        }
+        Ok(best.expect("at least one repetition"))
+    }
+}
+
+/// The reconstruct stage of a polar method at memory speed, or not: the lookup on the frame's
+/// mapping and display with each kernel this processor runs (`fovea_post::inverse_map`'s
+/// [`PolarKernel`]s, same buffers, warm), beside the time to merely write the stage's output
+/// (16 bytes per screen pixel: linear RGB and depth as `f32`) into the same buffers — the
+/// floor no reconstruction can beat. Each figure is the best of [`RECONSTRUCT_REPS`].
+#[derive(Clone, Debug, Serialize)]
+pub struct ReconstructTiming {
+    /// Bytes the stage writes.
+    pub output_bytes: u64,
+    /// Writing those bytes, all threads (the write-bandwidth floor).
+    pub write_floor: KernelTime,
+    /// Write bandwidth of the floor, GB/s (wall).
+    pub write_gb_per_s: f64,
+    /// The kernel the renderer uses ([`PolarKernel::detect`]).
+    pub kernel: PolarKernel,
+    /// Each kernel this processor runs: scalar, then vector.
+    pub kernels: Vec<KernelRun>,
+    /// The renderer's kernel over the floor, by CPU time (wall where CPU is missing).
+    pub over_floor: f64,
+}
+
+/// One reconstruction kernel's time.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct KernelRun {
+    /// The kernel.
+    pub kernel: PolarKernel,
+    /// Its time.
+    #[serde(flatten)]
+    pub time: KernelTime,
+}
+
+/// Repetitions of each reconstruction timing (the best is kept).
+pub const RECONSTRUCT_REPS: u32 = 3;
+
+/// [`ReconstructTiming`] of `plan`'s mapping (`None` for mappings without a polar buffer).
+fn time_reconstruct(plan: &FramePlan) -> Result<Option<ReconstructTiming>> {
+    let mapping = plan.mapping();
+    if mapping.polar_layout().is_none() {
+        return Ok(None);
+    }
+    let display = &plan.display;
+    let (w, h) = (display.width_px, display.height_px);
+    let n = w as usize * h as usize;
+    let mut samples = SampleBuffers::random(mapping, 1)?;
+    let mut color = Image::from_vec(w, h, fovea_post::alloc::zeroed::<Rgb>(n))?;
+    let mut depth = Image::from_vec(w, h, fovea_post::alloc::zeroed::<f32>(n))?;
+    let filter = plan.settings.reconstruct_filter;
+    let kernel = PolarKernel::detect();
+    let mut run = |k: PolarKernel, color: &mut Image<Rgb>, depth: &mut Image<f32>| {
+        reconstruct_into_with_kernel(mapping, display, &mut samples, color, depth, filter, k)
+            .map_err(EvalError::from)
+    };
+    // Untimed: faults the output's pages in.
+    run(kernel, &mut color, &mut depth)?;
+    let mut kernels = Vec::new();
+    for k in [PolarKernel::Scalar, PolarKernel::Avx2] {
+        if k.available() {
+            let time = KernelTime::best_of(RECONSTRUCT_REPS, || run(k, &mut color, &mut depth))?;
+            kernels.push(KernelRun { kernel: k, time });
+        }
+    }
+    let wu = w as usize;
+    let write_floor = KernelTime::best_of(RECONSTRUCT_REPS, || {
+        color
+            .data_mut()
+            .par_chunks_mut(wu)
+            .zip(depth.data_mut().par_chunks_mut(wu))
+            .for_each(|(c, d)| {
+                c.fill([0.25, 0.5, 0.75]);
+                d.fill(1.0);
+            });
+        std::hint::black_box((&color, &depth));
+        Ok(())
+    })?;
+    let output_bytes = (n * (std::mem::size_of::<Rgb>() + std::mem::size_of::<f32>())) as u64;
+    let key = |t: &KernelTime| {
+        if t.cpu_ms.is_finite() {
+            t.cpu_ms
+        } else {
+            t.wall_ms
+        }
+    };
+    let used = kernels
+        .iter()
+        .find(|r| r.kernel == kernel)
+        .map(|r| r.time)
+        .expect("the detected kernel is available");
+    Ok(Some(ReconstructTiming {
+        output_bytes,
+        write_gb_per_s: output_bytes as f64 / (write_floor.wall_ms * 1e6).max(1e-9),
+        over_floor: key(&used) / key(&write_floor).max(1e-9),
+        write_floor,
+        kernel,
+        kernels,
+    }))
+}
+
 /// One timed frame and its comparison with the full-resolution frame of the same display.
 #[derive(Clone, Debug, Serialize)]
 pub struct BenchRun {
@@ -292,6 +429,8 @@ pub struct BenchRun {
     pub cpu_share: f64,
     /// Screen buffers allocated during the timed frames (0: reused from the warm-up).
     pub screen_allocations: u64,
+    /// The reconstruct stage's kernels against the write-bandwidth floor (polar methods).
+    pub reconstruct: Option<ReconstructTiming>,
 }
 
 /// Everything a benchmark measured.
@@ -382,6 +521,7 @@ pub fn run(
             let mut ctx = FrameContext::new();
             let mut timed: Vec<FrameStats> = Vec::new();
             let mut allocations_after_warmup = 0;
+            let mut last_plan = None;
             for k in 0..params.warmup + params.frames {
                 if k == params.warmup {
                     allocations_after_warmup = ctx.screen_allocations();
@@ -402,6 +542,7 @@ pub fn run(
                 if k >= params.warmup {
                     timed.push(frame.stats.clone());
                 }
+                last_plan = Some(plan);
             }
             let screen_allocations = ctx.screen_allocations() - allocations_after_warmup;
             timed.sort_by(|a, b| a.total_ms.total_cmp(&b.total_ms));
@@ -431,6 +572,11 @@ pub fn run(
             }
             drop(ctx);
             let steal = steal_fraction(jiffies, machine_jiffies());
+            // After the frames' own timing (its steal window closed above).
+            let reconstruct = match &last_plan {
+                Some(plan) => time_reconstruct(plan)?,
+                None => None,
+            };
             if m == Method::Full {
                 full = Some((stats.total_ms, stats.total_cpu_ms));
             }
@@ -442,6 +588,7 @@ pub fn run(
                 screen_allocations,
                 steal,
                 stats,
+                reconstruct,
             };
             observe(BenchEvent::Run(&run));
             result.runs.push(run);
@@ -526,6 +673,7 @@ impl BenchResult {
                     "machine_steal_fraction": r.steal,
                     "cpu_share": r.cpu_share,
                     "screen_allocations_after_warmup": r.screen_allocations,
+                    "reconstruct_kernels": r.reconstruct,
                 })
             }).collect::<Vec<_>>(),
         })
