@@ -382,13 +382,6 @@ fn print_reconstruct(t: &ReconstructTiming) {
             100.0 * k.cpu_share
         )
     };
-    let cpu = |k: &KernelTime| {
-        if k.cpu_ms.is_finite() {
-            k.cpu_ms
-        } else {
-            k.wall_ms
-        }
-    };
     let kernels: Vec<String> = t
         .kernels
         .iter()
@@ -398,7 +391,7 @@ fn print_reconstruct(t: &ReconstructTiming) {
         (Some(a), Some(b)) if a.kernel != b.kernel => format!(
             " | {} {:.2}x the {} by CPU time",
             b.kernel.name(),
-            cpu(&a.time) / cpu(&b.time),
+            a.time.cost_ms() / b.time.cost_ms(),
             a.kernel.name()
         ),
         _ => String::new(),

@@ -435,8 +435,10 @@ pub fn minified_columns(mapping: &dyn FoveationMapping) -> Option<Vec<bool>> {
 pub const COORD_TOLERANCE_TEXELS: f32 = 1.0 / 64.0;
 
 /// One column of a polar buffer: where its texels start in [`PolarColumns::texels`], how many
-/// rows it has (they wrap) and its rows per full turn.
+/// rows it has (they wrap) and its rows per full turn. `repr(C)`: the vector kernel gathers
+/// the three fields as 32-bit words at a column's index × 3.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct Column {
     /// Index of the column's first stored texel (its last row's copy) in
     /// [`PolarColumns::texels`]; row `j` is stored at `base + 1 + j`.
@@ -455,12 +457,6 @@ pub struct Column {
 pub struct PolarColumns {
     texels: Vec<[f32; 4]>,
     columns: Vec<Column>,
-    /// [`Column::base`] of every column (the vector kernel gathers these three).
-    bases: Vec<u32>,
-    /// [`Column::rows`] of every column.
-    counts: Vec<u32>,
-    /// [`Column::period`] of every column.
-    periods: Vec<f32>,
 }
 
 impl PolarColumns {
@@ -535,13 +531,7 @@ impl PolarColumns {
                 col[rows + 1] = col[1];
             }
         });
-        Self {
-            texels,
-            bases: columns.iter().map(|c| c.base).collect(),
-            counts: columns.iter().map(|c| c.rows).collect(),
-            periods: columns.iter().map(|c| c.period).collect(),
-            columns,
-        }
+        Self { texels, columns }
     }
 
     /// The texels `[r, g, b, depth]`, column after column, each column padded by one row

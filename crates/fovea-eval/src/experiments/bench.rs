@@ -290,6 +290,15 @@ pub struct KernelTime {
 }
 
 impl KernelTime {
+    /// What the bench compares: CPU milliseconds, or wall where the CPU clock is missing.
+    pub fn cost_ms(&self) -> f64 {
+        if self.cpu_ms.is_finite() {
+            self.cpu_ms
+        } else {
+            self.wall_ms
+        }
+    }
+
     /// The fastest (by CPU time, wall where the CPU clock is missing) of `reps` runs of `f`.
     fn best_of(reps: u32, mut f: impl FnMut() -> Result<()>) -> Result<Self> {
         let mut best: Option<Self> = None;
@@ -302,14 +311,7 @@ impl KernelTime {
                 cpu_ms,
                 cpu_share: cpu_ms / wall_ms.max(1e-9),
             };
-            let key = |k: &Self| {
-                if k.cpu_ms.is_finite() {
-                    k.cpu_ms
-                } else {
-                    k.wall_ms
-                }
-            };
-            if best.as_ref().is_none_or(|b| key(&this) < key(b)) {
+            if best.as_ref().is_none_or(|b| this.cost_ms() < b.cost_ms()) {
                 best = Some(this);
             }
         }
@@ -392,13 +394,6 @@ fn time_reconstruct(plan: &FramePlan) -> Result<Option<ReconstructTiming>> {
         Ok(())
     })?;
     let output_bytes = (n * (std::mem::size_of::<Rgb>() + std::mem::size_of::<f32>())) as u64;
-    let key = |t: &KernelTime| {
-        if t.cpu_ms.is_finite() {
-            t.cpu_ms
-        } else {
-            t.wall_ms
-        }
-    };
     let used = kernels
         .iter()
         .find(|r| r.kernel == kernel)
@@ -407,7 +402,7 @@ fn time_reconstruct(plan: &FramePlan) -> Result<Option<ReconstructTiming>> {
     Ok(Some(ReconstructTiming {
         output_bytes,
         write_gb_per_s: output_bytes as f64 / (write_floor.wall_ms * 1e6).max(1e-9),
-        over_floor: key(&used) / key(&write_floor).max(1e-9),
+        over_floor: used.cost_ms() / write_floor.cost_ms().max(1e-9),
         write_floor,
         kernel,
         kernels,

@@ -566,11 +566,14 @@ mod avx2 {
         );
         let fu = _mm256_sub_ps(u, _mm256_cvtepi32_ps(i0));
         let cols = rows.columns;
-        // SAFETY: 0 ≤ i0 ≤ i1 ≤ last < the number of columns.
+        // SAFETY: 0 ≤ i0 ≤ i1 ≤ last < the number of columns, and a `Column` (repr(C)) is
+        // the three 32-bit words base, rows, period.
+        let words = cols.columns.as_ptr() as *const i32;
         let address = |i: __m256i| {
-            let base = _mm256_i32gather_epi32::<4>(cols.bases.as_ptr() as *const i32, i);
-            let count = _mm256_i32gather_epi32::<4>(cols.counts.as_ptr() as *const i32, i);
-            let period = _mm256_i32gather_ps::<4>(cols.periods.as_ptr(), i);
+            let at = _mm256_add_epi32(_mm256_add_epi32(i, i), i);
+            let base = _mm256_i32gather_epi32::<4>(words, at);
+            let count = _mm256_i32gather_epi32::<4>(words.add(1), at);
+            let period = _mm256_i32gather_ps::<4>(words.add(2) as *const f32, at);
             // `PolarColumns::read`: v = turn·period + ½, jf = min(⌊v⌋, rows).
             let v = _mm256_add_ps(_mm256_mul_ps(turn, period), _mm256_set1_ps(0.5));
             let jf = _mm256_min_epu32(_mm256_cvttps_epi32(v), count);
