@@ -43,7 +43,8 @@ pub struct DofCompareArgs {
     #[arg(long, default_value = "384x384")]
     pub window: String,
     /// Rays per pixel of the pinhole frame (pixel-area sampling of both renders when above
-    /// 1, so that scores measure the blur and not aliasing; 1 = pixel centres, as Konrad).
+    /// 1, so that scores measure the blur and not aliasing; 1 = pixel centres, as Konrad),
+    /// and rays per texel of the --cull method's frames.
     #[arg(long, default_value_t = 16)]
     pub pixel_samples: u32,
     /// Extra pinhole pixels on each side of the window for the filters' context.

@@ -142,6 +142,66 @@ fn dof_compare_json_has_every_filter_with_finite_scores() {
     }
 }
 
+/// `dof-compare --cull` renders the method's frames with the pinhole frame's rays per pixel
+/// (per texel), and reports the gap to the same filter on the full-resolution frame.
+#[test]
+fn dof_compare_culling_frames_are_sampled_like_the_pinhole_frame() {
+    let run = |pixel_samples: &str| {
+        let dir = tempfile::tempdir().unwrap();
+        let v = run_json(&[
+            "dof-compare",
+            "--res",
+            "160x160",
+            "--lights",
+            "1",
+            "--window",
+            "48x48",
+            "--margin",
+            "8",
+            "--lens-samples",
+            "4",
+            "--pixel-samples",
+            pixel_samples,
+            "--filters",
+            "gather",
+            "--cases",
+            "near",
+            "--cull",
+            "vafr+gather",
+            "--json",
+            "--out",
+            dir.path().to_str().unwrap(),
+        ]);
+        v["cases"][0].clone()
+    };
+    let (one, four) = (run("1"), run("4"));
+    let rays = |c: &serde_json::Value, i: usize| c["culling"]["primary_rays"][i].as_u64().unwrap();
+    assert_eq!(one["culling"]["rays_per_texel"], 1);
+    assert_eq!(four["culling"]["rays_per_texel"], 4);
+    // One ray per texel (--periphery-rays is 1 by default) against four: 4x the rays, less
+    // the few stratified rays of edge texels that leave the screen (0.1 % here), with and
+    // without culling (culling drops shading, not primary rays).
+    for i in 0..2 {
+        assert!(rays(&one, i) > 1000, "{one}");
+        let ratio = rays(&four, i) as f64 / rays(&one, i) as f64;
+        assert!((3.99..=4.0).contains(&ratio), "{ratio}\n{one}\n{four}");
+    }
+    for c in [&one, &four] {
+        let gather = c["filters"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|f| f["name"] == "gather")
+            .unwrap()["psnr_y_db"]
+            .as_f64()
+            .unwrap();
+        let k = &c["culling"];
+        assert_eq!(k["full_frame_db"].as_f64().unwrap(), gather, "{c}");
+        let gap = k["psnr_with_db"].as_f64().unwrap() - gather;
+        assert!((k["gap_db"].as_f64().unwrap() - gap).abs() < 1e-12, "{c}");
+    }
+}
+
 #[test]
 fn bad_dof_input_is_one_line() {
     // `--dof` is checked by clap, whose line names the option and lists the filters.

@@ -16,7 +16,9 @@
 //! **Culling.** With [`DofCompareParams::culling`], each case also renders whole frames of a
 //! foveation method through the pipeline with one filter, once with and once without Liu's
 //! DOF-aware culling (Eq. 10–11), and scores both in the window against the same reference:
-//! the shading saved and what it costs in luma PSNR.
+//! the shading saved and what it costs in luma PSNR. The frames cast the pinhole frame's rays
+//! per pixel per texel, and when the filter is also among the compared ones the result says
+//! how far the method with culling is from that filter on the full-resolution frame.
 
 use std::time::Instant;
 
@@ -105,6 +107,7 @@ pub struct DofCompareParams {
     pub lens_samples: u32,
     /// Rays per pixel of the pinhole frame; above 1 both renders integrate over the pixel
     /// area (see [`fovea_render::thin_lens`]) so the scores isolate the blur from aliasing.
+    /// The culling's method frames cast as many rays per texel.
     /// 1 to [`MAX_PIXEL_SAMPLES`] and at most `lens_samples`. Default: 16.
     pub pixel_samples: u32,
     /// Shading of both renders. Default: `ShadingMode::NOISE_FREE` (the comparison measures
@@ -259,6 +262,11 @@ pub struct CullingScore {
     pub samples_culled: u64,
     /// `culled / (shaded + culled)`.
     pub saved_fraction: f64,
+    /// Primary rays per texel of both frames: the pinhole frame's `pixel_samples`, so the
+    /// method's frames are sampled like the full-resolution frame the filters are scored on.
+    pub rays_per_texel: u32,
+    /// Primary rays without and with culling.
+    pub primary_rays: [u64; 2],
     /// Shadow rays (towards lights and the environment) without and with culling.
     pub shadow_rays: [u64; 2],
     /// Luma PSNR in the window against the reference, without culling, dB.
@@ -267,6 +275,12 @@ pub struct CullingScore {
     pub psnr_with_db: f64,
     /// `psnr_without_db − psnr_with_db`: what culling costs.
     pub cost_db: f64,
+    /// The same filter on the full-resolution frame, when it is one of the compared filters:
+    /// its luma PSNR in the window, dB.
+    pub full_frame_db: Option<f64>,
+    /// `psnr_with_db − full_frame_db`: what the method with culling loses (negative) or gains
+    /// against the same filter on the full-resolution frame, dB.
+    pub gap_db: Option<f64>,
 }
 
 /// One focus case.
@@ -395,18 +409,31 @@ impl DofComparison {
             s += &table(&c.filters);
             if let Some(k) = &c.culling {
                 s += &format!(
-                    "\nDOF-aware culling, {} + {} (whole frames): {} of {} surface samples culled ({:.1} %), shadow rays {} → {}; window PSNR {} dB without, {} dB with culling (cost {:.2} dB).\n",
+                    "\nDOF-aware culling, {} + {} (whole frames, {} rays per texel): {} of {} surface samples culled ({:.1} %), primary rays {} → {}, shadow rays {} → {}; window PSNR {} dB without, {} dB with culling (cost {:.2} dB)",
                     k.method,
                     k.filter,
+                    k.rays_per_texel,
                     k.samples_culled,
                     k.samples_shaded + k.samples_culled,
                     k.saved_fraction * 100.0,
+                    k.primary_rays[0],
+                    k.primary_rays[1],
                     k.shadow_rays[0],
                     k.shadow_rays[1],
                     fmt_db(k.psnr_without_db),
                     fmt_db(k.psnr_with_db),
                     k.cost_db
                 );
+                s += &match (k.full_frame_db, k.gap_db) {
+                    (Some(f), Some(g)) => format!(
+                        "; {} on the full-resolution frame {} dB, so {} with culling is {:+.2} dB from it.\n",
+                        k.filter,
+                        fmt_db(f),
+                        k.method,
+                        g
+                    ),
+                    _ => ".\n".to_string(),
+                };
             }
         }
         if r.cases.len() > 1 {
@@ -582,6 +609,11 @@ pub fn run(
                 let frame = |cull: bool| {
                     let mut s = FrameSettings::new(method);
                     s.shading = params.shading;
+                    // The filters' input is the pinhole frame at `pixel_samples` rays per
+                    // pixel; the method's frames get as many per texel, so the gap between
+                    // them is the foveation's and the culling's, not one ray's aliasing
+                    // against sixteen.
+                    s.pixel_samples = params.pixel_samples;
                     let mut dof = DofSettings::new(Some(filter), FocusMode::Fixed(focus_m));
                     dof.eye = params.eye;
                     dof.coc_model = params.coc_model;
@@ -606,12 +638,18 @@ pub fn run(
                 let (a, b) = (score(&plain.color), score(&culled.color));
                 let st = &culled.stats;
                 let total = (st.samples_shaded + st.samples_culled).max(1);
+                let full_frame_db = scores
+                    .iter()
+                    .find(|f| f.name == filter.name())
+                    .map(|f| f.psnr_y_db);
                 Some(CullingScore {
                     method: method.name().to_string(),
                     filter: filter.name().to_string(),
                     samples_shaded: st.samples_shaded,
                     samples_culled: st.samples_culled,
                     saved_fraction: st.samples_culled as f64 / total as f64,
+                    rays_per_texel: params.pixel_samples,
+                    primary_rays: [plain.stats.rays_primary, st.rays_primary],
                     shadow_rays: [
                         plain.stats.rays_shadow + plain.stats.rays_environment,
                         st.rays_shadow + st.rays_environment,
@@ -619,6 +657,8 @@ pub fn run(
                     psnr_without_db: a,
                     psnr_with_db: b,
                     cost_db: a - b,
+                    full_frame_db,
+                    gap_db: full_frame_db.map(|f| b - f),
                 })
             }
             None => None,
