@@ -175,6 +175,11 @@ if [ -s "$out/seq/frame_00001.png" ]; then
   truncate -s $((size / 2)) "$out/seq/frame_00001.png"
 fi
 case_ "truncated PNG on sequence resume" 0 '=1 rendered, 2 already there' -- "${seq_args[@]}"
+case_ "--vafr-emax 0.001 (an empty buffer)" 2 '+vafr samples' -- "${R[@]}" --vafr-emax 0.001
+case_ "--vafr-pivots 0:0.001,60:0.001" 2 '+vafr samples' -- "${R[@]}" --vafr-pivots 0:0.001,60:0.001
+case_ "--vafr-pivots 0:1e300,60:4" 2 '+pivots' -- "${R[@]}" --vafr-pivots 0:1e300,60:4
+case_ "fidelity --bands 30,10" 2 '+bands' -- fidelity --res 64x72 --bands 30,10
+case_ "fidelity --res 32768x32768" 0 -- fidelity --res 32768x32768 --methods full --stride 1
 case_ "--weier with --method kfr" 0 '+warning: --weier applies' -- "${R[@]}" --method kfr --weier 10,20,0.2
 case_ "--camera-index 99 (built-in scene)" any -- "${R[@]}" --camera-index 99
 case_ "--camera-index 99 (scene without cameras)" 2 -- "${R[@]}" --scene "$scenes/quad.obj" --camera-index 99

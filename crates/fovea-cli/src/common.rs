@@ -199,6 +199,11 @@ pub struct MethodOptions {
     /// Tangential factor Δ(e) of VaFR: isotropic, radial2x30, or ECC:RATIO pairs.
     #[arg(long)]
     pub tangential: Option<String>,
+    /// VaFR's acuity pivots, ECC:CPD pairs (eccentricity in degrees, the acuity in cycles per
+    /// degree there, piecewise-linear in MAR between them, as the paper's Fig. 5). Default:
+    /// the paper's 0:40,10:10,20:6,30:5,60:4. Higher values sample more densely.
+    #[arg(long)]
+    pub vafr_pivots: Option<String>,
     /// VaFR's largest covered eccentricity in degrees. Default: out to the farthest screen
     /// corner from the gaze, so every pixel has samples. The paper's 60 leaves the pixels
     /// beyond it without samples: they render black.
@@ -220,7 +225,7 @@ impl MethodOptions {
     /// weier, `--delta` without kfr/lafr, …): the option is ignored, not an error.
     pub fn inapplicable(&self, methods: &[Method]) -> Vec<String> {
         let uses = |wanted: &[Method]| methods.iter().any(|m| wanted.contains(m));
-        let checks: [(&str, bool, &[Method], &str); 7] = [
+        let checks: [(&str, bool, &[Method], &str); 8] = [
             (
                 "delta",
                 self.delta.is_some(),
@@ -231,6 +236,12 @@ impl MethodOptions {
             (
                 "tangential",
                 self.tangential.is_some(),
+                &[Method::Vafr],
+                "vafr",
+            ),
+            (
+                "vafr-pivots",
+                self.vafr_pivots.is_some(),
                 &[Method::Vafr],
                 "vafr",
             ),
@@ -286,6 +297,9 @@ impl MethodOptions {
         }
         if let Some(t) = &self.tangential {
             config.vafr.tangential = TangentialFactor::parse(t)?;
+        }
+        if let Some(p) = &self.vafr_pivots {
+            config.vafr.acuity = AcuityModel::parse_pivots(p).context("reading --vafr-pivots")?;
         }
         if let Some(e) = self.vafr_emax {
             config.vafr.max_eccentricity = fovea_core::mapping::Coverage::Fixed(Degrees(e));

@@ -13,6 +13,7 @@ mod demo;
 mod dof_args;
 mod dof_compare;
 mod exposure_args;
+mod fidelity;
 mod flicker;
 mod inset_analysis;
 mod optics;
@@ -45,6 +46,9 @@ enum Command {
     Curves(curves::CurvesArgs),
     /// Print samples per eye of every method at 2K…retinal (VaFR Table 1).
     Table(table::TableArgs),
+    /// How coarse each method's texels are against the acuity model at every pixel's true
+    /// eccentricity, per band, at several gazes (1 = acuity-consistent).
+    Fidelity(Box<fidelity::FidelityArgs>),
     /// Print the eye's depth-of-field limits and circles of confusion for a focus distance.
     Optics(optics::OpticsArgs),
     /// Ray-trace one frame of a scene through a foveation method (PNG/EXR, depth and
@@ -141,6 +145,7 @@ fn main() -> ExitCode {
         Command::Demo(a) => demo::run(a),
         Command::Curves(a) => curves::run(a),
         Command::Table(a) => table::run(a),
+        Command::Fidelity(a) => fidelity::run(*a),
         Command::Optics(a) => optics::run(a),
         Command::Render(a) => render::run(*a),
         Command::Bench(a) => bench::run(*a),

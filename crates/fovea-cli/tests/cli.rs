@@ -139,6 +139,15 @@ fn invalid_parameters_fail_in_one_line() {
         (&["table", "--delta", "0.5"], "delta"),
         (&["curves", "--delta", "0.9"], "delta"),
         (&["curves", "--tangential", "0:1,30:2"], "tangential"),
+        (
+            &["table", "--vafr-pivots", "0:40,20:10,10:6"],
+            "--vafr-pivots",
+        ),
+        (&["table", "--vafr-pivots", "0:40,20:nan"], "--vafr-pivots"),
+        (&["fidelity", "--gazes", "nan,3"], "gaze"),
+        (&["fidelity", "--gazes", ";"], "gazes"),
+        (&["fidelity", "--bands", "30,10"], "bands"),
+        (&["fidelity", "--methods", "liu-hybrid"], "method"),
         (&["curves", "--weier", "20,10,0.2"], "r1"),
         (&["curves", "--inset", "sideways"], "inset"),
     ];
@@ -149,6 +158,71 @@ fn invalid_parameters_fail_in_one_line() {
         assert!(err.contains(needle), "{args:?}: {err}");
         assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
         assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+}
+
+/// `--vafr-pivots` sets VaFR's acuity: doubling every pivot's cpd halves the MAR everywhere,
+/// so the radial extent `u(e) = ∫ 2/ω` and each ring's texels double: 4x the samples, up to
+/// the rounding of the buffer's columns and rows.
+#[test]
+fn vafr_pivots_set_the_buffer_density() {
+    let samples = |extra: &[&str]| {
+        let o = fovea()
+            .args([
+                "table",
+                "--headsets",
+                "vive-pro-eye",
+                "--methods",
+                "vafr",
+                "--json",
+            ])
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        v[0]["samples"].as_u64().unwrap()
+    };
+    let default = samples(&[]);
+    assert_eq!(
+        samples(&["--vafr-pivots", "0:40,10:10,20:6,30:5,60:4"]),
+        default
+    );
+    let ratio = samples(&["--vafr-pivots", "0:80,10:20,20:12,30:10,60:8"]) as f64 / default as f64;
+    assert!((3.95..=4.05).contains(&ratio), "{ratio}");
+}
+
+/// `fovea fidelity`: VaFR at the centre gaze samples at its acuity's Nyquist spacing radially
+/// (its Eq. 3 is exact there), and `--vafr-pivots` with twice the acuity halves the spacing.
+#[test]
+fn fidelity_json_shows_vafr_radially_acuity_consistent_at_the_centre() {
+    let run = |extra: &[&str]| {
+        let o = fovea()
+            .args(["fidelity", "--headset", "vive-pro-eye", "--methods", "vafr"])
+            .args(["--gazes", "720,800", "--stride", "8", "--json"])
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()
+    };
+    let v = run(&[]);
+    let bands = v[0]["bands"].as_array().unwrap();
+    assert_eq!(bands.len(), 5, "{v}");
+    let share: f64 = bands
+        .iter()
+        .map(|b| b["pixel_fraction"].as_f64().unwrap())
+        .sum();
+    assert!((share - 1.0).abs() < 1e-9, "{v}");
+    for b in bands {
+        let u = b["u_median"].as_f64().unwrap();
+        assert!((u - 1.0).abs() < 0.02, "{b}");
+        assert_eq!(b["unsampled_fraction"].as_f64().unwrap(), 0.0, "{b}");
+    }
+    let dense = run(&["--vafr-pivots", "0:80,10:20,20:12,30:10,60:8"]);
+    for b in dense[0]["bands"].as_array().unwrap() {
+        let u = b["u_median"].as_f64().unwrap();
+        assert!((u - 0.5).abs() < 0.01, "{b}");
     }
 }
 

@@ -91,6 +91,8 @@ fn options_of_another_method_are_ignored_with_a_warning() {
         "full",
         "--vafr-emax",
         "60",
+        "--vafr-pivots",
+        "0:40,60:4",
         "--tangential",
         "isotropic",
         "--delta",
@@ -101,7 +103,14 @@ fn options_of_another_method_are_ignored_with_a_warning() {
         "fixed",
     ];
     let err = accepted(&render(dir.path(), &args), &args);
-    for flag in ["vafr-emax", "tangential", "delta", "kfr-alpha", "inset"] {
+    for flag in [
+        "vafr-emax",
+        "vafr-pivots",
+        "tangential",
+        "delta",
+        "kfr-alpha",
+        "inset",
+    ] {
         assert!(
             err.contains(&format!("warning: --{flag} applies to --method ")),
             "{flag}: {err}"

@@ -306,14 +306,7 @@ impl DisplayProfile {
     /// for the rectilinear target with the eye on the optical axis through the principal point.
     /// Equals [`Self::eccentricity`] when the gaze is at the principal point.
     pub fn eccentricity_exact(&self, p: ScreenPoint, g: &Gaze) -> Degrees {
-        let c = self.principal_point();
-        let (fx, fy) = (self.focal_x_px(), self.focal_y_px());
-        let dir = |q: ScreenPoint| {
-            let v = [(q.x_px - c.x_px) / fx, (q.y_px - c.y_px) / fy, 1.0];
-            let n = (v[0] * v[0] + v[1] * v[1] + 1.0).sqrt();
-            [v[0] / n, v[1] / n, v[2] / n]
-        };
-        let (a, b) = (dir(p), dir(g.point));
+        let (a, b) = (self.eye_direction(p), self.eye_direction(g.point));
         let cross = [
             a[1] * b[2] - a[2] * b[1],
             a[2] * b[0] - a[0] * b[2],
@@ -322,6 +315,19 @@ impl DisplayProfile {
         let sin = (cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]).sqrt();
         let cos = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
         Degrees(sin.atan2(cos).to_degrees())
+    }
+
+    /// The unit direction of the eye's ray through screen point `p` (eye space: `x` right,
+    /// `y` down the screen, `z` along the optical axis through the principal point).
+    pub fn eye_direction(&self, p: ScreenPoint) -> [f64; 3] {
+        let c = self.principal_point();
+        let v = [
+            (p.x_px - c.x_px) / self.focal_x_px(),
+            (p.y_px - c.y_px) / self.focal_y_px(),
+            1.0,
+        ];
+        let n = (v[0] * v[0] + v[1] * v[1] + 1.0).sqrt();
+        [v[0] / n, v[1] / n, v[2] / n]
     }
 
     /// Distance in pixels from the gaze point to the farthest screen corner.

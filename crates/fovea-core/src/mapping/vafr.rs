@@ -108,6 +108,16 @@ impl Vafr {
             .collect();
         let height = rows.iter().copied().max().unwrap_or(0);
         let count = rows.iter().map(|&r| r as u64).sum();
+        if count == 0 {
+            return Err(crate::error::FoveaError::invalid(
+                "vafr samples",
+                0,
+                format!(
+                    "at least one: the buffer reaches {e_max:.4}°, u(e_max) = {u_max:.3} texels \
+                     (raise --vafr-emax or the cpd of --vafr-pivots)"
+                ),
+            ));
+        }
         Ok(Self {
             params,
             e_max,
@@ -278,6 +288,27 @@ impl FoveationMapping for Vafr {
 mod tests {
     use super::*;
     use crate::display::VAFR_TEST_PRESETS;
+
+    #[test]
+    fn an_empty_buffer_is_a_typed_error() {
+        let d = DisplayProfile::preset("vive-pro-eye").unwrap();
+        let g = d.centre_gaze();
+        let tiny = VafrParams {
+            max_eccentricity: Coverage::Fixed(Degrees(0.001)),
+            ..VafrParams::default()
+        };
+        let blind = VafrParams {
+            acuity: AcuityModel::parse_pivots("0:0.001,60:0.001").unwrap(),
+            ..VafrParams::default()
+        };
+        for p in [tiny, blind] {
+            let e = Vafr::new(&d, g, p).unwrap_err().to_string();
+            assert!(
+                e.contains("`vafr samples` = 0") && e.contains("--vafr-pivots"),
+                "{e}"
+            );
+        }
+    }
 
     #[test]
     fn sample_count_is_constant_across_resolutions_and_gazes() {
