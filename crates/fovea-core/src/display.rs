@@ -306,15 +306,10 @@ impl DisplayProfile {
     /// for the rectilinear target with the eye on the optical axis through the principal point.
     /// Equals [`Self::eccentricity`] when the gaze is at the principal point.
     pub fn eccentricity_exact(&self, p: ScreenPoint, g: &Gaze) -> Degrees {
-        let (a, b) = (self.eye_direction(p), self.eye_direction(g.point));
-        let cross = [
-            a[1] * b[2] - a[2] * b[1],
-            a[2] * b[0] - a[0] * b[2],
-            a[0] * b[1] - a[1] * b[0],
-        ];
-        let sin = (cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]).sqrt();
-        let cos = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-        Degrees(sin.atan2(cos).to_degrees())
+        Degrees(crate::math::angle_between_deg(
+            self.eye_direction(p),
+            self.eye_direction(g.point),
+        ))
     }
 
     /// The unit direction of the eye's ray through screen point `p` (eye space: `x` right,

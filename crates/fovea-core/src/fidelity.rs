@@ -27,6 +27,7 @@ use crate::acuity::AcuityModel;
 use crate::display::{DisplayProfile, Gaze};
 use crate::error::{FoveaError, Result};
 use crate::mapping::{FoveationMapping, SamplePoint};
+use crate::math::{angle_between_deg, cross3, norm3, sub3};
 use crate::units::ScreenPoint;
 
 /// A texel's coarseness at one screen pixel.
@@ -52,6 +53,18 @@ pub fn coarseness_at(
     acuity: &AcuityModel,
     p: ScreenPoint,
 ) -> Option<Coarseness> {
+    let e = display.eccentricity_exact(p, gaze).0;
+    coarseness_at_eccentricity(mapping, display, acuity, p, e)
+}
+
+/// [`coarseness_at`] with the pixel's true eccentricity `e_deg` already known.
+fn coarseness_at_eccentricity(
+    mapping: &dyn FoveationMapping,
+    display: &DisplayProfile,
+    acuity: &AcuityModel,
+    p: ScreenPoint,
+    e_deg: f64,
+) -> Option<Coarseness> {
     let s = mapping.forward(p)?;
     let here = display.eye_direction(p);
     // The neighbouring sample point one texel along (du, dv), the far side at the buffer's edge.
@@ -70,37 +83,14 @@ pub fn coarseness_at(
     // spacing is the distance between neighbouring lines of constant u: the u-step's angle
     // times the sine of its angle to the v-step (polar buffers whose columns hold different
     // numbers of rows shift the angle from column to column; a tensor grid has no shear).
-    let (a, b) = (sub(qu, here), sub(qv, here));
-    let sin_shear = norm(cross(a, b)) / (norm(a) * norm(b));
-    let e = display.eccentricity_exact(p, gaze).0;
-    let nyquist_deg = acuity.mar_deg(e) / 2.0;
+    let (a, b) = (sub3(qu, here), sub3(qv, here));
+    let sin_shear = norm3(cross3(a, b)) / (norm3(a) * norm3(b));
+    let nyquist_deg = acuity.mar_deg(e_deg) / 2.0;
     Some(Coarseness {
-        eccentricity_deg: e,
-        u: angle_deg(here, qu) * sin_shear / nyquist_deg,
-        v: angle_deg(here, qv) / nyquist_deg,
+        eccentricity_deg: e_deg,
+        u: angle_between_deg(here, qu) * sin_shear / nyquist_deg,
+        v: angle_between_deg(here, qv) / nyquist_deg,
     })
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn norm(a: [f64; 3]) -> f64 {
-    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
-}
-
-/// Angle between two unit vectors, degrees (`atan2(|a×b|, a·b)`, accurate at small angles).
-fn angle_deg(a: [f64; 3], b: [f64; 3]) -> f64 {
-    let cos = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-    norm(cross(a, b)).atan2(cos).to_degrees()
 }
 
 /// The coarseness over one band of true eccentricity.
@@ -166,7 +156,7 @@ pub fn coarseness_by_band(
                 continue;
             };
             counts[b] += 1;
-            if let Some(c) = coarseness_at(mapping, display, gaze, acuity, p) {
+            if let Some(c) = coarseness_at_eccentricity(mapping, display, acuity, p, e) {
                 us[b].push(c.u);
                 vs[b].push(c.v);
             }

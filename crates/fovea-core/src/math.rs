@@ -1,4 +1,5 @@
-//! Small numerical helpers: the Lambert W function and low-discrepancy sequences.
+//! Small numerical helpers: the Lambert W function, low-discrepancy sequences, and the few
+//! 3-vector operations the display geometry needs (eye rays, the angle between them).
 
 /// Principal branch `W₀(x)` of the Lambert W function for `x ≥ −1/e`: the `w ≥ −1` with
 /// `w·eʷ = x`. Halley iteration from a branch-point series or log start; accurate to ~1e-15.
@@ -69,6 +70,32 @@ pub fn mix64(mut z: u64) -> u64 {
 /// `mix64(seed)` as a float in [0, 1).
 pub fn unit_from_seed(seed: u64) -> f64 {
     (mix64(seed) >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// `a − b`.
+pub fn sub3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// `a × b`.
+pub fn cross3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// `|a|`.
+pub fn norm3(a: [f64; 3]) -> f64 {
+    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
+}
+
+/// The angle between two unit vectors in degrees, `atan2(|a×b|, a·b)` (accurate at small
+/// angles, where `acos(a·b)` is not).
+pub fn angle_between_deg(a: [f64; 3], b: [f64; 3]) -> f64 {
+    let cos = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    norm3(cross3(a, b)).atan2(cos).to_degrees()
 }
 
 #[cfg(test)]
