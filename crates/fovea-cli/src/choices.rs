@@ -300,6 +300,24 @@ impl From<VpInverse> for VisualPolarInverse {
     }
 }
 
+/// `--vafr-rings`: how VaFR sizes its rings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum VafrRingsChoice {
+    /// At the true eccentricity of every screen point a ring crosses (default).
+    Exact,
+    /// The paper's Eq. 3 (the gaze as the optical axis).
+    Eq3,
+}
+
+impl From<VafrRingsChoice> for fovea_core::mapping::VafrRings {
+    fn from(v: VafrRingsChoice) -> Self {
+        match v {
+            VafrRingsChoice::Eq3 => Self::Eq3,
+            VafrRingsChoice::Exact => Self::Exact,
+        }
+    }
+}
+
 /// `--inset`: where the inset sits.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum InsetPlacement {

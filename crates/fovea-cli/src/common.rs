@@ -13,7 +13,8 @@ use fovea_render::pipeline::FrameSettings;
 use fovea_render::settings::{DEFAULT_PERIPHERY_RAYS, MAX_PIXEL_SAMPLES};
 
 use crate::choices::{
-    self, Headset, InsetPlacement, InsetSmoothing, ReconstructFilterChoice, VpInverse,
+    self, Headset, InsetPlacement, InsetSmoothing, ReconstructFilterChoice, VafrRingsChoice,
+    VpInverse,
 };
 
 /// Which display to use: a preset or a resolution with a field of view.
@@ -209,6 +210,12 @@ pub struct MethodOptions {
     /// beyond it without samples: they render black.
     #[arg(long)]
     pub vafr_emax: Option<f64>,
+    /// How VaFR sizes its rings: exact (default: each ring at the true eccentricity of the
+    /// screen points it crosses, texels off the screen unshaded; acuity-consistent at every
+    /// gaze) or eq3 (the paper's Eq. 3, the gaze taken as the optical axis: the same buffer at
+    /// every gaze, up to 4x too coarse far from a corner gaze; equal to exact at the centre).
+    #[arg(long, value_enum, ignore_case = true)]
+    pub vafr_rings: Option<VafrRingsChoice>,
     /// Visual-polar inverse CDF: exact (Lambert W) or paper-fit (Liu Eq. 3).
     #[arg(long, value_enum, ignore_case = true)]
     pub vp_inverse: Option<VpInverse>,
@@ -225,7 +232,7 @@ impl MethodOptions {
     /// weier, `--delta` without kfr/lafr, …): the option is ignored, not an error.
     pub fn inapplicable(&self, methods: &[Method]) -> Vec<String> {
         let uses = |wanted: &[Method]| methods.iter().any(|m| wanted.contains(m));
-        let checks: [(&str, bool, &[Method], &str); 8] = [
+        let checks: [(&str, bool, &[Method], &str); 9] = [
             (
                 "delta",
                 self.delta.is_some(),
@@ -248,6 +255,12 @@ impl MethodOptions {
             (
                 "vafr-emax",
                 self.vafr_emax.is_some(),
+                &[Method::Vafr],
+                "vafr",
+            ),
+            (
+                "vafr-rings",
+                self.vafr_rings.is_some(),
                 &[Method::Vafr],
                 "vafr",
             ),
@@ -303,6 +316,9 @@ impl MethodOptions {
         }
         if let Some(e) = self.vafr_emax {
             config.vafr.max_eccentricity = fovea_core::mapping::Coverage::Fixed(Degrees(e));
+        }
+        if let Some(r) = self.vafr_rings {
+            config.vafr.rings = r.into();
         }
         if let Some(v) = self.vp_inverse {
             config.visual_polar.inverse = v.into();

@@ -173,10 +173,11 @@ fn calibrate(headsets: &[String], json: bool, quiet: bool) -> Result<()> {
         let cap = d.nyquist_cpd();
         let capped = AcuityModel::vafr_default().headset_capped(CyclesPerDegree(cap))?;
         let count = |acuity: AcuityModel, tangential: TangentialFactor| -> Result<u64> {
+            // The paper's Eq. 3 rings: the whole buffer, as Sec. 3.3 counts it.
             let p = VafrParams {
                 acuity,
                 tangential,
-                ..Default::default()
+                ..VafrParams::eq3()
             };
             Ok(fovea_core::mapping::FoveationMapping::sample_count(
                 &Vafr::new(&d, d.centre_gaze(), p)?,

@@ -30,13 +30,14 @@ fn table_json_reproduces_vafr_table1() {
             r["method"].as_str().unwrap().to_lowercase()
         );
     }
-    // VaFR as the paper sizes it (60°): 1,061,734 ± 0.1 % at every resolution. Covering the
-    // whole screen at a centred gaze (corners at 63.9°) costs ~3.5 % more, also constant.
+    // VaFR as the paper sizes it (60°): 1,061,734 ± 0.1 % at every resolution. The default
+    // covers the whole screen at a centred gaze (corners at 63.9°, +3.5 % of rings) but shades
+    // only the texels on it: 5.8 % fewer than the paper's, the same at every resolution.
     for w in [2560, 3840, 5760, 7680, 11520] {
         let n = find("vafr(60°)", w)["samples"].as_f64().unwrap();
         assert!((n - 1_061_734.0).abs() / 1_061_734.0 < 1e-3, "{w}: {n}");
         let screen = find("vafr", w)["samples"].as_f64().unwrap();
-        assert!((screen / n - 1.035).abs() < 0.005, "{w}: {screen}");
+        assert!((screen / n - 0.942).abs() < 0.003, "{w}: {screen}");
     }
     // LaFR(2.2): 761K at 2K and 15,423K at retinal (thousands, truncated as in Table 1).
     assert_eq!(

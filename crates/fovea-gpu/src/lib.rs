@@ -24,7 +24,7 @@
 //!
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let display = DisplayProfile::preset("vive-pro-eye")?;
-//! let vafr = Vafr::new(&display, display.gaze(700.0, 820.0)?, VafrParams::default())?;
+//! let vafr = Vafr::new(&display, display.gaze(700.0, 820.0)?, VafrParams::eq3())?;
 //! match BackendChoice::Auto.resolve(&GpuRequest::default())? {
 //!     Resolved::Gpu(ctx) => {
 //!         let gpu = GpuMapping::vafr(&ctx, &vafr)?;

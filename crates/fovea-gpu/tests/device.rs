@@ -78,7 +78,7 @@ fn a_lost_device_is_an_error_not_a_panic() {
         return;
     };
     let d = DisplayProfile::preset("vive-pro-eye").unwrap();
-    let v = Vafr::new(&d, d.centre_gaze(), VafrParams::default()).unwrap();
+    let v = Vafr::new(&d, d.centre_gaze(), VafrParams::eq3()).unwrap();
     let gpu = GpuMapping::vafr(&ctx, &v).unwrap();
     assert!(gpu.forward(&[[100.5, 200.5]]).unwrap()[0].is_some());
     ctx.device().destroy();

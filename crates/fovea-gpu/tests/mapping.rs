@@ -18,7 +18,7 @@ mod common;
 use fovea_core::acuity::{AcuityModel, TangentialFactor};
 use fovea_core::display::{DisplayProfile, Gaze};
 use fovea_core::mapping::{
-    Coverage, FoveationMapping, Kfr, KfrParams, SamplePoint, Vafr, VafrParams,
+    Coverage, FoveationMapping, Kfr, KfrParams, SamplePoint, Vafr, VafrParams, VafrRings,
 };
 use fovea_core::units::{CyclesPerDegree, Degrees, ScreenPoint};
 use fovea_gpu::GpuMapping;
@@ -324,7 +324,7 @@ fn kfr_polar(k: &Kfr) -> Polar<'_> {
 
 fn vafr_variants(d: &DisplayProfile) -> Vec<(&'static str, VafrParams)> {
     vec![
-        ("vafr", VafrParams::default()),
+        ("vafr", VafrParams::eq3()),
         ("vafr-paper-60deg", VafrParams::paper()),
         (
             "vafr-capped-anisotropic",
@@ -334,6 +334,7 @@ fn vafr_variants(d: &DisplayProfile) -> Vec<(&'static str, VafrParams)> {
                     .unwrap(),
                 tangential: TangentialFactor::radial_twice_at_30(),
                 max_eccentricity: Coverage::Fixed(Degrees(75.0)),
+                rings: VafrRings::Eq3,
             },
         ),
     ]
@@ -409,7 +410,7 @@ fn non_finite_and_empty_inputs_have_no_sample() {
         return;
     };
     let d = DisplayProfile::preset("vive-pro-eye").unwrap();
-    let v = Vafr::new(&d, d.centre_gaze(), VafrParams::default()).unwrap();
+    let v = Vafr::new(&d, d.centre_gaze(), VafrParams::eq3()).unwrap();
     let gpu = GpuMapping::vafr(&ctx, &v).unwrap();
     assert!(gpu.forward(&[]).unwrap().is_empty());
     let got = gpu

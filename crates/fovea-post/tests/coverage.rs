@@ -22,6 +22,7 @@ use fovea_core::display::{DisplayProfile, Gaze};
 use fovea_core::mapping::footprint::SpacingLut;
 use fovea_core::mapping::{
     build, Coverage, FoveationMapping, MappingConfig, Method, PolarLayout, SamplePoint, VafrParams,
+    VafrRings,
 };
 use fovea_core::units::{Degrees, ScreenPoint};
 use fovea_core::Image;
@@ -264,8 +265,29 @@ fn every_method_covers_the_screen_at_every_gaze() {
                 }
             }
         }
+        // VaFR with its rings at the true eccentricity, whose off-screen texels are unshaded.
+        for g in gazes(&d) {
+            let m = build(Method::Vafr, &d, g, &exact_rings()).unwrap();
+            let (n, worst) = mapping_failures(&d, g, m.as_ref(), &px);
+            if n > 0 {
+                report.push(format!(
+                    "{} vafr --vafr-rings exact gaze ({:.0},{:.0}): {n} uncovered, worst {worst:?}",
+                    d.name, g.point.x_px, g.point.y_px,
+                ));
+            }
+        }
     }
     assert!(report.is_empty(), "{}", report.join("\n"));
+}
+
+fn exact_rings() -> MappingConfig {
+    MappingConfig {
+        vafr: VafrParams {
+            rings: VafrRings::Exact,
+            ..Default::default()
+        },
+        ..Default::default()
+    }
 }
 
 #[test]
@@ -358,6 +380,13 @@ fn the_reconstruction_never_stretches_a_ring_over_the_screen() {
                 report.push(format!("{method} at ({gx},{gy}): {n} pixels"));
             }
         }
+        // Every pixel reads shaded texels only, though off-screen ones are skipped.
+        let n = reconstruction_failures(&d, g, &exact_rings(), Method::Vafr);
+        if n > 0 {
+            report.push(format!(
+                "vafr --vafr-rings exact at ({gx},{gy}): {n} pixels"
+            ));
+        }
     }
     assert!(report.is_empty(), "{}", report.join("\n"));
     // Negative control: the paper's 60° buffer at the off-centre gaze leaves a large part of
@@ -365,7 +394,7 @@ fn the_reconstruction_never_stretches_a_ring_over_the_screen() {
     let paper = MappingConfig {
         vafr: VafrParams {
             max_eccentricity: Coverage::Fixed(Degrees(60.0)),
-            ..Default::default()
+            ..VafrParams::eq3()
         },
         ..Default::default()
     };

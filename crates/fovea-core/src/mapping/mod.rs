@@ -30,6 +30,7 @@ pub mod lafr;
 mod layered;
 mod log_polar;
 pub mod vafr;
+mod vafr_rings;
 pub mod visual_polar;
 pub mod weier;
 
@@ -39,7 +40,7 @@ pub use inset::{Inset, InsetParams};
 pub use kfr::{Kfr, KfrParams};
 pub use lafr::{Lafr, LafrParams};
 pub use log_polar::LogPolarGeometry;
-pub use vafr::{Vafr, VafrParams};
+pub use vafr::{Vafr, VafrParams, VafrRings};
 pub use visual_polar::{VisualPolar, VisualPolarInverse, VisualPolarParams};
 pub use weier::{RadialDensity, WeierParams, WeierSparse};
 
@@ -204,7 +205,8 @@ pub struct PolarLayout {
     pub centre: ScreenPoint,
     /// Buffer rows per full turn for every column (continuous; VaFR: `l(e)`, KFR: `H/δ`).
     pub period: Vec<f64>,
-    /// Shaded rows of every column.
+    /// Rows of every column: all shaded, but where a mapping leaves the texels off the screen
+    /// unshaded (VaFR's exact rings; ask [`FoveationMapping::is_shaded`]).
     pub rows: Vec<u32>,
 }
 

@@ -21,8 +21,10 @@
 //! `∫₀⁶⁰ l(e)·du/de de = 1,061,734` (the paper: 1,061,735). Covering the screen costs more:
 //! 64° (a centred gaze on a 16:9 90°-vertical display, the paper's own figure) adds ~3.5 %.
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::vafr_rings::RingProfile;
 use super::{
     from_polar_deg, polar_deg, tangential_denominator, BufferSize, Coverage, FoveationMapping,
     Method, SamplePoint, MAX_COVERAGE_DEG,
@@ -43,6 +45,35 @@ pub struct VafrParams {
     /// a fixed eccentricity (the paper's 60°, Sec. 3.2.2: screen points beyond it then have
     /// no sample and reconstruct black).
     pub max_eccentricity: Coverage,
+    /// How the rings are sized: at the true eccentricity of every screen point they cross
+    /// (default) or by the paper's Eq. 3 ([`VafrRings::Eq3`]).
+    #[serde(default)]
+    pub rings: VafrRings,
+}
+
+/// How VaFR sizes its rings (the buffer's columns) on the screen.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum VafrRings {
+    /// The paper's Eq. 3, `e = atan(c_r·r)`: the gaze treated as the optical axis. Exact at a
+    /// centred gaze; from a corner the far rings are up to 4× coarser than the acuity model.
+    Eq3,
+    /// Every ring sized by the worst point of its on-screen arc at that point's true
+    /// eccentricity (`vafr_rings.rs`); texels off the screen are not shaded. Equal to
+    /// [`VafrRings::Eq3`] at a centred gaze, but for those texels. The GPU mapping shader
+    /// (`fovea_gpu::GpuMapping::vafr`) evaluates Eq. 3 only.
+    #[default]
+    Exact,
+}
+
+impl VafrRings {
+    /// The name used on the command line and in JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            VafrRings::Eq3 => "eq3",
+            VafrRings::Exact => "exact",
+        }
+    }
 }
 
 impl Default for VafrParams {
@@ -51,15 +82,25 @@ impl Default for VafrParams {
             acuity: AcuityModel::vafr_default(),
             tangential: TangentialFactor::isotropic(),
             max_eccentricity: Coverage::Screen,
+            rings: VafrRings::Exact,
         }
     }
 }
 
 impl VafrParams {
-    /// The paper's configuration: default pivots, isotropic, a fixed 60° buffer.
+    /// The paper's configuration: default pivots, isotropic, Eq. 3's rings, a fixed 60° buffer.
     pub fn paper() -> Self {
         Self {
             max_eccentricity: Coverage::Fixed(Degrees(60.0)),
+            ..Self::eq3()
+        }
+    }
+
+    /// The defaults with the paper's Eq. 3 rings (the gaze taken as the optical axis): the
+    /// buffer, and its sample count, the same at every gaze.
+    pub fn eq3() -> Self {
+        Self {
+            rings: VafrRings::Eq3,
             ..Self::default()
         }
     }
@@ -74,10 +115,18 @@ pub struct Vafr {
     c_r: f64,
     gaze: ScreenPoint,
     u_max: f64,
-    /// Shaded rows per buffer column.
+    /// Rows per buffer column (all shaded with [`VafrRings::Eq3`]).
     rows: Vec<u32>,
     height: u32,
     count: u64,
+    /// With [`VafrRings::Exact`]: the ring table and each column's shaded runs of rows.
+    exact: Option<ExactRings>,
+}
+
+#[derive(Clone, Debug)]
+struct ExactRings {
+    profile: RingProfile,
+    runs: Vec<Vec<(u32, u32)>>,
 }
 
 impl Vafr {
@@ -89,16 +138,31 @@ impl Vafr {
             check_range_open_lo("max_eccentricity", e.0, 0.0, MAX_COVERAGE_DEG)?;
         }
         let e_max = params.max_eccentricity.resolve(display, &gaze);
-        let u_max = params.acuity.u_of_e(e_max);
+        let profile = (params.rings == VafrRings::Exact).then(|| {
+            // Out to the farthest corner; a fixed e_max (Eq. 3's radius) may stop short of it.
+            let screen = display.farthest_corner_px(&gaze) + 1.0;
+            let r_max = match params.max_eccentricity {
+                Coverage::Screen => screen,
+                Coverage::Fixed(_) => (e_max.to_radians().tan() / display.c_r()).min(screen),
+            };
+            RingProfile::new(display, &gaze, &params.acuity, &params.tangential, r_max)
+        });
+        let u_max = match &profile {
+            Some(p) => p.u_max(),
+            None => params.acuity.u_of_e(e_max),
+        };
         let n_cols = if u_max >= 0.5 {
             (u_max - 0.5).floor() as u32 + 1
         } else {
             0
         };
+        let period_at = |u: f64| match &profile {
+            Some(p) => p.period_of_r(p.r_of_u(u)),
+            None => shading_height(&params, params.acuity.e_of_u(u)),
+        };
         let rows: Vec<u32> = (0..n_cols)
             .map(|i| {
-                let e = params.acuity.e_of_u(i as f64 + 0.5);
-                let l = shading_height(&params, e);
+                let l = period_at(i as f64 + 0.5);
                 if l > 0.5 {
                     (l - 0.5).ceil() as u32
                 } else {
@@ -107,7 +171,21 @@ impl Vafr {
             })
             .collect();
         let height = rows.iter().copied().max().unwrap_or(0);
-        let count = rows.iter().map(|&r| r as u64).sum();
+        let runs: Option<Vec<Vec<(u32, u32)>>> = profile.as_ref().map(|p| {
+            rows.par_iter()
+                .enumerate()
+                .map(|(i, &n)| {
+                    p.shaded_runs(display, &gaze, i as u32, n, period_at(i as f64 + 0.5))
+                })
+                .collect()
+        });
+        let exact = profile
+            .zip(runs)
+            .map(|(profile, runs)| ExactRings { profile, runs });
+        let count = match &exact {
+            Some(x) => x.runs.iter().flatten().map(|&(a, b)| (b - a) as u64).sum(),
+            None => rows.iter().map(|&r| r as u64).sum(),
+        };
         if count == 0 {
             return Err(crate::error::FoveaError::invalid(
                 "vafr samples",
@@ -127,6 +205,7 @@ impl Vafr {
             rows,
             height,
             count,
+            exact,
         })
     }
 
@@ -150,10 +229,28 @@ impl Vafr {
         self.c_r
     }
 
-    /// The screen radius of the buffer's edge, `tan(e_max)/c_r` pixels (Eq. 3 inverted):
-    /// [`FoveationMapping::forward`] has no sample farther than this from the gaze.
+    /// The screen radius of the buffer's edge, `tan(e_max)/c_r` pixels (Eq. 3 inverted; with
+    /// [`VafrRings::Exact`] the ring table's last radius): [`FoveationMapping::forward`] has
+    /// no sample farther than this from the gaze.
     pub fn max_radius_px(&self) -> f64 {
-        self.e_max.to_radians().tan() / self.c_r
+        match &self.exact {
+            Some(x) => x.profile.r_max(),
+            None => self.e_max.to_radians().tan() / self.c_r,
+        }
+    }
+
+    /// How the rings are sized.
+    pub fn rings(&self) -> VafrRings {
+        self.params.rings
+    }
+
+    /// Rows per turn of column coordinate `u` (Eq. 9/19's `l(e)·Δ(e)`; with
+    /// [`VafrRings::Exact`] the ring table's).
+    fn period_at_u(&self, u: f64) -> f64 {
+        match &self.exact {
+            Some(x) => x.profile.period_of_r(x.profile.r_of_u(u)),
+            None => self.shading_height(self.params.acuity.e_of_u(u)),
+        }
     }
 
     /// `u(e_max)`: the continuous buffer width.
@@ -211,6 +308,7 @@ impl FoveationMapping for Vafr {
             "coverage": self.params.max_eccentricity.to_string(),
             "max_eccentricity_deg": self.e_max,
             "tangential_isotropic": self.params.tangential.is_isotropic(),
+            "rings": self.params.rings.name(),
         })
     }
 
@@ -226,7 +324,16 @@ impl FoveationMapping for Vafr {
     }
 
     fn is_shaded(&self, layer: u32, i: u32, j: u32) -> bool {
-        layer == 0 && self.rows.get(i as usize).is_some_and(|&r| j < r)
+        if layer != 0 {
+            return false;
+        }
+        match &self.exact {
+            Some(x) => x
+                .runs
+                .get(i as usize)
+                .is_some_and(|runs| runs.iter().any(|&(a, b)| j >= a && j < b)),
+            None => self.rows.get(i as usize).is_some_and(|&r| j < r),
+        }
     }
 
     fn forward(&self, p: ScreenPoint) -> Option<SamplePoint> {
@@ -234,6 +341,13 @@ impl FoveationMapping for Vafr {
             return None;
         }
         let (r, theta) = polar_deg(p, self.gaze);
+        if let Some(x) = &self.exact {
+            if r > x.profile.r_max() {
+                return None;
+            }
+            let (u, l) = (x.profile.u_of_r(r), x.profile.period_of_r(r));
+            return Some(SamplePoint::new(u, theta / 360.0 * l));
+        }
         let e = eccentricity_deg(self.c_r, r); // Eq. 3
         if e > self.e_max {
             return None;
@@ -247,15 +361,17 @@ impl FoveationMapping for Vafr {
         if s.layer != 0 || !(s.u >= 0.0 && s.u <= self.u_max) || !s.v.is_finite() {
             return None;
         }
-        let e = self.params.acuity.e_of_u(s.u); // Eq. 10
-        let l = self.shading_height(e);
+        let l = self.period_at_u(s.u);
         if l <= 0.0 {
             return (s.v == 0.0).then_some(self.gaze);
         }
         if !(s.v >= 0.0 && s.v <= l) {
             return None;
         }
-        let r = e.to_radians().tan() / self.c_r; // Eq. 3
+        let r = match &self.exact {
+            Some(x) => x.profile.r_of_u(s.u),
+            None => self.params.acuity.e_of_u(s.u).to_radians().tan() / self.c_r, // Eq. 10, 3
+        };
         Some(from_polar_deg(r, s.v / l * 360.0, self.gaze)) // Eq. 11
     }
 
@@ -263,7 +379,7 @@ impl FoveationMapping for Vafr {
         Some(super::PolarLayout {
             centre: self.gaze,
             period: (0..self.rows.len())
-                .map(|i| self.shading_height(self.params.acuity.e_of_u(i as f64 + 0.5)))
+                .map(|i| self.period_at_u(i as f64 + 0.5))
                 .collect(),
             rows: self.rows.clone(),
         })
@@ -370,7 +486,7 @@ mod tests {
         let d = DisplayProfile::preset("2k").unwrap();
         let p = VafrParams {
             max_eccentricity: Coverage::Fixed(Degrees(64.0)),
-            ..Default::default()
+            ..VafrParams::eq3()
         };
         let v = Vafr::new(&d, d.centre_gaze(), p).unwrap();
         assert_eq!(v.buffers()[0].width, 932);
@@ -423,7 +539,7 @@ mod tests {
         // paper's 1,061,735.
         let d = DisplayProfile::preset("8k").unwrap();
         let g = d.centre_gaze();
-        let v = Vafr::new(&d, g, VafrParams::default()).unwrap();
+        let v = Vafr::new(&d, g, VafrParams::eq3()).unwrap();
         let corner = d.farthest_corner_eccentricity(&g).0;
         assert!((corner - 63.9).abs() < 0.05, "{corner}");
         assert!(v.max_eccentricity_deg() > corner && v.max_eccentricity_deg() < corner + 0.02);
@@ -432,7 +548,7 @@ mod tests {
         // A corner gaze reaches the opposite corner; the corner pixel has a column.
         for (gx, gy) in [(0.0, 0.0), (7680.0, 4320.0), (-300.0, 2000.0)] {
             let g = d.gaze(gx, gy).unwrap();
-            let v = Vafr::new(&d, g, VafrParams::default()).unwrap();
+            let v = Vafr::new(&d, g, VafrParams::eq3()).unwrap();
             let far = d.farthest_corner_eccentricity(&g).0;
             assert!(v.max_eccentricity_deg() > far, "{gx},{gy}");
             let (w, h) = (d.width_px as f64, d.height_px as f64);
@@ -450,5 +566,111 @@ mod tests {
         let g = d.gaze(1000.0, 800.0).unwrap();
         let v = Vafr::new(&d, g, VafrParams::paper()).unwrap();
         assert!(v.forward(ScreenPoint::new(7679.5, 4319.5)).is_none());
+    }
+
+    fn exact() -> VafrParams {
+        VafrParams::default()
+    }
+
+    #[test]
+    fn exact_rings_are_eq3_at_a_centred_gaze() {
+        // A gaze on the optical axis of a square-pixel display: Eq. 3 is the true eccentricity,
+        // so the ring table reproduces the closed form (to its trapezoid integration and
+        // 1° sampling of the ring), and only the off-screen texels go unshaded.
+        let d = DisplayProfile::preset("2k").unwrap();
+        assert!((d.focal_x_px() - d.focal_y_px()).abs() < 1e-9);
+        let g = d.centre_gaze();
+        let eq3 = Vafr::new(&d, g, VafrParams::eq3()).unwrap();
+        let ex = Vafr::new(&d, g, exact()).unwrap();
+        let (bq, bx) = (eq3.buffers()[0], ex.buffers()[0]);
+        assert!(bq.width.abs_diff(bx.width) <= 1, "{bq:?} {bx:?}");
+        assert!(bq.height.abs_diff(bx.height) <= 2, "{bq:?} {bx:?}");
+        for k in 0..200 {
+            let t = k as f64 / 200.0;
+            let p = ScreenPoint::new(
+                g.point.x_px + (t * 37.0).sin() * t * 1000.0,
+                g.point.y_px + (t * 37.0).cos() * t * 540.0,
+            );
+            let (a, b) = (eq3.forward(p).unwrap(), ex.forward(p).unwrap());
+            assert!((a.u - b.u).abs() < 0.02, "{p:?}: u {} vs {}", a.u, b.u);
+            assert!(
+                (a.v - b.v).abs() < 1e-3 * a.v.max(1.0) + 0.02,
+                "{p:?}: v {} {}",
+                a.v,
+                b.v
+            );
+        }
+        let (nq, nx) = (eq3.sample_count() as f64, ex.sample_count() as f64);
+        assert!(nx < nq && nx > 0.9 * nq, "{nq} {nx}");
+    }
+
+    #[test]
+    fn exact_rings_forward_and_inverse_are_inverse() {
+        let d = DisplayProfile::preset("vive-pro-eye").unwrap();
+        for (gx, gy) in [(101.0, 100.0), (1100.0, 1200.0), (-30.0, 800.0)] {
+            let g = d.gaze(gx, gy).unwrap();
+            let v = Vafr::new(&d, g, exact()).unwrap();
+            for k in 0..500 {
+                let p =
+                    ScreenPoint::new((k * 37 % 1440) as f64 + 0.3, (k * 91 % 1600) as f64 + 0.7);
+                let s = v.forward(p).expect("every screen point is covered");
+                let q = v.inverse(s).unwrap();
+                assert!(q.distance(p) < 1e-6, "({gx},{gy}) {p:?} -> {s:?} -> {q:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn exact_rings_skip_only_texels_off_the_screen() {
+        // Brute force on a small display: every texel the bilinear lookup of an on-screen
+        // pixel reads is shaded, and every shaded texel lies within a few pixels of the screen.
+        let d = DisplayProfile::with_vertical_fov("small", 320, 200, Degrees(100.0)).unwrap();
+        for (gx, gy) in [(0.0, 0.0), (160.0, 100.0), (319.0, 30.0), (-10.0, 210.0)] {
+            let g = d.gaze(gx, gy).unwrap();
+            let v = Vafr::new(&d, g, exact()).unwrap();
+            let layout = v.polar_layout().unwrap();
+            for y in 0..200 {
+                for x in 0..320 {
+                    let s = v
+                        .forward(ScreenPoint::new(x as f64 + 0.5, y as f64 + 0.5))
+                        .unwrap();
+                    let i0 = (s.u - 0.5).floor() as i64;
+                    for i in [i0, i0 + 1] {
+                        let Some(&rows) = (i >= 0).then(|| layout.rows.get(i as usize)).flatten()
+                        else {
+                            continue;
+                        };
+                        if rows == 0 {
+                            continue;
+                        }
+                        let turn = s.v / v.period_at_u(s.u);
+                        let j0 = (turn * layout.period[i as usize] - 0.5).floor() as i64;
+                        for j in [j0, j0 + 1] {
+                            let j = j.rem_euclid(rows as i64) as u32;
+                            assert!(
+                                v.is_shaded(0, i as u32, j),
+                                "({gx},{gy}) px ({x},{y}) texel ({i},{j})"
+                            );
+                        }
+                    }
+                }
+            }
+            let mut far = 0;
+            for (i, &rows) in layout.rows.iter().enumerate() {
+                for j in 0..rows {
+                    if v.is_shaded(0, i as u32, j) {
+                        let p = v
+                            .inverse(SamplePoint::new(i as f64 + 0.5, j as f64 + 0.5))
+                            .unwrap();
+                        let out = (-p.x_px)
+                            .max(p.x_px - 320.0)
+                            .max(-p.y_px)
+                            .max(p.y_px - 200.0);
+                        far += (out > 30.0) as usize;
+                    }
+                }
+            }
+            assert_eq!(far, 0, "({gx},{gy}): shaded texels far off the screen");
+        }
     }
 }

@@ -71,9 +71,16 @@ pub(crate) fn split_f64(x: f64) -> (f32, f32) {
 }
 
 impl VafrUniform {
-    /// The block for `vafr`. [`GpuError::Unsupported`] when the acuity model has more than
+    /// The block for `vafr`. [`GpuError::Unsupported`] for rings other than Eq. 3's, or when
+    /// the acuity model has more than
     /// [`MAX_PIECES`] pivots or the tangential factor more than [`MAX_PIECES`].
     pub fn new(vafr: &Vafr) -> Result<Self> {
+        if vafr.rings() != fovea_core::mapping::VafrRings::Eq3 {
+            return Err(GpuError::Unsupported(format!(
+                "VaFR with --vafr-rings {} in the mapping shader (it evaluates Eq. 3)",
+                vafr.rings().name()
+            )));
+        }
         let acuity = &vafr.params().acuity;
         let pivots = acuity.pivots();
         if pivots.len() > MAX_PIECES {
@@ -148,7 +155,7 @@ mod tests {
     fn the_block_holds_the_reference_numbers() {
         let d = DisplayProfile::preset("8k").unwrap();
         let g = d.gaze(1234.567, 3210.987).unwrap();
-        let v = Vafr::new(&d, g, VafrParams::default()).unwrap();
+        let v = Vafr::new(&d, g, VafrParams::eq3()).unwrap();
         let b = VafrUniform::new(&v).unwrap();
         // The gaze survives the split to well below a millionth of a pixel.
         for (hi, lo, want) in [
@@ -179,7 +186,7 @@ mod tests {
         let d = DisplayProfile::preset("2k").unwrap();
         let p = VafrParams {
             tangential: TangentialFactor::radial_twice_at_30(),
-            ..VafrParams::default()
+            ..VafrParams::eq3()
         };
         let v = Vafr::new(&d, d.centre_gaze(), p).unwrap();
         let b = VafrUniform::new(&v).unwrap();
@@ -200,7 +207,7 @@ mod tests {
             .collect();
         let p = VafrParams {
             acuity: AcuityModel::segmented(&pivots).unwrap(),
-            ..VafrParams::default()
+            ..VafrParams::eq3()
         };
         let d = DisplayProfile::preset("2k").unwrap();
         let v = Vafr::new(&d, d.centre_gaze(), p).unwrap();
