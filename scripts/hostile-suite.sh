@@ -178,6 +178,10 @@ case_ "truncated PNG on sequence resume" 0 '=1 rendered, 2 already there' -- "${
 case_ "--vafr-emax 0.001 (an empty buffer)" 2 '+vafr samples' -- "${R[@]}" --vafr-emax 0.001
 case_ "--vafr-pivots 0:0.001,60:0.001" 2 '+vafr samples' -- "${R[@]}" --vafr-pivots 0:0.001,60:0.001
 case_ "--vafr-pivots 0:1e300,60:4" 2 '+pivots' -- "${R[@]}" --vafr-pivots 0:1e300,60:4
+case_ "--vafr-rings sideways" 2 '+vafr-rings' -- "${R[@]}" --vafr-rings sideways
+case_ "--vafr-rings eq3 with --method kfr" 0 '+warning: --vafr-rings applies' -- "${R[@]}" --method kfr --vafr-rings eq3
+case_ "--vafr-emax 89 from a corner (exact rings stop at the screen)" 0 -- "${R[@]}" --vafr-emax 89 --gaze 0,0
+case_ "--gaze -3,-3 (just off the screen, exact rings)" 0 -- "${R[@]}" --gaze -3,-3
 case_ "fidelity --bands 30,10" 2 '+bands' -- fidelity --res 64x72 --bands 30,10
 case_ "fidelity --res 32768x32768" 0 -- fidelity --res 32768x32768 --methods full --stride 1
 case_ "--weier with --method kfr" 0 '+warning: --weier applies' -- "${R[@]}" --method kfr --weier 10,20,0.2
