@@ -386,7 +386,9 @@ impl FoveationMapping for Vafr {
     }
 
     fn radial_rate_cpd(&self, e_deg: f64) -> f64 {
-        // Eq. 18: ½·du/de = 1/ω(e).
+        // Eq. 18: ½·du/de = 1/ω(e). With the exact rings this is the rate at each ring's worst
+        // point, at its true eccentricity; elsewhere on the ring it is finer (`fovea fidelity`
+        // measures both, tests/mappings.rs checks the worst against the acuity).
         1.0 / self.params.acuity.mar_deg(e_deg)
     }
 
