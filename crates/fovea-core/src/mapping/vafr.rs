@@ -156,27 +156,19 @@ impl Vafr {
         } else {
             0
         };
-        let period_at = |u: f64| match &profile {
-            Some(p) => p.period_of_r(p.r_of_u(u)),
-            None => shading_height(&params, params.acuity.e_of_u(u)),
-        };
-        let rows: Vec<u32> = (0..n_cols)
-            .map(|i| {
-                let l = period_at(i as f64 + 0.5);
-                if l > 0.5 {
-                    (l - 0.5).ceil() as u32
-                } else {
-                    0
-                }
-            })
+        // Rows per turn at every column's centre, once: the rows and the shaded runs read them.
+        let periods: Vec<f64> = (0..n_cols)
+            .map(|i| period_at(profile.as_ref(), &params, i as f64 + 0.5))
+            .collect();
+        let rows: Vec<u32> = periods
+            .iter()
+            .map(|&l| if l > 0.5 { (l - 0.5).ceil() as u32 } else { 0 })
             .collect();
         let height = rows.iter().copied().max().unwrap_or(0);
         let runs: Option<Vec<Vec<(u32, u32)>>> = profile.as_ref().map(|p| {
             rows.par_iter()
                 .enumerate()
-                .map(|(i, &n)| {
-                    p.shaded_runs(display, &gaze, i as u32, n, period_at(i as f64 + 0.5))
-                })
+                .map(|(i, &n)| p.shaded_runs(display, &gaze, i as u32, n, periods[i]))
                 .collect()
         });
         let exact = profile
@@ -247,10 +239,7 @@ impl Vafr {
     /// Rows per turn of column coordinate `u` (Eq. 9/19's `l(e)·Δ(e)`; with
     /// [`VafrRings::Exact`] the ring table's).
     fn period_at_u(&self, u: f64) -> f64 {
-        match &self.exact {
-            Some(x) => x.profile.period_of_r(x.profile.r_of_u(u)),
-            None => self.shading_height(self.params.acuity.e_of_u(u)),
-        }
+        period_at(self.exact.as_ref().map(|x| &x.profile), &self.params, u)
     }
 
     /// `u(e_max)`: the continuous buffer width.
@@ -288,6 +277,15 @@ impl Vafr {
             total += s * h / 3.0;
         }
         total
+    }
+}
+
+/// Rows per turn of column coordinate `u`: the ring table's with the exact rings, else Eq. 9/19's
+/// `l(e)·Δ(e)` at Eq. 10's `e(u)`.
+fn period_at(profile: Option<&RingProfile>, params: &VafrParams, u: f64) -> f64 {
+    match profile {
+        Some(p) => p.period_of_r(p.r_of_u(u)),
+        None => shading_height(params, params.acuity.e_of_u(u)),
     }
 }
 
@@ -361,17 +359,23 @@ impl FoveationMapping for Vafr {
         if s.layer != 0 || !(s.u >= 0.0 && s.u <= self.u_max) || !s.v.is_finite() {
             return None;
         }
-        let l = self.period_at_u(s.u);
+        // The ring's radius and rows per turn (the exact rings solve for the radius once).
+        let (r, l) = match &self.exact {
+            Some(x) => {
+                let r = x.profile.r_of_u(s.u);
+                (r, x.profile.period_of_r(r))
+            }
+            None => {
+                let e = self.params.acuity.e_of_u(s.u); // Eq. 10
+                (e.to_radians().tan() / self.c_r, self.shading_height(e)) // Eq. 3, 9
+            }
+        };
         if l <= 0.0 {
             return (s.v == 0.0).then_some(self.gaze);
         }
         if !(s.v >= 0.0 && s.v <= l) {
             return None;
         }
-        let r = match &self.exact {
-            Some(x) => x.profile.r_of_u(s.u),
-            None => self.params.acuity.e_of_u(s.u).to_radians().tan() / self.c_r, // Eq. 10, 3
-        };
         Some(from_polar_deg(r, s.v / l * 360.0, self.gaze)) // Eq. 11
     }
 
