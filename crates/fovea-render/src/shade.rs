@@ -30,7 +30,8 @@ mod env_light;
 use crate::trace::{trace_sample, GSample};
 use crate::world::World;
 pub use env_light::{
-    environment_light, unoccluded_estimate, EnvLight, DEFAULT_ENV_SAMPLES, MAX_ENV_SAMPLES,
+    environment_light, subsample_key, texel_key, unoccluded_estimate, EnvLight,
+    DEFAULT_ENV_SAMPLES, MAX_ENV_SAMPLES,
 };
 
 /// Ray counts of one shading call.

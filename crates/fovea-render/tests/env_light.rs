@@ -31,7 +31,7 @@ use fovea_render::camera::EyeCamera;
 use fovea_render::pipeline::{render_frame, AaMode, FrameSettings};
 use fovea_render::scene::environment::file::load as load_envmap;
 use fovea_render::scene::{CameraDesc, Environment, Light, Material, Mesh, Scene};
-use fovea_render::shade::{shade, EnvLight, RayCounts, ShadingMode};
+use fovea_render::shade::{shade, texel_key, EnvLight, RayCounts, ShadingMode};
 use fovea_render::thin_lens::{render_window, Window};
 use fovea_render::trace::trace_sample;
 use fovea_render::world::World;
@@ -353,6 +353,67 @@ fn a_room_is_lit_only_through_its_window() {
         with_sky.x > sun_only.x && with_sky.x < sun_only.x + 0.2,
         "{with_sky}"
     );
+}
+
+/// The environment rays of a 4×4 tile of texels are stratified over the tile (the module
+/// header of `shade::env_light`): on the floor under the window, where the sky is visible
+/// through the window only, the mean of a tile's 16 texels (4 rays each) lands much closer to
+/// the window's form factor than the mean of 16 texels of 16 different tiles, and both are
+/// unbiased.
+#[test]
+fn a_tile_of_texels_stratifies_its_environment_rays() {
+    let sky = Vec3::new(0.4, 0.5, 0.7);
+    let albedo = 0.6;
+    let world = World::new(
+        scene(window_room(), albedo, vec![], Environment::Constant(sky)),
+        Backend::Obvhs,
+    )
+    .unwrap();
+    let mode = direct(4);
+    let c = Vec3::new(2.0, 0.0, 3.0);
+    let g = surface(&world, Vec3::new(2.0, 1.5, 3.0), c);
+    let want = (sky * albedo / PI * window_irradiance_per_radiance(c, Vec3::Y)).x as f64;
+    let mut counts = RayCounts::default();
+    let mut value = |key: u64| shade(&world, &g, mode, key, &mut counts).x as f64;
+    let tiles = 256u32;
+    // The mean of 16 texels: the 16 of tile `t`, or rank 0 of 16 different tiles.
+    let (mut tile_err2, mut spread_err2, mut tile_sum, mut spread_sum) = (0.0, 0.0, 0.0, 0.0);
+    for t in 0..tiles {
+        let tile: f64 = (0..16)
+            .map(|k| value(texel_key(0, 4 * t + k % 4, k / 4)))
+            .sum::<f64>()
+            / 16.0;
+        let spread: f64 = (0..16)
+            .map(|k| value(texel_key(0, 4 * (16 * t + k), 4)))
+            .sum::<f64>()
+            / 16.0;
+        tile_err2 += (tile - want).powi(2);
+        spread_err2 += (spread - want).powi(2);
+        tile_sum += tile;
+        spread_sum += spread;
+    }
+    let n = tiles as f64;
+    let (tile_rms, spread_rms) = (
+        (tile_err2 / n).sqrt() / want,
+        (spread_err2 / n).sqrt() / want,
+    );
+    let (tile_mean, spread_mean) = (tile_sum / n / want, spread_sum / n / want);
+    eprintln!(
+        "16 texels of one tile: RMS {:.2} %, mean {tile_mean:.4}; of 16 tiles: RMS {:.2} %, \
+         mean {spread_mean:.4} (× the closed form)",
+        tile_rms * 100.0,
+        spread_rms * 100.0
+    );
+    // Unbiased: within 3 standard errors of the mean (plus the quadrature's 1 %).
+    assert!(
+        (tile_mean - 1.0).abs() < 3.0 * tile_rms / n.sqrt() + 0.01,
+        "{tile_mean}"
+    );
+    assert!(
+        (spread_mean - 1.0).abs() < 3.0 * spread_rms / n.sqrt() + 0.01,
+        "{spread_mean}"
+    );
+    assert!(tile_rms < 0.6 * spread_rms, "{tile_rms} vs {spread_rms}");
 }
 
 /// A 64 × 32 lat-long sky: a blue gradient above the horizon, a dim brown ground below, and a

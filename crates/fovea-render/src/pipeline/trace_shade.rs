@@ -30,7 +30,7 @@ use crate::camera::EyeCamera;
 use crate::cull_fill::{fill_culled, shade_or_cull, CullBuffers, SampleCull};
 use crate::error::{RenderError, Result};
 use crate::plan::FramePlan;
-use crate::shade::{shade, shade_direct_batch, RayCounts, ShadingMode};
+use crate::shade::{shade, shade_direct_batch, subsample_key, texel_key, RayCounts, ShadingMode};
 use crate::trace::{surface, GSample};
 use crate::world::World;
 
@@ -247,7 +247,7 @@ pub fn shade_chunk(
         cull,
         plan.rays.per_column.is_empty() && plan.rays.uniform == 1,
     ) {
-        let key_of = |k: u32| ((layer as u64) << 48) ^ ((j0 as u64 * row_len as u64) + k as u64);
+        let key_of = |k: u32| texel_key(layer, k % row_len as u32, j0 + k / row_len as u32);
         // Per batch: each texel's colour and depth (none where nothing was traced), and the
         // batch's secondary rays.
         type Batch = (Vec<Option<(Rgb, f32)>>, RayCounts);
@@ -306,9 +306,9 @@ pub fn shade_chunk(
                 .as_ref()
                 .or_else(|| rays.iter().flatten().next())?;
             let mut rc = RayCounts::default();
-            let key = ((layer as u64) << 48) ^ ((j0 as u64 * row_len as u64) + k as u64);
-            // Sub-sample `s` of a texel draws its own random numbers (path tracing).
-            let key_of = |s: usize| key ^ ((s as u64) << 40);
+            let key = texel_key(layer, k % row_len as u32, j0 + k / row_len as u32);
+            // Sub-sample `s` of a texel draws its own random numbers.
+            let key_of = |s: usize| subsample_key(key, s);
             let depth = camera.view_depth(-rep.to_eye, rep.t);
             let mean_of_others = |first: Vec3, rc: &mut RayCounts| {
                 let mut sum = first;

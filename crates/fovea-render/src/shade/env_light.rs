@@ -26,9 +26,16 @@
 //!   found. A constant environment spends all `N` rays on the BRDF mixture.
 //!
 //! Directions below the geometric surface are occluded by the surface itself and cast no ray.
-//! The random numbers are deterministic per shading sample: each strategy walks the R2
-//! low-discrepancy sequence (Roberts 2018) shifted by an offset hashed from the sample's key
-//! (Cranley-Patterson rotation), so a frame is the same every time it is rendered.
+//! The random numbers are deterministic per shading sample, so a frame is the same every time
+//! it is rendered. Each strategy walks the R2 low-discrepancy sequence (Roberts 2018),
+//! stratified over 4×4 tiles of neighbouring texels (interleaved sampling, Keller and Heidrich
+//! 2001): the texel of rank `r` in its tile ([`texel_key`], Bayer order) takes the points
+//! `r·n … r·n + n − 1` of the sequence, and the whole tile shares one offset hashed from the
+//! tile (Cranley-Patterson rotation). The 16 texels of a tile together draw the first `16 n`
+//! points of one sequence instead of 16 independent sets of `n`, so where a pixel averages
+//! several texels (the footprint reconstruction of the polar methods' fovea) their errors
+//! cancel, and elsewhere the remaining noise is of high spatial frequency. Tiles are
+//! independent, so the error carries no pattern larger than a tile.
 
 use std::f32::consts::PI;
 
@@ -48,6 +55,31 @@ pub const MAX_ENV_SAMPLES: u32 = 256;
 
 /// Salt of the environment rays' random numbers (keeps them apart from the path tracer's).
 const ENV_SALT: u64 = 0x656E_765F_6C69_6768;
+
+/// Rank of each texel of a 4×4 tile (`[j % 4][i % 4]`) in its tile's stratified sequence:
+/// the Bayer matrix, so every 2×2 block of a tile also spreads its ranks (module header).
+const TILE_RANK: [[u64; 4]; 4] = [[0, 8, 2, 10], [12, 4, 14, 6], [3, 11, 1, 9], [15, 7, 13, 5]];
+
+/// The shading key of texel `(i, j)` of buffer `layer` (below 64 layers, `i`, `j` below 2²⁶):
+/// bits 0–3 the texel's rank in its 4×4 tile, bits 4–27 the tile's column, 28–51 its row,
+/// 52–57 a sub-sample ([`subsample_key`]), 58–63 the layer. Distinct texels get distinct
+/// keys; every random number of a sample is drawn from its key, and the environment rays also
+/// read the tile and the rank from it (module header). Any other key is valid too: its low
+/// four bits are taken as the rank.
+pub fn texel_key(layer: u32, i: u32, j: u32) -> u64 {
+    const MASK24: u64 = (1 << 24) - 1;
+    let rank = TILE_RANK[(j % 4) as usize][(i % 4) as usize];
+    ((u64::from(layer) & 63) << 58)
+        | ((u64::from(j / 4) & MASK24) << 28)
+        | ((u64::from(i / 4) & MASK24) << 4)
+        | rank
+}
+
+/// The key of sub-sample `s` (below 64) of the texel keyed `key` ([`texel_key`]): its own
+/// random numbers, in the same place of its own tile's sequence.
+pub fn subsample_key(key: u64, s: usize) -> u64 {
+    key ^ ((s as u64 & 63) << 52)
+}
 
 /// How direct shading lights a surface with the environment.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -217,7 +249,9 @@ fn occluded(world: &World, g: &GSample, n: u32, key: u64, counts: &mut RayCounts
     if env.is_black() {
         return Vec3::ZERO;
     }
-    let mut rng = fovea_core::math::mix64(key ^ ENV_SALT);
+    // The tile's offset and the texel's place in the tile's sequence (module header).
+    let rank = (key & 15) as u32;
+    let mut rng = fovea_core::math::mix64((key >> 4) ^ ENV_SALT);
     let mut next = || {
         rng = fovea_core::math::mix64(rng);
         (rng >> 40) as f32 / (1u64 << 24) as f32
@@ -232,11 +266,11 @@ fn occluded(world: &World, g: &GSample, n: u32, key: u64, counts: &mut RayCounts
     let mut sum = Vec3::ZERO;
     for i in 0..n {
         let (dir, radiance) = match map {
-            Some(m) if i < n_map => match m.sample(r2_shifted(i, shift_map)) {
+            Some(m) if i < n_map => match m.sample(r2_shifted(rank * n_map + i, shift_map)) {
                 Some(s) => (s.direction, s.radiance),
                 None => continue,
             },
-            _ => match brdf.sample(r2_shifted(i - n_map, shift_brdf)) {
+            _ => match brdf.sample(r2_shifted(rank * n_brdf + i - n_map, shift_brdf)) {
                 Some(d) => (d, env.radiance(d)),
                 None => continue,
             },
