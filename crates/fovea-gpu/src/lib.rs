@@ -43,6 +43,7 @@ pub mod error;
 pub mod mapping;
 pub mod reconstruct;
 pub mod shaders;
+mod timestamps;
 pub mod trace;
 mod transfer;
 
@@ -51,7 +52,7 @@ pub use device::{AdapterSummary, DeviceKind, GpuContext, GpuRequest};
 pub use error::{GpuError, Result};
 pub use mapping::{Direction, GpuMapping};
 pub use reconstruct::{GpuReconstructor, ReconstructTimes};
-pub use trace::{BvhStats, GpuHit, GpuRay, GpuTracer};
+pub use trace::{BvhStats, GpuHit, GpuRay, GpuTracer, TraceTimes};
 
 /// Every WGSL module of the crate, as the device compiles it.
 pub const ALL_SHADERS: &[shaders::ShaderSource] = &[

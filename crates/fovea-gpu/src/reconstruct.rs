@@ -38,6 +38,7 @@ use crate::device::GpuContext;
 use crate::error::{GpuError, Result};
 use crate::mapping::vafr::split_f64;
 use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
+use crate::timestamps::PassTimer;
 use crate::transfer::{read_buffers, upload};
 
 /// The module: entry point `reconstruct`, [`ReconstructUniform`] at binding 0.
@@ -296,9 +297,8 @@ impl GpuReconstructor {
             rad_per_turn: (2.0 * pi) as f32,
             pad: 0,
         };
-        let timestamps = self.ctx.has_timestamps();
         let device = self.ctx.device();
-        let (readbacks, stamps) = self.ctx.scoped(&what, || {
+        let (readbacks, timer) = self.ctx.scoped(&what, || {
             let storage = wgpu::BufferUsages::STORAGE;
             let lut_buf = upload(&self.ctx, "u(r) table", bytemuck::cast_slice(&lut), storage);
             let col_buf = upload(
@@ -312,26 +312,7 @@ impl GpuReconstructor {
             let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("reconstruct"),
             });
-            let queries = timestamps.then(|| {
-                let set = device.create_query_set(&wgpu::QuerySetDescriptor {
-                    label: Some("reconstruct timestamps"),
-                    ty: wgpu::QueryType::Timestamp,
-                    count: 2,
-                });
-                let resolve = device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("timestamps resolved"),
-                    size: 16,
-                    usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-                    mapped_at_creation: false,
-                });
-                let read = device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("timestamps readback"),
-                    size: 16,
-                    usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-                    mapped_at_creation: false,
-                });
-                (set, resolve, read)
-            });
+            let timer = PassTimer::new(&self.ctx, "reconstruct timestamps");
             let mut outputs = Vec::with_capacity(bands.len());
             let mut binds = Vec::with_capacity(bands.len());
             for &(row0, rows) in &bands {
@@ -365,13 +346,7 @@ impl GpuReconstructor {
             {
                 let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                     label: Some("reconstruct"),
-                    timestamp_writes: queries.as_ref().map(|(set, _, _)| {
-                        wgpu::ComputePassTimestampWrites {
-                            query_set: set,
-                            beginning_of_pass_write_index: Some(0),
-                            end_of_pass_write_index: Some(1),
-                        }
-                    }),
+                    timestamp_writes: timer.as_ref().map(PassTimer::writes),
                 });
                 pass.set_pipeline(&self.pipeline);
                 for (bind, &(_, rows)) in binds.iter().zip(&bands) {
@@ -390,26 +365,22 @@ impl GpuReconstructor {
                 encoder.copy_buffer_to_buffer(out, 0, &read, 0, out.size());
                 readbacks.push(read);
             }
-            let stamps = queries.map(|(set, resolve, read)| {
-                encoder.resolve_query_set(&set, 0..2, &resolve, 0);
-                encoder.copy_buffer_to_buffer(&resolve, 0, &read, 0, 16);
-                read
-            });
+            if let Some(timer) = &timer {
+                timer.resolve(&mut encoder);
+            }
             self.ctx.queue().submit([encoder.finish()]);
-            (readbacks, stamps)
+            (readbacks, timer)
         })?;
         let upload_ms = ms_since(t_upload);
 
         let t_run = Instant::now();
         let mut all: Vec<&wgpu::Buffer> = readbacks.iter().collect();
-        all.extend(stamps.as_ref());
+        all.extend(timer.as_ref().map(PassTimer::readback));
         let wu = w as usize;
-        let mut ticks = [0u64; 2];
+        let mut gpu_pass_ms = None;
         read_buffers(&self.ctx, &all, &what, |k, bytes| {
             if k == bands.len() {
-                ticks = [0, 1].map(|i| {
-                    u64::from_le_bytes(bytes[8 * i..8 * i + 8].try_into().unwrap_or([0; 8]))
-                });
+                gpu_pass_ms = Some(PassTimer::ms(&self.ctx, bytes));
                 return;
             }
             let (row0, rows) = bands[k];
@@ -427,10 +398,6 @@ impl GpuReconstructor {
             }
         })?;
         let run_and_readback_ms = ms_since(t_run);
-        let gpu_pass_ms = stamps.map(|_| {
-            let period_ns = self.ctx.queue().get_timestamp_period() as f64;
-            ticks[1].saturating_sub(ticks[0]) as f64 * period_ns * 1e-6
-        });
         Ok(ReconstructTimes {
             tables_ms,
             upload_ms,

@@ -21,7 +21,7 @@ use obvhs::BvhBuildParams;
 use crate::device::GpuContext;
 use crate::error::{GpuError, Result};
 use crate::shaders::ShaderSource;
-use crate::transfer::{batch_len, run_1d, upload};
+use crate::transfer::{batch_len, run_1d_timed, upload};
 
 /// The module: `closest_hit` and `any_hit`, [`TraceUniform`] at binding 0.
 pub const SHADER: ShaderSource = ShaderSource {
@@ -114,6 +114,19 @@ pub struct BvhStats {
     pub depth: usize,
     /// CPU time of the build, ms (wall).
     pub build_ms: f64,
+}
+
+/// Where the time of one [`GpuTracer::closest_hits_timed`] went.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TraceTimes {
+    /// The compute passes alone, summed over the batches, from the device's timestamps
+    /// (`None` when it has no `TIMESTAMP_QUERY`, or no ray reached the device), ms.
+    pub gpu_pass_ms: Option<f64>,
+    /// Batches (one compute pass each) the rays were split into.
+    pub batches: u32,
+    /// Everything, from the call to the hits in hand (preparing, uploading, tracing,
+    /// reading back), wall ms.
+    pub total_ms: f64,
 }
 
 /// The scene's triangles and BVH on one device, with the two traversal pipelines.
@@ -256,8 +269,16 @@ impl GpuTracer {
     /// The closest hit of every ray (`None`: a miss). Rays with a non-finite component or
     /// an empty interval miss without reaching the shader.
     pub fn closest_hits(&self, rays: &[GpuRay]) -> Result<Vec<Option<GpuHit>>> {
-        let raw = self.run(rays, false)?;
-        Ok(raw
+        Ok(self.closest_hits_timed(rays)?.0)
+    }
+
+    /// [`closest_hits`](Self::closest_hits), and where its time went: the compute passes'
+    /// own time from timestamps, as the reconstructor reports its pass.
+    pub fn closest_hits_timed(&self, rays: &[GpuRay]) -> Result<(Vec<Option<GpuHit>>, TraceTimes)> {
+        let t = std::time::Instant::now();
+        let mut times = TraceTimes::default();
+        let raw = self.run(rays, false, Some(&mut times))?;
+        let hits = raw
             .iter()
             .map(|h| {
                 (h.prim != MISS).then_some(GpuHit {
@@ -266,20 +287,28 @@ impl GpuTracer {
                     bary: [h.u, h.v],
                 })
             })
-            .collect())
+            .collect();
+        times.total_ms = t.elapsed().as_secs_f64() * 1e3;
+        Ok((hits, times))
     }
 
     /// Whether anything lies on each ray within its interval (shadow rays).
     pub fn occluded(&self, rays: &[GpuRay]) -> Result<Vec<bool>> {
         Ok(self
-            .run(rays, true)?
+            .run(rays, true, None)?
             .iter()
             .map(|h| h.prim != MISS)
             .collect())
     }
 
-    /// Runs `rays` in batches that fit the device's bindings and dispatch limits.
-    fn run(&self, rays: &[GpuRay], any_hit: bool) -> Result<Vec<HitGpu>> {
+    /// Runs `rays` in batches that fit the device's bindings and dispatch limits; with
+    /// `times`, each batch's pass is timed and counted there.
+    fn run(
+        &self,
+        rays: &[GpuRay],
+        any_hit: bool,
+        mut times: Option<&mut TraceTimes>,
+    ) -> Result<Vec<HitGpu>> {
         let miss = HitGpu {
             t: 0.0,
             prim: MISS,
@@ -314,7 +343,13 @@ impl GpuTracer {
                     }
                 })
                 .collect();
-            let hits = self.run_batch(scene, &input, any_hit)?;
+            let (hits, ms) = self.run_batch(scene, &input, any_hit, times.is_some())?;
+            if let Some(times) = times.as_deref_mut() {
+                times.batches += 1;
+                if let Some(ms) = ms {
+                    times.gpu_pass_ms = Some(times.gpu_pass_ms.unwrap_or(0.0) + ms);
+                }
+            }
             out.extend(
                 hits.into_iter()
                     .zip(valid)
@@ -324,14 +359,16 @@ impl GpuTracer {
         Ok(out)
     }
 
+    /// One batch; with `timed`, also its pass's milliseconds from timestamps.
     fn run_batch(
         &self,
         scene: &SceneBuffers,
         rays: &[GpuRay],
         any_hit: bool,
-    ) -> Result<Vec<HitGpu>> {
+        timed: bool,
+    ) -> Result<(Vec<HitGpu>, Option<f64>)> {
         if rays.is_empty() {
-            return Ok(Vec::new());
+            return Ok((Vec::new(), None));
         }
         let n = rays.len() as u64;
         let what = format!(
@@ -361,7 +398,7 @@ impl GpuTracer {
                 ),
             )
         })?;
-        let raw = run_1d(
+        let (raw, ms) = run_1d_timed(
             &self.ctx,
             &what,
             pipeline,
@@ -374,8 +411,9 @@ impl GpuTracer {
             ],
             n,
             HIT_BYTES,
+            timed,
         )?;
-        Ok(bytemuck::cast_slice::<u8, HitGpu>(&raw).to_vec())
+        Ok((bytemuck::cast_slice::<u8, HitGpu>(&raw).to_vec(), ms))
     }
 }
 

@@ -4,6 +4,7 @@
 
 use crate::device::GpuContext;
 use crate::error::Result;
+use crate::timestamps::PassTimer;
 
 /// A buffer holding `contents` (a multiple of 4 bytes). Unlike wgpu's `create_buffer_init`,
 /// which panics when the device is lost, a failure here is an error of the enclosing scope.
@@ -21,13 +22,6 @@ pub(crate) fn upload(
     });
     ctx.queue().write_buffer(&buffer, 0, contents);
     buffer
-}
-
-/// Maps `buffer` (MAP_READ) and copies it out; waits for the queue.
-pub(crate) fn read_buffer(ctx: &GpuContext, buffer: &wgpu::Buffer, what: &str) -> Result<Vec<u8>> {
-    let mut out = Vec::new();
-    read_buffers(ctx, &[buffer], what, |_, bytes| out = bytes.to_vec())?;
-    Ok(out)
 }
 
 /// Maps every buffer of `buffers` (MAP_READ), waits for the queue once, and hands each
@@ -78,9 +72,24 @@ pub(crate) fn run_1d(
     n: u64,
     out_bytes: u64,
 ) -> Result<Vec<u8>> {
+    Ok(run_1d_timed(ctx, what, pipeline, inputs, n, out_bytes, false)?.0)
+}
+
+/// [`run_1d`], and with `timed` the compute pass's own milliseconds from the device's
+/// timestamps ([`PassTimer`]; `None` untimed or on a device without them).
+pub(crate) fn run_1d_timed(
+    ctx: &GpuContext,
+    what: &str,
+    pipeline: &wgpu::ComputePipeline,
+    inputs: &[wgpu::BindingResource<'_>],
+    n: u64,
+    out_bytes: u64,
+    timed: bool,
+) -> Result<(Vec<u8>, Option<f64>)> {
     let device = ctx.device();
     let size = n.max(1) * out_bytes;
-    let readback = ctx.scoped(what, || {
+    let (readback, timer) = ctx.scoped(what, || {
+        let timer = timed.then(|| PassTimer::new(ctx, what)).flatten();
         let output = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("output"),
             size,
@@ -113,7 +122,7 @@ pub(crate) fn run_1d(
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some(what),
-                timestamp_writes: None,
+                timestamp_writes: timer.as_ref().map(PassTimer::writes),
             });
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &bind, &[]);
@@ -124,10 +133,23 @@ pub(crate) fn run_1d(
             );
         }
         encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, size);
+        if let Some(timer) = &timer {
+            timer.resolve(&mut encoder);
+        }
         ctx.queue().submit([encoder.finish()]);
-        readback
+        (readback, timer)
     })?;
-    read_buffer(ctx, &readback, what)
+    let mut buffers = vec![&readback];
+    buffers.extend(timer.as_ref().map(PassTimer::readback));
+    let (mut out, mut ms) = (Vec::new(), None);
+    read_buffers(ctx, &buffers, what, |k, bytes| {
+        if k == 0 {
+            out = bytes.to_vec();
+        } else {
+            ms = Some(PassTimer::ms(ctx, bytes));
+        }
+    })?;
+    Ok((out, ms))
 }
 
 /// How many items of a one-dimensional pass fit one dispatch: the largest binding divided by

@@ -124,6 +124,19 @@ fn closest_hits_on_the_gpu_equal_brute_force() {
     assert!(stats.depth > 5 && stats.depth <= 65, "{stats:?}");
     let hits = gpu.closest_hits(&rays).unwrap();
     assert_eq!(hits.len(), rays.len());
+    // The timed call: the same hits, one batch, and where the device writes timestamps the
+    // pass's time, positive and finite (no time is compared).
+    let (timed, times) = gpu.closest_hits_timed(&rays).unwrap();
+    assert_eq!(timed, hits);
+    assert_eq!(times.batches, 1, "{times:?}");
+    assert!(
+        times.total_ms.is_finite() && times.total_ms > 0.0,
+        "{times:?}"
+    );
+    match times.gpu_pass_ms {
+        Some(ms) => assert!(ms.is_finite() && ms > 0.0, "{times:?}"),
+        None => assert!(!ctx.has_timestamps(), "{times:?}"),
+    }
     let (mut hit_count, mut disagree) = (0, 0);
     for (r, (g, c)) in rays.iter().zip(
         hits.iter()
