@@ -40,6 +40,18 @@ pub struct GpuReconstructMs {
     pub bands: u32,
 }
 
+/// The GPU tracer's own times of the last frame's primary rays (ms), as JSON.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct GpuTraceMs {
+    /// The compute passes alone, from timestamps (when the device has them), summed over
+    /// the batches.
+    pub gpu_pass_ms: Option<f64>,
+    /// Batches (compute passes) the rays were split into.
+    pub batches: u32,
+    /// Preparing, uploading, tracing and reading back, wall ms.
+    pub total_ms: f64,
+}
+
 /// What `--backend` resolved to for one frame.
 pub struct Backend {
     /// What was asked for.
@@ -56,6 +68,10 @@ pub struct Backend {
     pub gpu_bvh: Option<serde_json::Value>,
     /// Filled by the executor after each frame.
     pub times: Arc<Mutex<Option<GpuReconstructMs>>>,
+    /// Filled by the trace executor after each frame.
+    pub trace_times: Arc<Mutex<Option<GpuTraceMs>>>,
+    /// The adapter is a CPU device (lavapipe, llvmpipe, WARP): its times are CPU-emulated.
+    pub cpu_emulated: bool,
 }
 
 impl Backend {
@@ -68,6 +84,8 @@ impl Backend {
             tracer: None,
             gpu_bvh: None,
             times: Arc::default(),
+            trace_times: Arc::default(),
+            cpu_emulated: false,
         }
     }
 
@@ -113,6 +131,8 @@ impl Backend {
             "adapter": self.adapter,
             "stages": per_stage,
             "gpu_reconstruct": *self.times.lock().unwrap_or_else(|e| e.into_inner()),
+            "gpu_trace": *self.trace_times.lock().unwrap_or_else(|e| e.into_inner()),
+            "cpu_emulated": self.cpu_emulated,
             "gpu_bvh": self.gpu_bvh,
         })
     }
@@ -143,13 +163,75 @@ pub fn resolve(
     gpu(requested, world, polar_texel_bytes(mapping))
 }
 
+/// The error of `--backend gpu` in a build without the `gpu` feature.
+#[cfg(not(feature = "gpu"))]
+const NO_GPU_FEATURE: &str = "--backend gpu: this fovea was built without GPU support; rebuild \
+     with `cargo build --release --features gpu` (Rust 1.87 or later), or use --backend cpu";
+
+/// What `--backend` resolves to before any frame: which adapter a command that renders
+/// several frames (`fovea bench`) will use, said before its first frame.
+pub struct Preflight {
+    /// One line: `GPU: <adapter>` or `CPU (<reason>)`.
+    pub describe: String,
+    /// The adapter and its driver, when there is a GPU.
+    pub adapter: Option<String>,
+    /// The adapter is a CPU device (lavapipe): GPU times are CPU-emulated.
+    pub cpu_emulated: bool,
+}
+
+impl Preflight {
+    fn cpu(reason: &str) -> Self {
+        Self {
+            describe: format!("CPU ({reason})"),
+            adapter: None,
+            cpu_emulated: false,
+        }
+    }
+}
+
+/// Fails as [`resolve`] would for any frame when `--backend gpu` cannot run at all (a build
+/// without the `gpu` feature, no adapter), so a command that renders several frames (`fovea
+/// bench`) says so before its first one; otherwise says what the frames will get.
+#[cfg(not(feature = "gpu"))]
+pub fn preflight(requested: BackendArg) -> Result<Preflight> {
+    match requested {
+        BackendArg::Gpu => anyhow::bail!(NO_GPU_FEATURE),
+        BackendArg::Cpu => Ok(Preflight::cpu("asked for")),
+        BackendArg::Auto => Ok(Preflight::cpu("auto: built without the gpu feature")),
+    }
+}
+
+/// Fails as [`resolve`] would for any frame when `--backend gpu` cannot run at all (a build
+/// without the `gpu` feature, no adapter), so a command that renders several frames (`fovea
+/// bench`) says so before its first one; otherwise says what the frames will get.
+#[cfg(feature = "gpu")]
+pub fn preflight(requested: BackendArg) -> Result<Preflight> {
+    use fovea_gpu::{BackendChoice, GpuRequest, Resolved};
+    let choice = match requested {
+        BackendArg::Cpu => return Ok(Preflight::cpu("asked for")),
+        BackendArg::Gpu => BackendChoice::Gpu,
+        BackendArg::Auto => BackendChoice::Auto,
+    };
+    let resolved = choice.resolve(&GpuRequest::default())?;
+    let describe = resolved.describe();
+    Ok(match resolved {
+        Resolved::Gpu(ctx) => Preflight {
+            describe,
+            adapter: Some(format!("{} — {}", ctx.adapter(), ctx.adapter().driver)),
+            cpu_emulated: ctx.adapter().kind == fovea_gpu::DeviceKind::Software,
+        },
+        Resolved::Cpu { .. } => Preflight {
+            describe,
+            adapter: None,
+            cpu_emulated: false,
+        },
+    })
+}
+
 #[cfg(not(feature = "gpu"))]
 fn gpu(requested: BackendArg, _world: &World, _frame_bytes: u64) -> Result<Backend> {
     if requested == BackendArg::Gpu {
-        anyhow::bail!(
-            "--backend gpu: this fovea was built without GPU support; rebuild with \
-             `cargo build --release --features gpu` (Rust 1.87 or later), or use --backend cpu"
-        );
+        anyhow::bail!(NO_GPU_FEATURE);
     }
     Ok(Backend::cpu(
         requested,
@@ -184,9 +266,12 @@ fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend
                 tracer: None,
                 gpu_bvh: None,
                 times: Arc::default(),
+                trace_times: Arc::default(),
+                cpu_emulated: false,
             })
         }
     };
+    let cpu_emulated = ctx.adapter().kind == fovea_gpu::DeviceKind::Software;
     let tris = world.tris.vertex_arrays();
     let tracer = GpuTracer::new(&ctx, &tris)?;
     let s = tracer.stats();
@@ -197,6 +282,7 @@ fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend
         "build_ms": s.build_ms,
     });
     let times = Arc::new(Mutex::new(None));
+    let trace_times = Arc::new(Mutex::new(None));
     let executor = GpuExecutor {
         gpu: GpuReconstructor::new(&ctx)?,
         times: times.clone(),
@@ -209,9 +295,12 @@ fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend
         tracer: Some(Box::new(GpuTraceExecutor {
             gpu: tracer,
             fingerprint: world.tris_fingerprint,
+            times: trace_times.clone(),
         })),
         gpu_bvh: Some(gpu_bvh),
         times,
+        trace_times,
+        cpu_emulated,
     })
 }
 
@@ -220,6 +309,7 @@ fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend
 struct GpuTraceExecutor {
     gpu: fovea_gpu::GpuTracer,
     fingerprint: u64,
+    times: Arc<Mutex<Option<GpuTraceMs>>>,
 }
 
 #[cfg(feature = "gpu")]
@@ -245,7 +335,17 @@ impl TraceExecutor for GpuTraceExecutor {
                 t_max: r.t_max,
             })
             .collect();
-        let hits = self.gpu.closest_hits(&batch).map_err(|e| e.to_string())?;
+        let (hits, t) = self
+            .gpu
+            .closest_hits_timed(&batch)
+            .map_err(|e| e.to_string())?;
+        if let Ok(mut slot) = self.times.lock() {
+            *slot = Some(GpuTraceMs {
+                gpu_pass_ms: t.gpu_pass_ms,
+                batches: t.batches,
+                total_ms: t.total_ms,
+            });
+        }
         Ok(hits
             .into_iter()
             .map(|h| {

@@ -3,7 +3,8 @@
 //! of each available BVH backend on the same scene. The harness is
 //! [`fovea_eval::experiments::bench`]; this file parses the options, shows progress and prints.
 
-use std::sync::Mutex;
+use std::collections::BTreeMap;
+use std::sync::{Arc, Mutex};
 
 use anyhow::Result;
 use clap::Args;
@@ -12,18 +13,21 @@ use indicatif::ProgressBar;
 use fovea_core::display::DisplayProfile;
 use fovea_core::mapping::Method;
 use fovea_eval::experiments::bench::{
-    run as run_bench, BenchEvent, BenchParams, BenchResult, BenchRun, BenchScene, DofTiming,
-    KernelTime, RayRate, ReconstructTiming, StereoTiming, RECONSTRUCT_REPS,
+    run_with as run_bench, BenchEvent, BenchExecutors, BenchParams, BenchResult, BenchRun,
+    BenchScene, CpuOnly, DofTiming, KernelTime, RayRate, ReconstructTiming, StereoTiming,
+    RECONSTRUCT_REPS,
 };
 use fovea_eval::EvalError;
 use fovea_post::dof::FilterKind;
 use fovea_render::camera::{EyeCamera, HmdRig};
 use fovea_render::pipeline::trace_shade::{SHADE_BATCH, TRACE_BATCH};
-use fovea_render::pipeline::{FrameSettings, Stage};
+use fovea_render::pipeline::{FrameContext, FrameSettings, Stage};
+use fovea_render::plan::FramePlan;
 use fovea_render::world::World;
 use fovea_render::RenderError;
 
-use crate::choices::{EnvLightChoice, Eyes, Shading};
+use crate::backend::{GpuReconstructMs, GpuTraceMs, Preflight};
+use crate::choices::{BackendArg, EnvLightChoice, Eyes, Shading};
 use crate::common::{display_of, thousands, FrameOptions, MethodOptions};
 use crate::dof_args::EyeArgs;
 use crate::render::{memory_limit, progress_bar, shading, EnvLightArgs};
@@ -89,6 +93,13 @@ pub struct BenchArgs {
     /// Timed repetitions of each binocular mode (alternating Dup and Rep; medians reported).
     #[arg(long, default_value_t = 3)]
     pub stereo_reps: u32,
+    /// Which executor runs the stages a GPU can run (the primary rays and the reconstruction
+    /// of polar methods; every other stage, full resolution and screen-aligned methods stay on
+    /// the CPU, labelled per stage): cpu, gpu (an error when there is no adapter or the build
+    /// lacks the `gpu` feature) or auto. GPU figures are the passes' timestamps; on a CPU
+    /// device (lavapipe) they are labelled CPU-emulated.
+    #[arg(long, value_enum, ignore_case = true, default_value_t = BackendArg::Cpu)]
+    pub backend: BackendArg,
     /// Print JSON only.
     #[arg(long)]
     pub json: bool,
@@ -158,20 +169,123 @@ pub fn params(args: &BenchArgs) -> Result<BenchParams> {
 
 pub fn run(args: BenchArgs) -> Result<()> {
     let params = params(&args)?;
+    if args.backend == BackendArg::Gpu && params.stereo {
+        anyhow::bail!(
+            "--backend gpu: the GPU path runs one eye, and binocular frames (--eyes both) would \
+             be timed on the CPU; use --eyes one, or --backend cpu or auto"
+        );
+    }
+    // Before any work: `gpu` without an adapter or without the feature is an error here.
+    let preflight = crate::backend::preflight(args.backend)?;
     let mut loaded = load(&args.scene)?;
-    let result = measure(
+    if !args.json {
+        print_backend(args.backend, &preflight);
+    }
+    let mut executors = BenchBackend {
+        requested: if preflight.adapter.is_some() {
+            args.backend
+        } else {
+            BackendArg::Cpu
+        },
+        times: None,
+    };
+    let result = measure_with(
         &mut loaded,
         &args.scene,
         &params,
+        &mut executors,
         args.quiet || args.json,
-        !args.json,
+        (!args.json).then_some(args.backend != BackendArg::Cpu),
     )?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&result.to_json())?);
+        let mut json = result.to_json();
+        json["backend"] = serde_json::json!({
+            "requested": args.backend,
+            "resolved": preflight.describe,
+            "adapter": preflight.adapter,
+            "cpu_emulated": preflight.cpu_emulated,
+        });
+        println!("{}", serde_json::to_string_pretty(&json)?);
     } else {
         print_summary(&result);
     }
     Ok(())
+}
+
+/// The last frame's value, leaving `None` for the next.
+fn take<T>(slot: &Mutex<Option<T>>) -> Option<T> {
+    slot.lock().ok().and_then(|mut g| g.take())
+}
+
+/// The table's header line: what `--backend` resolved to, and whether GPU figures are
+/// CPU-emulated.
+fn print_backend(requested: BackendArg, p: &Preflight) {
+    if requested == BackendArg::Cpu {
+        return;
+    }
+    let emulated = if p.cpu_emulated {
+        " — GPU figures CPU-emulated (the adapter is a CPU device)"
+    } else {
+        ""
+    };
+    match &p.adapter {
+        Some(adapter) => println!(
+            "backend: GPU: {adapter}{emulated}; polar methods trace primary rays and \
+             reconstruct on it, every other stage and method on the CPU"
+        ),
+        None => println!("backend: {}: every stage on the CPU", p.describe),
+    }
+}
+
+/// `--backend` for the benchmark's frames: each polar method's frames get the executors
+/// [`crate::backend::resolve`] makes for them, as `fovea render` does; full resolution and
+/// screen-aligned methods run on the CPU (their stages say so).
+struct BenchBackend {
+    /// `cpu`, or what the preflight found a GPU for.
+    requested: BackendArg,
+    /// The installed executors' per-frame times (`None` while the CPU runs every stage).
+    times: Option<ExecutorTimes>,
+}
+
+/// Where the installed GPU executors leave each frame's times.
+struct ExecutorTimes {
+    reconstruct: Arc<Mutex<Option<GpuReconstructMs>>>,
+    trace: Arc<Mutex<Option<GpuTraceMs>>>,
+}
+
+impl BenchExecutors for BenchBackend {
+    fn install(
+        &mut self,
+        world: &World,
+        plan: &FramePlan,
+        ctx: &mut FrameContext,
+    ) -> fovea_eval::Result<()> {
+        self.times = None;
+        if self.requested == BackendArg::Cpu || plan.mapping().polar_layout().is_none() {
+            return Ok(());
+        }
+        let mut backend = crate::backend::resolve(self.requested, plan.mapping(), world)
+            .map_err(|e| EvalError::Scene(format!("{e:#}")))?;
+        self.times = Some(ExecutorTimes {
+            reconstruct: backend.times.clone(),
+            trace: backend.trace_times.clone(),
+        });
+        backend.install(ctx);
+        Ok(())
+    }
+
+    fn pass_ms(&mut self) -> BTreeMap<String, f64> {
+        let mut out = BTreeMap::new();
+        if let Some(ExecutorTimes { reconstruct, trace }) = &self.times {
+            if let Some(ms) = take(trace).and_then(|t| t.gpu_pass_ms) {
+                out.insert("trace".to_string(), ms);
+            }
+            if let Some(ms) = take(reconstruct).and_then(|t| t.gpu_pass_ms) {
+                out.insert("reconstruct".to_string(), ms);
+            }
+        }
+        out
+    }
 }
 
 /// The loaded scene as the benchmark views it: the camera and lights follow each display as
@@ -207,6 +321,26 @@ pub fn measure(
     quiet: bool,
     print: bool,
 ) -> Result<BenchResult> {
+    measure_with(
+        loaded,
+        scene,
+        params,
+        &mut CpuOnly,
+        quiet,
+        print.then_some(false),
+    )
+}
+
+/// [`measure`] with `executors` in each method's frames; `print`: `Some(labels)` prints each
+/// run, with the trace and reconstruct stages labelled `(cpu)` / `(gpu)` when `labels`.
+fn measure_with(
+    loaded: &mut Loaded,
+    scene: &SceneArgs,
+    params: &BenchParams,
+    executors: &mut dyn BenchExecutors,
+    quiet: bool,
+    print: Option<bool>,
+) -> Result<BenchResult> {
     let current = Mutex::new(ProgressBar::hidden());
     let bar = || {
         current
@@ -228,18 +362,18 @@ pub fn measure(
         }
         BenchEvent::DofTimed(t) => {
             bar().finish_and_clear();
-            if print {
+            if print.is_some() {
                 print_dof(&t.display, &t.filters);
             }
         }
         BenchEvent::Run(r) => {
             bar().finish_and_clear();
-            if print {
-                print_run(r);
+            if let Some(labels) = print {
+                print_run(r, labels);
             }
         }
         BenchEvent::Stereo(s) => {
-            if print {
+            if print.is_some() {
                 print_stereo(s);
             }
         }
@@ -248,7 +382,7 @@ pub fn measure(
         loaded,
         args: scene,
     };
-    Ok(run_bench(&mut view, params, &observe)?)
+    Ok(run_bench(&mut view, params, executors, &observe)?)
 }
 
 /// The closing lines of `fovea bench`: the scene and the BVH backends.
@@ -345,25 +479,47 @@ fn print_dof(display: &str, rows: &[DofTiming]) {
     }
 }
 
-fn print_run(r: &BenchRun) {
+/// One run's line; with `labels`, the trace and reconstruct stages say where they ran and the
+/// GPU passes' own times follow.
+fn print_run(r: &BenchRun, labels: bool) {
     let s = &r.stats;
     let st = |k: Stage| s.stages_ms.get(k);
+    let on = |backend: &str| {
+        if labels {
+            format!(" ({backend})")
+        } else {
+            String::new()
+        }
+    };
+    let gpu = if r.device_pass_ms.is_empty() {
+        String::new()
+    } else {
+        let passes: Vec<String> = r
+            .device_pass_ms
+            .iter()
+            .map(|(k, ms)| format!("{k} {ms:.2}"))
+            .collect();
+        format!(" | gpu passes {} ms", passes.join(" "))
+    };
     println!(
-        "{:>5}x{:<5} {:>6} rays {:>13} | trace {:>8.0} shade {:>8.0} aa {:>6.0} reconstruct {:>6.0} | wall {:>8.0} ms, cpu {:>8.0} ms ({:.0}% of {} cores){} | speedup {:>6.2}x wall, {:>6.2}x cpu",
+        "{:>5}x{:<5} {:>6} rays {:>13} | trace {:>8.0}{} shade {:>8.0} aa {:>6.0} reconstruct {:>6.0}{}{gpu} | wall {:>8.0} ms, cpu {:>8.0} ms ({:.0}% of {} cores){} | {:.2} fps | speedup {:>6.2}x wall, {:>6.2}x cpu",
         s.width,
         s.height,
         s.method,
         thousands(s.rays),
         st(Stage::Trace),
+        on(&s.trace_backend),
         st(Stage::Shade),
         st(Stage::Aa),
         st(Stage::Reconstruct),
+        on(&s.reconstruct_backend),
         s.total_ms,
         s.total_cpu_ms,
         r.cpu_share * 100.0,
         rayon::current_num_threads(),
         r.steal
             .map_or(String::new(), |f| format!(" ({:.0}% stolen)", f * 100.0)),
+        r.fps(),
         r.speedup,
         r.speedup_cpu,
     );

@@ -304,3 +304,127 @@ fn gpu_sequence_frames_equal_the_cpu_ones() {
         assert!(mean <= 0.05, "{mean}");
     }
 }
+
+/// `fovea bench --backend`: a small bench (one 160x180 display, full resolution against VaFR,
+/// no BVH throughput test) as JSON.
+fn bench(extra: &[&str], env: &[(&str, &str)]) -> std::process::Output {
+    let mut c = fovea();
+    c.args([
+        "bench",
+        "--res",
+        "160x180",
+        "--methods",
+        "vafr",
+        "--lights",
+        "1",
+    ])
+    .args(["--bvh-rays", "0", "--json", "-q"])
+    .args(extra);
+    for (k, v) in env {
+        c.env(k, v);
+    }
+    c.output().unwrap()
+}
+
+fn bench_json(out: &std::process::Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+#[test]
+fn cpu_bench_reports_every_stage_on_the_cpu_and_no_gpu_passes() {
+    let j = bench_json(&bench(&["--backend", "cpu"], &[]));
+    assert_eq!(j["backend"]["requested"], "cpu");
+    assert_eq!(j["backend"]["cpu_emulated"], false);
+    let runs = j["runs"].as_array().unwrap();
+    assert_eq!(runs.len(), 2);
+    for r in runs {
+        assert_eq!(r["stage_backends"]["trace"], "cpu", "{r}");
+        assert_eq!(r["stage_backends"]["reconstruct"], "cpu", "{r}");
+        assert!(r["gpu_pass_ms"].as_object().unwrap().is_empty(), "{r}");
+        let fps = r["fps"].as_f64().unwrap();
+        assert!(fps.is_finite() && fps > 0.0, "{r}");
+    }
+    // One eye only on the GPU, refused before any work in every build.
+    let e = one_line_error(&bench(&["--backend", "gpu", "--eyes", "both"], &[]));
+    assert!(e.contains("one eye") && e.contains("--backend cpu"), "{e}");
+}
+
+#[cfg(not(feature = "gpu"))]
+#[test]
+fn without_the_gpu_feature_bench_gpu_says_how_to_rebuild() {
+    let e = one_line_error(&bench(&["--backend", "gpu"], &[]));
+    assert!(e.contains("--features gpu"), "{e}");
+    let j = bench_json(&bench(&["--backend", "auto"], &[]));
+    assert_eq!(
+        j["backend"]["resolved"],
+        "CPU (auto: built without the gpu feature)"
+    );
+}
+
+#[cfg(feature = "gpu")]
+#[test]
+fn bench_gpu_without_an_adapter_is_one_line() {
+    let hide = [("VK_ICD_FILENAMES", "/nonexistent")];
+    let e = one_line_error(&bench(&["--backend", "gpu"], &hide));
+    assert!(
+        e.contains("no GPU adapter") && e.contains("mesa-vulkan-drivers"),
+        "{e}"
+    );
+}
+
+/// VaFR's primary rays and reconstruction on the GPU with their passes' own times from
+/// timestamps, full resolution on the CPU in the same run; on lavapipe the figures are
+/// labelled CPU-emulated. Presence, sign and finiteness only: no timing is compared.
+#[cfg(feature = "gpu")]
+#[test]
+fn bench_gpu_reports_pass_times_fps_and_speedup() {
+    let out = bench(&["--backend", "gpu"], &[]);
+    if !out.status.success() {
+        let err = String::from_utf8_lossy(&out.stderr);
+        if err.contains("no GPU adapter")
+            && std::env::var("FOVEA_REQUIRE_GPU").as_deref() != Ok("1")
+        {
+            eprintln!("[fovea-cli] SKIPPED bench_gpu_reports_pass_times_fps_and_speedup: {err}");
+            return;
+        }
+        panic!("{err}");
+    }
+    let j = bench_json(&out);
+    assert_eq!(j["backend"]["requested"], "gpu");
+    let adapter = j["backend"]["adapter"].as_str().unwrap();
+    let emulated = j["backend"]["cpu_emulated"].as_bool().unwrap();
+    if adapter.contains("llvmpipe") {
+        assert!(emulated, "{adapter}");
+    }
+    let runs = j["runs"].as_array().unwrap();
+    let run = |m: &str| {
+        runs.iter()
+            .find(|r| r["method"].as_str().unwrap().eq_ignore_ascii_case(m))
+            .unwrap_or_else(|| panic!("no {m} run: {j}"))
+    };
+    let full = run("full");
+    assert_eq!(full["stage_backends"]["trace"], "cpu", "{full}");
+    assert!(
+        full["gpu_pass_ms"].as_object().unwrap().is_empty(),
+        "{full}"
+    );
+    let vafr = run("vafr");
+    assert_eq!(vafr["stage_backends"]["trace"], "gpu", "{vafr}");
+    assert_eq!(vafr["stage_backends"]["reconstruct"], "gpu", "{vafr}");
+    for pass in ["trace", "reconstruct"] {
+        let ms = vafr["gpu_pass_ms"][pass].as_f64().unwrap_or(f64::NAN);
+        assert!(ms.is_finite() && ms > 0.0, "{pass}: {vafr}");
+    }
+    for r in [full, vafr] {
+        let fps = r["fps"].as_f64().unwrap();
+        assert!(fps.is_finite() && fps > 0.0, "{r}");
+        assert!(r["rays_primary"].as_u64().unwrap() > 0, "{r}");
+        let speedup = r["speedup_vs_full"].as_f64().unwrap();
+        assert!(speedup.is_finite() && speedup > 0.0, "{r}");
+    }
+}

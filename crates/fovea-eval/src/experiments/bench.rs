@@ -9,6 +9,7 @@
 //! [`FrameContext`] (the warm-up allocates the buffers the timed frames reuse); the median
 //! timed frame is reported. Timing goes into the result, never into an assertion.
 
+use std::collections::BTreeMap;
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -74,6 +75,31 @@ impl BenchScene for FixedScene<'_> {
     }
     fn rig(&self) -> &HmdRig {
         &self.rig
+    }
+}
+
+/// Executors other than the CPU's for the benchmark's frames (`fovea bench --backend`, a GPU
+/// that runs some stages): the harness hands each method's fresh [`FrameContext`] to
+/// [`install`](Self::install) before its first frame, and asks after every frame for the
+/// device's own times of it.
+pub trait BenchExecutors {
+    /// Before the first frame of a method on a display: puts the executors that serve frames
+    /// of `plan` (that first frame's plan) into `ctx`, or nothing (the CPU runs every stage).
+    fn install(&mut self, world: &World, plan: &FramePlan, ctx: &mut FrameContext) -> Result<()>;
+    /// After each frame: the device's per-pass times of that frame, ms by pass name (e.g.
+    /// `trace`, `reconstruct`); empty when nothing ran on a device.
+    fn pass_ms(&mut self) -> BTreeMap<String, f64>;
+}
+
+/// Every stage on the CPU (what [`run`] uses).
+pub struct CpuOnly;
+
+impl BenchExecutors for CpuOnly {
+    fn install(&mut self, _: &World, _: &FramePlan, _: &mut FrameContext) -> Result<()> {
+        Ok(())
+    }
+    fn pass_ms(&mut self) -> BTreeMap<String, f64> {
+        BTreeMap::new()
     }
 }
 
@@ -426,6 +452,16 @@ pub struct BenchRun {
     pub screen_allocations: u64,
     /// The reconstruct stage's kernels against the write-bandwidth floor (polar methods).
     pub reconstruct: Option<ReconstructTiming>,
+    /// The median frame's per-pass times on a device, ms by pass ([`BenchExecutors`];
+    /// empty when every stage ran on the CPU).
+    pub device_pass_ms: BTreeMap<String, f64>,
+}
+
+impl BenchRun {
+    /// Frames per second at the median frame's wall time.
+    pub fn fps(&self) -> f64 {
+        1000.0 / self.stats.total_ms
+    }
 }
 
 /// Everything a benchmark measured.
@@ -483,6 +519,17 @@ pub fn run(
     params: &BenchParams,
     observe: &(dyn Fn(BenchEvent<'_>) + Sync),
 ) -> Result<BenchResult> {
+    run_with(scene, params, &mut CpuOnly, observe)
+}
+
+/// [`run`] with `executors` installed into each method's frame context (the single-eye
+/// frames; binocular timings and the DOF filters stay on the CPU).
+pub fn run_with(
+    scene: &mut dyn BenchScene,
+    params: &BenchParams,
+    executors: &mut dyn BenchExecutors,
+    observe: &(dyn Fn(BenchEvent<'_>) + Sync),
+) -> Result<BenchResult> {
     params.validate()?;
     let methods = params.run_methods();
     let backend_name = scene.world().caster.backend().name();
@@ -514,7 +561,7 @@ pub fn run(
             // frames with the same context; the median frame's statistics are kept.
             let eye = EyeState::looking_at(gaze);
             let mut ctx = FrameContext::new();
-            let mut timed: Vec<FrameStats> = Vec::new();
+            let mut timed: Vec<(FrameStats, BTreeMap<String, f64>)> = Vec::new();
             let mut allocations_after_warmup = 0;
             let mut last_plan = None;
             for k in 0..params.warmup + params.frames {
@@ -525,6 +572,9 @@ pub fn run(
                 let t = Stopwatch::start();
                 let plan = FramePlan::new(world, &camera, &s, &eye, [0.0, 0.0])?;
                 times.add(Stage::Plan, &t);
+                if k == 0 {
+                    executors.install(world, &plan, &mut ctx)?;
+                }
                 let frame = render_planned(
                     &mut ctx,
                     world,
@@ -534,14 +584,15 @@ pub fn run(
                     times,
                     &|done, total| observe(BenchEvent::Samples { done, total }),
                 )?;
+                let device_ms = executors.pass_ms();
                 if k >= params.warmup {
-                    timed.push(frame.stats.clone());
+                    timed.push((frame.stats.clone(), device_ms));
                 }
                 last_plan = Some(plan);
             }
             let screen_allocations = ctx.screen_allocations() - allocations_after_warmup;
-            timed.sort_by(|a, b| a.total_ms.total_cmp(&b.total_ms));
-            let stats = timed.swap_remove(timed.len() / 2);
+            timed.sort_by(|a, b| a.0.total_ms.total_cmp(&b.0.total_ms));
+            let (stats, device_pass_ms) = timed.swap_remove(timed.len() / 2);
             // The images are freed with the context, except the full frame's while DOF
             // filters are timed on it.
             if m == Method::Full && !params.dof_filters.is_empty() {
@@ -584,6 +635,7 @@ pub fn run(
                 steal,
                 stats,
                 reconstruct,
+                device_pass_ms,
             };
             observe(BenchEvent::Run(&run));
             result.runs.push(run);
@@ -665,6 +717,12 @@ impl BenchResult {
                     "post_fraction_cpu": post(&s.stages_cpu_ms) / s.total_cpu_ms,
                     "speedup_vs_full": r.speedup,
                     "speedup_vs_full_cpu": r.speedup_cpu,
+                    "fps": r.fps(),
+                    "stage_backends": {
+                        "trace": s.trace_backend,
+                        "reconstruct": s.reconstruct_backend,
+                    },
+                    "gpu_pass_ms": r.device_pass_ms,
                     "machine_steal_fraction": r.steal,
                     "cpu_share": r.cpu_share,
                     "screen_allocations_after_warmup": r.screen_allocations,
