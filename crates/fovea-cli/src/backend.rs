@@ -40,15 +40,18 @@ pub struct GpuReconstructMs {
     pub bands: u32,
 }
 
-/// The GPU tracer's own times of the last frame's primary rays (ms), as JSON.
+/// The GPU tracer's own times of a frame's primary rays (ms), as JSON: sums over the trace
+/// stage's calls (one per chunk of texels) since the slot was last taken.
 #[derive(Clone, Copy, Debug, Default, Serialize)]
 pub struct GpuTraceMs {
     /// The compute passes alone, from timestamps (when the device has them), summed over
-    /// the batches.
+    /// the calls and their batches.
     pub gpu_pass_ms: Option<f64>,
-    /// Batches (compute passes) the rays were split into.
+    /// Batches (compute passes) the rays were split into, over all calls.
     pub batches: u32,
-    /// Preparing, uploading, tracing and reading back, wall ms.
+    /// Calls of the tracer (chunks of the frame's texels).
+    pub calls: u32,
+    /// Preparing, uploading, tracing and reading back, wall ms, over all calls.
     pub total_ms: f64,
 }
 
@@ -339,12 +342,17 @@ impl TraceExecutor for GpuTraceExecutor {
             .gpu
             .closest_hits_timed(&batch)
             .map_err(|e| e.to_string())?;
+        // The trace stage calls this once per chunk of the frame's texels: the frame's
+        // figures are the sums over its calls (a reader takes them once per frame).
         if let Ok(mut slot) = self.times.lock() {
-            *slot = Some(GpuTraceMs {
-                gpu_pass_ms: t.gpu_pass_ms,
-                batches: t.batches,
-                total_ms: t.total_ms,
-            });
+            let sum = slot.get_or_insert_with(GpuTraceMs::default);
+            sum.gpu_pass_ms = match (sum.gpu_pass_ms, t.gpu_pass_ms) {
+                (Some(a), Some(b)) => Some(a + b),
+                (a, b) => a.or(b),
+            };
+            sum.batches += t.batches;
+            sum.calls += 1;
+            sum.total_ms += t.total_ms;
         }
         Ok(hits
             .into_iter()

@@ -184,6 +184,22 @@ fn gpu_backend_traces_and_reconstructs_on_the_gpu() {
     assert!(s["backend"]["gpu_bvh"]["nodes"].as_u64().unwrap() > 1);
     assert!(s["backend"]["adapter"].is_string());
     assert!(s["backend"]["gpu_reconstruct"]["bands"].as_u64().unwrap() >= 1);
+    // The trace stage calls the tracer once per chunk of texels (at most
+    // `plan::CHUNK_SAMPLES` = 2^18 samples of whole rows); the frame's figures are summed
+    // over every call, not the last call's.
+    let trace = &s["backend"]["gpu_trace"];
+    let rays = s["frame"]["rays_primary"].as_u64().unwrap();
+    let calls = trace["calls"].as_u64().unwrap();
+    assert!(
+        rays > 2 << 18 && calls >= 2,
+        "{rays} rays in {calls} calls: {trace}"
+    );
+    assert!(trace["batches"].as_u64().unwrap() >= calls, "{trace}");
+    let total = trace["total_ms"].as_f64().unwrap();
+    if let Some(pass) = trace["gpu_pass_ms"].as_f64() {
+        // The passes run inside the calls: their sum cannot exceed the calls' wall time.
+        assert!(pass > 0.0 && pass <= total, "{trace}");
+    }
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         stdout.contains(
