@@ -103,6 +103,10 @@ run)
         --out "/tmp/gpu-bench-$preset-$backend.png" --stats "$out/render-$preset-$backend.json"
     done
   done
+  # Issue 18's table: per-pass GPU ms from timestamps, fps, rays and the speedup against the
+  # full-resolution frame of the same run (the CPU's), at the Vive Pro Eye, 4K and 8K.
+  step "bench --backend gpu" -- "$bin/fovea" bench --backend gpu --res vive-pro-eye,4k,8k \
+    --methods vafr,kfr --lights 1 --bvh-rays 0 --json
   echo "gpu-bench: $failed step(s) failed; report in $report" | tee -a "$report"
   [ "$failed" = 0 ]
   ;;
