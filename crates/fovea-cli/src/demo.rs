@@ -26,9 +26,9 @@ use fovea_render::scene::builtin;
 use fovea_render::sequence::{Sequence, SequenceDriver, Track};
 use fovea_render::world::World;
 
-use crate::choices::Headset;
+use crate::choices::{BackendArg, Headset};
 use crate::common::preset;
-use crate::output::{difference_map, mark_ring, side_by_side, write_rgb, zoomed_crop};
+use crate::output::{difference_map, html_escape, mark_ring, side_by_side, write_rgb, zoomed_crop};
 use crate::sequence::gaze_trajectory;
 
 /// Options of `fovea demo`.
@@ -43,6 +43,11 @@ pub struct DemoArgs {
     /// Output folder.
     #[arg(long, default_value = "fovea-out")]
     pub out: PathBuf,
+    /// Which executor casts the foveated frames' primary rays and reconstructs them: cpu, gpu
+    /// or auto, as `fovea render --backend` (the GPU needs a fovea built with `--features
+    /// gpu`; the full-resolution reference always runs on the CPU).
+    #[arg(long, value_enum, ignore_case = true, default_value_t = BackendArg::Auto)]
+    pub backend: BackendArg,
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
@@ -99,7 +104,16 @@ pub fn run(args: DemoArgs) -> Result<()> {
         None,
     )?;
     let middle = args.frames as usize / 2;
-    let track = Track::new("vafr", settings.clone(), None)?;
+    // Which executors cast the primary rays and reconstruct (`--backend`), decided on the
+    // first frame's plan before any frame is rendered.
+    let first = FramePlan::new(&world, &camera, &settings, &seq.eyes[0], [0.0, 0.0])?;
+    let mut backend = crate::backend::resolve(args.backend, first.mapping(), &world)?;
+    drop(first);
+    if !args.quiet {
+        println!("backend: {}", backend.describe);
+    }
+    let mut track = Track::new("vafr", settings.clone(), None)?;
+    backend.install(track.context_mut());
     let mut driver = SequenceDriver::new(&world, &seq, vec![track])?;
     let mut kept = None;
     let mut samples = 0;
@@ -201,6 +215,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
 <style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto}}img{{max-width:100%}}</style></head>
 <body>
 <h1>fovea demo — {name}, {w}×{h} per eye</h1>
+<p>Foveated frames rendered on: {backend_line}.</p>
 <p>Left: what the eye gets when the renderer knows where it looks — VaFR shades {samples} samples per frame ({share:.0} % of the {full_px} pixels), densest at the gaze, and blurs what lies outside the depth the eye focuses on (auto focus, {focus:.2} m here). Right: every pixel ray-traced at full resolution with the same blur.</p>
 <p>The yellow ring marks where the eye looks in this frame, ({gx:.0}, {gy:.0}); the frames below follow a gaze that fixates, pursues and jumps.</p>
 <h2>Foveated | full resolution (frame {middle})</h2><img src="side-by-side.png" alt="foveated and full-resolution frames side by side, the gaze ringed">
@@ -219,6 +234,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
 </body></html>
 "#,
         name = display.name,
+        backend_line = html_escape(&backend.describe),
         share = 100.0 * samples as f64 / full_px as f64,
         fx = far.0,
         fy = far.1,

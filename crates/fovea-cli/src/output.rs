@@ -193,3 +193,12 @@ pub fn write_scalar(path: &Path, img: &Image<f32>, lo: f32, hi: f32) -> Result<(
     });
     write_rgb(path, &rgb, 0.0, ToneCurve::Clamp)
 }
+
+/// `t` as HTML text or attribute value: `&`, `<`, `>` and `"` escaped (the report's and the
+/// demo page's pages quote adapter names, scene paths and messages).
+pub fn html_escape(t: &str) -> String {
+    t.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}

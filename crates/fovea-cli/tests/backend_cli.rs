@@ -444,3 +444,55 @@ fn bench_gpu_reports_pass_times_fps_and_speedup() {
         assert!(speedup.is_finite() && speedup > 0.0, "{r}");
     }
 }
+
+/// `fovea demo --backend`: stdout and the page say where the foveated frames were made, and
+/// a GPU that cannot run is the same one-line error as `render`'s, before any frame.
+#[test]
+fn demo_says_which_backend_made_its_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let demo = |backend: &str, env: &[(&str, &str)]| {
+        let mut c = fovea();
+        c.args(["demo", "--frames", "1", "--backend", backend, "--out"])
+            .arg(dir.path());
+        for (k, v) in env {
+            c.env(k, v);
+        }
+        c.output().unwrap()
+    };
+    let page = || std::fs::read_to_string(dir.path().join("demo/index.html")).unwrap();
+    // Hides every Vulkan driver: `auto` takes the CPU and says so.
+    let out = demo("auto", &[("VK_ICD_FILENAMES", "/nonexistent")]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("backend: CPU (auto: "), "{stdout}");
+    assert!(
+        page().contains("Foveated frames rendered on: CPU (auto: "),
+        "{}",
+        page()
+    );
+    let out = demo("gpu", &[]);
+    if cfg!(not(feature = "gpu")) {
+        let e = one_line_error(&out);
+        assert!(e.contains("--features gpu"), "{e}");
+        return;
+    }
+    if !out.status.success() {
+        let err = String::from_utf8_lossy(&out.stderr);
+        if err.contains("no GPU adapter")
+            && std::env::var("FOVEA_REQUIRE_GPU").as_deref() != Ok("1")
+        {
+            eprintln!("[fovea-cli] SKIPPED demo_says_which_backend_made_its_frames (GPU): {err}");
+            return;
+        }
+        panic!("{err}");
+    }
+    assert!(
+        page().contains("Foveated frames rendered on: GPU: "),
+        "{}",
+        page()
+    );
+}

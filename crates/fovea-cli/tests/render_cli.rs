@@ -311,6 +311,9 @@ fn demo_writes_frames_reference_overlay_and_index() {
     );
     let html = std::fs::read_to_string(d.join("index.html")).unwrap();
     assert!(html.contains("side-by-side.png") && html.contains("VaFR"));
+    // The default `--backend auto` says where the frames were made (the CPU without a
+    // hardware GPU or without the `gpu` feature).
+    assert!(html.contains("Foveated frames rendered on: "), "{html}");
     for part in [
         "crop-gaze.png",
         "crop-periphery.png",

@@ -247,12 +247,7 @@ pub struct Report {
     pub sections: Vec<Section>,
 }
 
-fn esc(t: &str) -> String {
-    t.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-}
+use crate::output::html_escape as esc;
 
 fn check_line(c: &Check) -> String {
     format!(
