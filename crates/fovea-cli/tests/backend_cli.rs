@@ -33,6 +33,20 @@ fn stats(dir: &Path, name: &str) -> serde_json::Value {
     serde_json::from_slice(&std::fs::read(dir.join(format!("{name}.json"))).unwrap()).unwrap()
 }
 
+/// Whether a run that asked for the GPU succeeded. A run without any adapter is skipped with a
+/// printed reason (returns false) unless `FOVEA_REQUIRE_GPU=1`; any other failure panics.
+fn gpu_ran(out: &std::process::Output, test: &str) -> bool {
+    if out.status.success() {
+        return true;
+    }
+    let err = String::from_utf8_lossy(&out.stderr);
+    if err.contains("no GPU adapter") && std::env::var("FOVEA_REQUIRE_GPU").as_deref() != Ok("1") {
+        eprintln!("[fovea-cli] SKIPPED {test} (GPU): {err}");
+        return false;
+    }
+    panic!("{err}");
+}
+
 /// A failed run: exit status 2, one `error:` line on stderr, no panic.
 fn one_line_error(out: &std::process::Output) -> String {
     let err = String::from_utf8_lossy(&out.stderr).into_owned();
@@ -165,15 +179,8 @@ fn gpu_backend_traces_and_reconstructs_on_the_gpu() {
         &["--method", "vafr", "--backend", "gpu"],
         &[],
     );
-    if !out.status.success() {
-        let err = String::from_utf8_lossy(&out.stderr);
-        if err.contains("no GPU adapter")
-            && std::env::var("FOVEA_REQUIRE_GPU").as_deref() != Ok("1")
-        {
-            eprintln!("[fovea-cli] SKIPPED gpu_backend_traces_and_reconstructs_on_the_gpu: {err}");
-            return;
-        }
-        panic!("{err}");
+    if !gpu_ran(&out, "gpu_backend_traces_and_reconstructs_on_the_gpu") {
+        return;
     }
     let s = stats(dir.path(), "gpu");
     assert_eq!(s["frame"]["reconstruct_backend"], "gpu");
@@ -283,15 +290,8 @@ fn sequence_records_its_backend() {
 fn gpu_sequence_frames_equal_the_cpu_ones() {
     let dir = tempfile::tempdir().unwrap();
     let out = sequence(dir.path(), "gpu", "gpu");
-    if !out.status.success() {
-        let err = String::from_utf8_lossy(&out.stderr);
-        if err.contains("no GPU adapter")
-            && std::env::var("FOVEA_REQUIRE_GPU").as_deref() != Ok("1")
-        {
-            eprintln!("[fovea-cli] SKIPPED gpu_sequence_frames_equal_the_cpu_ones: {err}");
-            return;
-        }
-        panic!("{err}");
+    if !gpu_ran(&out, "gpu_sequence_frames_equal_the_cpu_ones") {
+        return;
     }
     assert!(sequence(dir.path(), "cpu", "cpu").status.success());
     let m: serde_json::Value =
@@ -400,15 +400,8 @@ fn bench_gpu_without_an_adapter_is_one_line() {
 #[test]
 fn bench_gpu_reports_pass_times_fps_and_speedup() {
     let out = bench(&["--backend", "gpu"], &[]);
-    if !out.status.success() {
-        let err = String::from_utf8_lossy(&out.stderr);
-        if err.contains("no GPU adapter")
-            && std::env::var("FOVEA_REQUIRE_GPU").as_deref() != Ok("1")
-        {
-            eprintln!("[fovea-cli] SKIPPED bench_gpu_reports_pass_times_fps_and_speedup: {err}");
-            return;
-        }
-        panic!("{err}");
+    if !gpu_ran(&out, "bench_gpu_reports_pass_times_fps_and_speedup") {
+        return;
     }
     let j = bench_json(&out);
     assert_eq!(j["backend"]["requested"], "gpu");
@@ -480,15 +473,8 @@ fn demo_says_which_backend_made_its_frames() {
         assert!(e.contains("--features gpu"), "{e}");
         return;
     }
-    if !out.status.success() {
-        let err = String::from_utf8_lossy(&out.stderr);
-        if err.contains("no GPU adapter")
-            && std::env::var("FOVEA_REQUIRE_GPU").as_deref() != Ok("1")
-        {
-            eprintln!("[fovea-cli] SKIPPED demo_says_which_backend_made_its_frames (GPU): {err}");
-            return;
-        }
-        panic!("{err}");
+    if !gpu_ran(&out, "demo_says_which_backend_made_its_frames") {
+        return;
     }
     assert!(
         page().contains("Foveated frames rendered on: GPU: "),
