@@ -303,11 +303,6 @@ pub fn run(args: RenderArgs) -> Result<()> {
     settings.validate()?;
 
     if both_eyes {
-        if args.backend == BackendArg::Gpu {
-            bail!(
-                "--backend gpu: the GPU path runs one eye (--eyes one); use --backend cpu or auto"
-            );
-        }
         let (lod_world, lod_stats) = if lod_on {
             let eye = EyeState::fixating(&prepared.world, &prepared.camera, gaze, None)?;
             let (w, st) = lod_world(&prepared, &settings, &eye, args.lod_keep)?;
@@ -468,20 +463,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     })
     .collect();
     println!("stages (ms): {}", stages.join(", "));
-    let on_gpu: Vec<String> = [
-        ("primary rays", &s.trace_backend),
-        ("reconstruct", &s.reconstruct_backend),
-    ]
-    .into_iter()
-    .filter(|(_, b)| b.as_str() != "cpu")
-    .map(|(stage, b)| format!("{stage} on the {}", b.to_uppercase()))
-    .collect();
-    let ran = if on_gpu.is_empty() {
-        String::new()
-    } else {
-        format!(" | {}, every other stage on the CPU", on_gpu.join(", "))
-    };
-    println!("backend: {}{ran}", backend.describe);
+    println!("{}", backend_line(&backend, s));
     let (ppd_x, ppd_y) = display.centre_ppd_axes();
     println!(
         "display {} {:.1}°×{:.1}°: {ppd_x:.2} px/deg across, {ppd_y:.2} down at the centre",
@@ -571,7 +553,7 @@ fn run_stereo(
     tone: ToneCurve,
     lod_stats: Option<fovea_render::lod::LodStats>,
 ) -> Result<()> {
-    use fovea_render::stereo::{fixating_eyes, render_stereo};
+    use fovea_render::stereo::{fixating_eyes, render_stereo_in};
     let display = &prepared.camera.display;
     let (target, [(lc, lg), (rc, rg)]) = fixating_eyes(world, &prepared.rig, display, &gaze)?;
     let dof = settings.dof.as_ref();
@@ -579,11 +561,27 @@ fn run_stereo(
         EyeState::fixating(world, &lc, lg, dof)?,
         EyeState::fixating(world, &rc, rg, dof)?,
     ];
+    // Which executors run both eyes' trace and reconstruct stages (`--backend`), decided on
+    // the left eye's plan (both eyes use one method), before any ray is traced.
+    let left_plan = FramePlan::new(world, &lc, &settings, &eyes[0], [0.0, 0.0])?;
+    let mut backend = crate::backend::resolve(args.backend, left_plan.mapping(), world)?;
+    drop(left_plan);
+    let mut ctx = FrameContext::new();
+    backend.install(&mut ctx);
     let pb = progress_bar(args.quiet, mode.name());
-    let frame = render_stereo(world, &lc, &rc, &settings, eyes, mode, &|done, total| {
-        pb.set_length(total);
-        pb.set_position(done);
-    })?;
+    let frame = render_stereo_in(
+        &mut ctx,
+        world,
+        &lc,
+        &rc,
+        &settings,
+        eyes,
+        mode,
+        &|done, total| {
+            pb.set_length(total);
+            pb.set_position(done);
+        },
+    )?;
     pb.finish_and_clear();
     let (w, h) = (display.width_px, display.height_px);
     let both = crate::output::side_by_side(&frame.left.color, &frame.right.color)?;
@@ -612,6 +610,12 @@ fn run_stereo(
         "lod": lod_stats,
         "left": frame.left.stats,
         "right": frame.right.stats,
+        // Both eyes ran on the same executors; the GPU's times are summed over both eyes.
+        "backend": backend.json(
+            &frame.left.stats.stages_ms,
+            &frame.left.stats.reconstruct_backend,
+            &frame.left.stats.trace_backend,
+        ),
     });
     std::fs::write(&stats_path, serde_json::to_string_pretty(&json)? + "\n")
         .with_context(|| format!("cannot write {}", stats_path.display()))?;
@@ -629,7 +633,30 @@ fn run_stereo(
         st.total_ms
     );
     println!("{}", wrote_line(&[&args.out, &stats_path]));
+    println!("{}", backend_line(&backend, &frame.left.stats));
     Ok(())
+}
+
+/// "backend: GPU: <adapter> | primary rays on the GPU, reconstruct on the GPU, every other
+/// stage on the CPU", or "backend: CPU (<why>)": where a frame's stages ran.
+fn backend_line(
+    backend: &crate::backend::Backend,
+    s: &fovea_render::pipeline::FrameStats,
+) -> String {
+    let on_gpu: Vec<String> = [
+        ("primary rays", &s.trace_backend),
+        ("reconstruct", &s.reconstruct_backend),
+    ]
+    .into_iter()
+    .filter(|(_, b)| b.as_str() != "cpu")
+    .map(|(stage, b)| format!("{stage} on the {}", b.to_uppercase()))
+    .collect();
+    let ran = if on_gpu.is_empty() {
+        String::new()
+    } else {
+        format!(" | {}, every other stage on the CPU", on_gpu.join(", "))
+    };
+    format!("backend: {}{ran}", backend.describe)
 }
 
 /// "wrote a, b and c": every file a render wrote, in the order written.

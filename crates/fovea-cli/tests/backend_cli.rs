@@ -97,13 +97,6 @@ fn gpu_backend_refuses_frames_it_has_no_stage_for() {
         e.contains("polar methods only") && e.contains("--backend cpu"),
         "{e}"
     );
-    let e = one_line_error(&render(
-        dir.path(),
-        "s",
-        &["--eyes", "both", "--backend", "gpu"],
-        &[],
-    ));
-    assert!(e.contains("one eye"), "{e}");
     // `auto` takes the CPU for them and says why.
     let out = render(
         dir.path(),
@@ -222,12 +215,20 @@ fn gpu_backend_traces_and_reconstructs_on_the_gpu() {
         &[],
     );
     assert!(out.status.success());
+    assert_gpu_image_is_the_cpus(dir.path(), "gpu", "cpu");
+}
+
+/// The GPU's image `gpu.exr` against the CPU's `cpu.exr` in `dir`: within the GPU
+/// reconstruction tests' worst-case bound per channel (relative above 1), and a mean far below
+/// theirs (shaded content is smooth where random texels are not).
+#[cfg(feature = "gpu")]
+fn assert_gpu_image_is_the_cpus(dir: &Path, gpu: &str, cpu: &str) {
     let read = |name: &str| {
-        image::open(dir.path().join(format!("{name}.exr")))
+        image::open(dir.join(format!("{name}.exr")))
             .unwrap()
             .into_rgb32f()
     };
-    let (g, c) = (read("gpu"), read("cpu"));
+    let (g, c) = (read(gpu), read(cpu));
     assert_eq!(g.dimensions(), c.dimensions());
     let (mut max, mut sum, mut n) = (0.0f32, 0.0f64, 0usize);
     for (a, b) in g.pixels().zip(c.pixels()) {
@@ -240,11 +241,56 @@ fn gpu_backend_traces_and_reconstructs_on_the_gpu() {
         }
     }
     let mean = sum / n as f64;
-    eprintln!("[fovea-cli] GPU vs CPU render: max relative difference {max:.4}, mean {mean:.2e}");
+    eprintln!("[fovea-cli] GPU vs CPU {gpu}: max relative difference {max:.4}, mean {mean:.2e}");
     assert!(max <= 2.0 / 64.0 + 2e-3, "{max}");
     // Smooth shaded content (measured on lavapipe: max 6e-4, mean 1.6e-5); random texels
     // reach 9e-4 in the mean.
     assert!(mean <= 2e-4, "{mean}");
+}
+
+/// Both eyes (`--eyes both`, VaFR_Dup and VaFR_Rep) on the GPU's executors: every eye's
+/// primary rays and reconstruction run there, the tracer's times cover both eyes, and the
+/// side-by-side image is the CPU's within the one-eye test's bounds.
+#[cfg(feature = "gpu")]
+#[test]
+fn gpu_backend_renders_both_eyes() {
+    let dir = tempfile::tempdir().unwrap();
+    for mode in ["dup", "rep"] {
+        let gpu = format!("{mode}-gpu");
+        let cpu = format!("{mode}-cpu");
+        let both = ["--method", "vafr", "--eyes", "both", "--stereo", mode];
+        let out = render(
+            dir.path(),
+            &gpu,
+            &[&both[..], &["--backend", "gpu"]].concat(),
+            &[],
+        );
+        if !gpu_ran(&out, "gpu_backend_renders_both_eyes") {
+            return;
+        }
+        let s = stats(dir.path(), &gpu);
+        for eye in ["left", "right"] {
+            assert_eq!(s[eye]["trace_backend"], "gpu", "{mode} {eye}");
+            assert_eq!(s[eye]["reconstruct_backend"], "gpu", "{mode} {eye}");
+        }
+        assert_eq!(s["backend"]["stages"]["trace"], "gpu");
+        let calls = s["backend"]["gpu_trace"]["calls"].as_u64().unwrap();
+        assert!(calls >= 2, "{mode}: {calls} tracer calls for two eyes");
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(stdout.contains("backend: GPU: "), "{stdout}");
+        let out = render(
+            dir.path(),
+            &cpu,
+            &[&both[..], &["--backend", "cpu"]].concat(),
+            &[],
+        );
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert_gpu_image_is_the_cpus(dir.path(), &gpu, &cpu);
+    }
 }
 
 /// `fovea sequence --backend`: the folder records where its frames were made, and a sequence

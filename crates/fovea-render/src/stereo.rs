@@ -28,7 +28,8 @@ use crate::camera::{Eye, EyeCamera, HmdRig};
 use crate::error::{RenderError, Result};
 use crate::eye::EyeState;
 use crate::pipeline::{
-    render_alone, Frame, FrameInputs, FrameSettings, Prefill, Stage, StageTimes, Stopwatch,
+    render_planned, Frame, FrameContext, FrameInputs, FrameSettings, Prefill, Stage, StageTimes,
+    Stopwatch,
 };
 use crate::plan::FramePlan;
 use crate::world::World;
@@ -177,6 +178,33 @@ pub fn render_stereo(
     mode: StereoMode,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<StereoFrame> {
+    let mut ctx = FrameContext::new();
+    render_stereo_in(
+        &mut ctx,
+        world,
+        left_camera,
+        right_camera,
+        settings,
+        eyes,
+        mode,
+        progress,
+    )
+}
+
+/// [`render_stereo`] in the caller's context: both eyes, one after the other, run through its
+/// executors (a GPU's tracer and reconstructor, [`FrameContext::set_tracer`]) and reuse its
+/// buffers; each eye's frame is taken out of it.
+#[allow(clippy::too_many_arguments)]
+pub fn render_stereo_in(
+    ctx: &mut FrameContext,
+    world: &World,
+    left_camera: &EyeCamera,
+    right_camera: &EyeCamera,
+    settings: &FrameSettings,
+    eyes: [EyeState; 2],
+    mode: StereoMode,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<StereoFrame> {
     let t0 = std::time::Instant::now();
     let plan_of =
         |camera: &EyeCamera, eye: &EyeState, keep: bool| -> Result<(FramePlan, StageTimes)> {
@@ -188,16 +216,18 @@ pub fn render_stereo(
             times.add(Stage::Plan, &t);
             Ok((plan, times))
         };
-    let render = |camera: &EyeCamera,
-                  plan: &FramePlan,
-                  times: StageTimes,
-                  prefill: Option<&Prefill>|
+    let mut render = |camera: &EyeCamera,
+                      plan: &FramePlan,
+                      times: StageTimes,
+                      prefill: Option<&Prefill>|
      -> Result<Frame> {
         let inputs = FrameInputs {
             accumulator: None,
             prefill,
         };
-        render_alone(world, camera, plan, inputs, times, progress)
+        render_planned(ctx, world, camera, plan, inputs, times, progress)?;
+        ctx.take_frame()
+            .ok_or_else(|| RenderError::Unsupported("the eye's frame was not stored".into()))
     };
     match mode {
         StereoMode::Dup => {
