@@ -79,9 +79,14 @@ pub struct Backend {
 
 impl Backend {
     fn cpu(requested: BackendArg, reason: &str) -> Self {
+        Self::cpu_described(requested, format!("CPU ({reason})"))
+    }
+
+    /// Every stage on the CPU, with `describe` as the GPU resolution worded it.
+    fn cpu_described(requested: BackendArg, describe: String) -> Self {
         Self {
             requested,
-            describe: format!("CPU ({reason})"),
+            describe,
             adapter: None,
             executor: None,
             tracer: None,
@@ -109,13 +114,13 @@ impl Backend {
     }
 
     /// The JSON of the frame's stats: what was asked, what ran, which stage ran where.
-    pub fn json(
-        &self,
-        stages: &fovea_render::pipeline::StageMs,
-        reconstruct: &str,
-        trace: &str,
-    ) -> serde_json::Value {
+    pub fn json(&self, frame: &fovea_render::pipeline::FrameStats) -> serde_json::Value {
         use fovea_render::pipeline::Stage;
+        let (stages, reconstruct, trace) = (
+            &frame.stages_ms,
+            frame.reconstruct_backend.as_str(),
+            frame.trace_backend.as_str(),
+        );
         let per_stage: serde_json::Map<String, serde_json::Value> = Stage::ALL
             .iter()
             .filter(|&&k| stages.ran(k))
@@ -190,6 +195,16 @@ impl Preflight {
             cpu_emulated: false,
         }
     }
+
+    /// What a GPU context offers: its adapter and driver, and whether it is a CPU device.
+    #[cfg(feature = "gpu")]
+    fn gpu(ctx: &fovea_gpu::GpuContext, describe: String) -> Self {
+        Self {
+            describe,
+            adapter: Some(format!("{} — {}", ctx.adapter(), ctx.adapter().driver)),
+            cpu_emulated: ctx.adapter().kind == fovea_gpu::DeviceKind::Software,
+        }
+    }
 }
 
 /// Fails as [`resolve`] would for any frame when `--backend gpu` cannot run at all (a build
@@ -218,11 +233,7 @@ pub fn preflight(requested: BackendArg) -> Result<Preflight> {
     let resolved = choice.resolve(&GpuRequest::default())?;
     let describe = resolved.describe();
     Ok(match resolved {
-        Resolved::Gpu(ctx) => Preflight {
-            describe,
-            adapter: Some(format!("{} — {}", ctx.adapter(), ctx.adapter().driver)),
-            cpu_emulated: ctx.adapter().kind == fovea_gpu::DeviceKind::Software,
-        },
+        Resolved::Gpu(ctx) => Preflight::gpu(&ctx, describe),
         Resolved::Cpu { .. } => Preflight {
             describe,
             adapter: None,
@@ -260,21 +271,9 @@ fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend
     let describe = resolved.describe();
     let ctx = match resolved {
         Resolved::Gpu(ctx) => ctx,
-        Resolved::Cpu { .. } => {
-            return Ok(Backend {
-                requested,
-                describe,
-                adapter: None,
-                executor: None,
-                tracer: None,
-                gpu_bvh: None,
-                times: Arc::default(),
-                trace_times: Arc::default(),
-                cpu_emulated: false,
-            })
-        }
+        Resolved::Cpu { .. } => return Ok(Backend::cpu_described(requested, describe)),
     };
-    let cpu_emulated = ctx.adapter().kind == fovea_gpu::DeviceKind::Software;
+    let facts = Preflight::gpu(&ctx, describe);
     let tris = world.tris.vertex_arrays();
     let tracer = GpuTracer::new(&ctx, &tris)?;
     let s = tracer.stats();
@@ -292,8 +291,8 @@ fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend
     };
     Ok(Backend {
         requested,
-        describe,
-        adapter: Some(format!("{} — {}", ctx.adapter(), ctx.adapter().driver)),
+        describe: facts.describe,
+        adapter: facts.adapter,
         executor: Some(Box::new(executor)),
         tracer: Some(Box::new(GpuTraceExecutor {
             gpu: tracer,
@@ -303,7 +302,7 @@ fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend
         gpu_bvh: Some(gpu_bvh),
         times,
         trace_times,
-        cpu_emulated,
+        cpu_emulated: facts.cpu_emulated,
     })
 }
 

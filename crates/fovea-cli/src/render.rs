@@ -408,7 +408,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         // The smoothing asked for; `frame.inset_smoothing` is the one applied.
         "inset_smoothing": (method == Method::Inset).then(|| settings.inset_smoothing.name()),
         "lod": lod_stats,
-        "backend": backend.json(&s.stages_ms, &s.reconstruct_backend, &s.trace_backend),
+        "backend": backend.json(s),
         "exposure": exposure_json(exposure.0, &exposed),
         "frame": s,
     });
@@ -611,11 +611,7 @@ fn run_stereo(
         "left": frame.left.stats,
         "right": frame.right.stats,
         // Both eyes ran on the same executors; the GPU's times are summed over both eyes.
-        "backend": backend.json(
-            &frame.left.stats.stages_ms,
-            &frame.left.stats.reconstruct_backend,
-            &frame.left.stats.trace_backend,
-        ),
+        "backend": backend.json(&frame.left.stats),
     });
     std::fs::write(&stats_path, serde_json::to_string_pretty(&json)? + "\n")
         .with_context(|| format!("cannot write {}", stats_path.display()))?;

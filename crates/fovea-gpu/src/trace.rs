@@ -21,7 +21,7 @@ use obvhs::BvhBuildParams;
 use crate::device::GpuContext;
 use crate::error::{GpuError, Result};
 use crate::shaders::ShaderSource;
-use crate::transfer::{batch_len, run_1d_timed, upload};
+use crate::transfer::{batch_len, run_1d, upload};
 
 /// The module: `closest_hit` and `any_hit`, [`TraceUniform`] at binding 0.
 pub const SHADER: ShaderSource = ShaderSource {
@@ -398,7 +398,7 @@ impl GpuTracer {
                 ),
             )
         })?;
-        let (raw, ms) = run_1d_timed(
+        let (raw, ms) = run_1d(
             &self.ctx,
             &what,
             pipeline,

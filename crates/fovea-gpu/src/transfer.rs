@@ -64,20 +64,9 @@ pub(crate) fn read_buffers(
 /// [`WORKGROUP_SIZE`](crate::shaders::WORKGROUP_SIZE) along x) with `inputs` bound at
 /// bindings `0..k` of group 0 and a fresh output buffer of `out_bytes` per item at binding `k`,
 /// and returns the output's bytes. Everything runs inside an error scope named `what`.
+/// With `timed`, also the compute pass's own milliseconds from the device's timestamps
+/// ([`PassTimer`]; `None` untimed or on a device without them).
 pub(crate) fn run_1d(
-    ctx: &GpuContext,
-    what: &str,
-    pipeline: &wgpu::ComputePipeline,
-    inputs: &[wgpu::BindingResource<'_>],
-    n: u64,
-    out_bytes: u64,
-) -> Result<Vec<u8>> {
-    Ok(run_1d_timed(ctx, what, pipeline, inputs, n, out_bytes, false)?.0)
-}
-
-/// [`run_1d`], and with `timed` the compute pass's own milliseconds from the device's
-/// timestamps ([`PassTimer`]; `None` untimed or on a device without them).
-pub(crate) fn run_1d_timed(
     ctx: &GpuContext,
     what: &str,
     pipeline: &wgpu::ComputePipeline,

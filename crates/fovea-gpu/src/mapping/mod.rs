@@ -148,7 +148,7 @@ impl GpuMapping {
                 wgpu::BufferUsages::STORAGE,
             )
         })?;
-        let raw = run_1d(
+        let (raw, _) = run_1d(
             &self.ctx,
             &what,
             pipeline,
@@ -158,6 +158,7 @@ impl GpuMapping {
             ],
             n,
             OUT_BYTES,
+            false,
         )?;
         let values: &[[f32; 4]] = bytemuck::cast_slice(&raw);
         Ok(values

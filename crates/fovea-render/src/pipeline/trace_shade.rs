@@ -240,6 +240,8 @@ pub fn shade_chunk(
     } = chunk;
     let shading = plan.settings.shading;
     let cull = plan.culling.as_ref();
+    // The key of the chunk's texel `k` (row-major in the chunk's rows): its random numbers.
+    let key_of_texel = |k: u32| texel_key(layer, k % row_len as u32, j0 + k / row_len as u32);
     // Direct shading of one ray per texel without culling (the default frame): the shadow
     // rays go light by light over batches of neighbouring texels.
     if let (ShadingMode::Direct { env_light }, None, true) = (
@@ -247,7 +249,6 @@ pub fn shade_chunk(
         cull,
         plan.rays.per_column.is_empty() && plan.rays.uniform == 1,
     ) {
-        let key_of = |k: u32| texel_key(layer, k % row_len as u32, j0 + k / row_len as u32);
         // Per batch: each texel's colour and depth (none where nothing was traced), and the
         // batch's secondary rays.
         type Batch = (Vec<Option<(Rgb, f32)>>, RayCounts);
@@ -264,7 +265,7 @@ pub fn shade_chunk(
                     .iter()
                     .zip(&reps)
                     .filter(|(_, r)| r.is_some())
-                    .map(|(&k, _)| key_of(k))
+                    .map(|(&k, _)| key_of_texel(k))
                     .collect();
                 let mut rc = RayCounts::default();
                 let mut values = vec![Vec3::ZERO; gs.len()];
@@ -306,7 +307,7 @@ pub fn shade_chunk(
                 .as_ref()
                 .or_else(|| rays.iter().flatten().next())?;
             let mut rc = RayCounts::default();
-            let key = texel_key(layer, k % row_len as u32, j0 + k / row_len as u32);
+            let key = key_of_texel(k);
             // Sub-sample `s` of a texel draws its own random numbers.
             let key_of = |s: usize| subsample_key(key, s);
             let depth = camera.view_depth(-rep.to_eye, rep.t);
