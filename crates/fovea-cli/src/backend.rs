@@ -1,15 +1,16 @@
 //! `fovea render --backend cpu|gpu|auto` (issue 18, docs/gpu.md): which executor runs which
-//! stage of the frame. Today the GPU runs two: the trace stage's primary rays (closest hits
-//! through a BVH, `fovea_gpu::GpuTracer`; surfaces and shading stay on the CPU) and the
-//! reconstruct stage's lookup of polar buffers (VaFR, KFR, LaFR, visual-polar, liu-hybrid;
-//! `fovea_gpu::GpuReconstructor`); every other stage, and every other method, runs on the CPU.
+//! stage of the frame. Today the GPU casts every method's rays — the trace stage's primary
+//! rays (closest hits through a BVH, `fovea_gpu::GpuTracer`) and the shade stage's shadow rays
+//! towards the lights and the environment (any-hit, the same BVH) — while the surfaces and the
+//! shading arithmetic stay on the CPU; and it runs the reconstruct stage's lookup of polar
+//! buffers (VaFR, KFR, LaFR, visual-polar, liu-hybrid; `fovea_gpu::GpuReconstructor`). Every
+//! other stage runs on the CPU.
 //!
 //! * `cpu`: no GPU is looked for.
-//! * `gpu`: the best adapter there is (lavapipe included); none, or a frame the GPU has no
-//!   stage for (a screen-aligned method, `--eyes both`), is a one-line error, so a run that
-//!   asked for the GPU never silently measures the CPU.
-//! * `auto` (default): a hardware adapter when there is one and the frame has a GPU stage,
-//!   the CPU otherwise; a one-line notice says which and why.
+//! * `gpu`: the best adapter there is (lavapipe included); none is a one-line error, so a run
+//!   that asked for the GPU never silently measures the CPU.
+//! * `auto` (default): a hardware adapter when there is one, the CPU otherwise; a one-line
+//!   notice says which and why.
 //!
 //! The GPU path is compiled with the CLI's `gpu` feature (off by default: wgpu is a long
 //! build). Without it `gpu` says how to rebuild and `auto` is the CPU.
@@ -71,8 +72,10 @@ pub struct Backend {
     pub gpu_bvh: Option<serde_json::Value>,
     /// Filled by the executor after each frame.
     pub times: Arc<Mutex<Option<GpuReconstructMs>>>,
-    /// Filled by the trace executor after each frame.
+    /// Filled by the trace executor after each frame: its primary rays.
     pub trace_times: Arc<Mutex<Option<GpuTraceMs>>>,
+    /// Filled by the trace executor after each frame: the shade stage's shadow rays.
+    pub shadow_times: Arc<Mutex<Option<GpuTraceMs>>>,
     /// The adapter is a CPU device (lavapipe, llvmpipe, WARP): its times are CPU-emulated.
     pub cpu_emulated: bool,
 }
@@ -93,11 +96,12 @@ impl Backend {
             gpu_bvh: None,
             times: Arc::default(),
             trace_times: Arc::default(),
+            shadow_times: Arc::default(),
             cpu_emulated: false,
         }
     }
 
-    /// Whether a GPU runs a stage (the primary rays or the reconstruction).
+    /// Whether a GPU runs a stage (the rays or the reconstruction).
     pub fn on_gpu(&self) -> bool {
         self.tracer.is_some() || self.executor.is_some()
     }
@@ -140,14 +144,17 @@ impl Backend {
             "stages": per_stage,
             "gpu_reconstruct": *self.times.lock().unwrap_or_else(|e| e.into_inner()),
             "gpu_trace": *self.trace_times.lock().unwrap_or_else(|e| e.into_inner()),
+            "gpu_shadow": *self.shadow_times.lock().unwrap_or_else(|e| e.into_inner()),
+            "rays": {"primary": trace, "shadow": frame.shadow_backend},
             "cpu_emulated": self.cpu_emulated,
             "gpu_bvh": self.gpu_bvh,
         })
     }
 }
 
-/// Resolves `--backend` for a one-eye frame of `mapping` of `world`. The largest single GPU
-/// buffer the frame's reconstruction needs (its polar texels, [`polar_texel_bytes`]) is
+/// Resolves `--backend` for a one-eye frame of `mapping` of `world`: on the GPU, every
+/// method's primary and shadow rays, and polar methods' reconstruction. The largest single GPU
+/// buffer the frame needs (the triangles, or a polar frame's texels, [`polar_texel_bytes`]) is
 /// checked against the adapter before anything runs.
 pub fn resolve(
     requested: BackendArg,
@@ -156,17 +163,6 @@ pub fn resolve(
 ) -> Result<Backend> {
     if requested == BackendArg::Cpu {
         return Ok(Backend::cpu(requested, "asked for"));
-    }
-    if mapping.polar_layout().is_none() {
-        let why = format!(
-            "the GPU path reconstructs polar methods only (vafr, kfr, lafr, visual-polar, \
-             liu-hybrid), not {}",
-            mapping.method()
-        );
-        if requested == BackendArg::Gpu {
-            anyhow::bail!("--backend gpu: {why}; use --backend cpu or auto");
-        }
-        return Ok(Backend::cpu(requested, &format!("auto: {why}")));
     }
     gpu(requested, world, polar_texel_bytes(mapping))
 }
@@ -285,6 +281,7 @@ fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend
     });
     let times = Arc::new(Mutex::new(None));
     let trace_times = Arc::new(Mutex::new(None));
+    let shadow_times = Arc::new(Mutex::new(None));
     let executor = GpuExecutor {
         gpu: GpuReconstructor::new(&ctx)?,
         times: times.clone(),
@@ -298,10 +295,12 @@ fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend
             gpu: tracer,
             fingerprint: world.tris_fingerprint,
             times: trace_times.clone(),
+            shadow_times: shadow_times.clone(),
         })),
         gpu_bvh: Some(gpu_bvh),
         times,
         trace_times,
+        shadow_times,
         cpu_emulated: facts.cpu_emulated,
     })
 }
@@ -311,7 +310,41 @@ fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend
 struct GpuTraceExecutor {
     gpu: fovea_gpu::GpuTracer,
     fingerprint: u64,
+    /// The primary rays' times.
     times: Arc<Mutex<Option<GpuTraceMs>>>,
+    /// The shadow rays' times.
+    shadow_times: Arc<Mutex<Option<GpuTraceMs>>>,
+}
+
+#[cfg(feature = "gpu")]
+impl GpuTraceExecutor {
+    /// The rays in the GPU's layout.
+    fn gpu_rays(rays: &[fovea_render::bvh::Ray]) -> Vec<fovea_gpu::GpuRay> {
+        rays.iter()
+            .map(|r| fovea_gpu::GpuRay {
+                origin: r.origin.into(),
+                t_min: r.t_min,
+                dir: r.dir.into(),
+                t_max: r.t_max,
+            })
+            .collect()
+    }
+
+    /// Adds one call's times to a frame's: the stages call the tracer once per chunk of the
+    /// frame's texels, and the frame's figures are the sums over its calls (a reader takes
+    /// them once per frame).
+    fn add(slot: &Mutex<Option<GpuTraceMs>>, t: fovea_gpu::trace::TraceTimes) {
+        if let Ok(mut slot) = slot.lock() {
+            let sum = slot.get_or_insert_with(GpuTraceMs::default);
+            sum.gpu_pass_ms = match (sum.gpu_pass_ms, t.gpu_pass_ms) {
+                (Some(a), Some(b)) => Some(a + b),
+                (a, b) => a.or(b),
+            };
+            sum.batches += t.batches;
+            sum.calls += 1;
+            sum.total_ms += t.total_ms;
+        }
+    }
 }
 
 #[cfg(feature = "gpu")]
@@ -328,31 +361,11 @@ impl TraceExecutor for GpuTraceExecutor {
         &mut self,
         rays: &[fovea_render::bvh::Ray],
     ) -> std::result::Result<Vec<Option<fovea_render::bvh::Hit>>, String> {
-        let batch: Vec<fovea_gpu::GpuRay> = rays
-            .iter()
-            .map(|r| fovea_gpu::GpuRay {
-                origin: r.origin.into(),
-                t_min: r.t_min,
-                dir: r.dir.into(),
-                t_max: r.t_max,
-            })
-            .collect();
         let (hits, t) = self
             .gpu
-            .closest_hits_timed(&batch)
+            .closest_hits_timed(&Self::gpu_rays(rays))
             .map_err(|e| e.to_string())?;
-        // The trace stage calls this once per chunk of the frame's texels: the frame's
-        // figures are the sums over its calls (a reader takes them once per frame).
-        if let Ok(mut slot) = self.times.lock() {
-            let sum = slot.get_or_insert_with(GpuTraceMs::default);
-            sum.gpu_pass_ms = match (sum.gpu_pass_ms, t.gpu_pass_ms) {
-                (Some(a), Some(b)) => Some(a + b),
-                (a, b) => a.or(b),
-            };
-            sum.batches += t.batches;
-            sum.calls += 1;
-            sum.total_ms += t.total_ms;
-        }
+        Self::add(&self.times, t);
         Ok(hits
             .into_iter()
             .map(|h| {
@@ -363,6 +376,18 @@ impl TraceExecutor for GpuTraceExecutor {
                 })
             })
             .collect())
+    }
+
+    fn occluded(
+        &mut self,
+        rays: &[fovea_render::bvh::Ray],
+    ) -> std::result::Result<Vec<bool>, String> {
+        let (blocked, t) = self
+            .gpu
+            .occluded_timed(&Self::gpu_rays(rays))
+            .map_err(|e| e.to_string())?;
+        Self::add(&self.shadow_times, t);
+        Ok(blocked)
     }
 }
 

@@ -14,8 +14,7 @@ use fovea_core::display::DisplayProfile;
 use fovea_core::mapping::Method;
 use fovea_eval::experiments::bench::{
     run_with as run_bench, BenchEvent, BenchExecutors, BenchParams, BenchResult, BenchRun,
-    BenchScene, CpuOnly, DofTiming, KernelTime, RayRate, ReconstructTiming, StereoTiming,
-    RECONSTRUCT_REPS,
+    BenchScene, DofTiming, KernelTime, RayRate, ReconstructTiming, StereoTiming, RECONSTRUCT_REPS,
 };
 use fovea_eval::EvalError;
 use fovea_post::dof::FilterKind;
@@ -93,9 +92,9 @@ pub struct BenchArgs {
     /// Timed repetitions of each binocular mode (alternating Dup and Rep; medians reported).
     #[arg(long, default_value_t = 3)]
     pub stereo_reps: u32,
-    /// Which executor runs the stages a GPU can run (the primary rays and the reconstruction
-    /// of polar methods; every other stage, full resolution and screen-aligned methods stay on
-    /// the CPU, labelled per stage): cpu, gpu (an error when there is no adapter or the build
+    /// Which executor runs the stages a GPU can run (every method's primary and shadow rays,
+    /// full resolution's included, and the reconstruction of polar methods; every other stage
+    /// stays on the CPU, labelled per stage): cpu, gpu (an error when there is no adapter or the build
     /// lacks the `gpu` feature) or auto. GPU figures are the passes' timestamps; on a CPU
     /// device (lavapipe) they are labelled CPU-emulated.
     #[arg(long, value_enum, ignore_case = true, default_value_t = BackendArg::Cpu)]
@@ -181,19 +180,11 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if !args.json {
         print_backend(args.backend, &preflight);
     }
-    let mut executors = BenchBackend {
-        requested: if preflight.adapter.is_some() {
-            args.backend
-        } else {
-            BackendArg::Cpu
-        },
-        times: None,
-    };
     let result = measure_with(
         &mut loaded,
         &args.scene,
         &params,
-        &mut executors,
+        &mut BenchBackend::new(args.backend, &preflight),
         args.quiet || args.json,
         (!args.json).then_some(args.backend != BackendArg::Cpu),
     )?;
@@ -230,16 +221,16 @@ fn print_backend(requested: BackendArg, p: &Preflight) {
     };
     match &p.adapter {
         Some(adapter) => println!(
-            "backend: GPU: {adapter}{emulated}; polar methods trace primary rays and \
-             reconstruct on it, every other stage and method on the CPU"
+            "backend: GPU: {adapter}{emulated}; every method casts its primary and shadow rays \
+             on it and polar methods reconstruct on it, every other stage on the CPU"
         ),
         None => println!("backend: {}: every stage on the CPU", p.describe),
     }
 }
 
-/// `--backend` for the benchmark's frames: each polar method's frames get the executors
-/// [`crate::backend::resolve`] makes for them, as `fovea render` does; full resolution and
-/// screen-aligned methods run on the CPU (their stages say so).
+/// `--backend` for the benchmark's frames: each method's frames (full resolution's, the
+/// speedup's reference, included) get the executors [`crate::backend::resolve`] makes for
+/// them, as `fovea render` does.
 struct BenchBackend {
     /// `cpu`, or what the preflight found a GPU for.
     requested: BackendArg,
@@ -247,10 +238,25 @@ struct BenchBackend {
     times: Option<ExecutorTimes>,
 }
 
+impl BenchBackend {
+    /// The CPU unless the preflight found a GPU for `requested`.
+    fn new(requested: BackendArg, preflight: &Preflight) -> Self {
+        Self {
+            requested: if preflight.adapter.is_some() {
+                requested
+            } else {
+                BackendArg::Cpu
+            },
+            times: None,
+        }
+    }
+}
+
 /// Where the installed GPU executors leave each frame's times.
 struct ExecutorTimes {
     reconstruct: Arc<Mutex<Option<GpuReconstructMs>>>,
     trace: Arc<Mutex<Option<GpuTraceMs>>>,
+    shadow: Arc<Mutex<Option<GpuTraceMs>>>,
 }
 
 impl BenchExecutors for BenchBackend {
@@ -261,7 +267,7 @@ impl BenchExecutors for BenchBackend {
         ctx: &mut FrameContext,
     ) -> fovea_eval::Result<()> {
         self.times = None;
-        if self.requested == BackendArg::Cpu || plan.mapping().polar_layout().is_none() {
+        if self.requested == BackendArg::Cpu {
             return Ok(());
         }
         let mut backend = crate::backend::resolve(self.requested, plan.mapping(), world)
@@ -269,6 +275,7 @@ impl BenchExecutors for BenchBackend {
         self.times = Some(ExecutorTimes {
             reconstruct: backend.times.clone(),
             trace: backend.trace_times.clone(),
+            shadow: backend.shadow_times.clone(),
         });
         backend.install(ctx);
         Ok(())
@@ -276,9 +283,17 @@ impl BenchExecutors for BenchBackend {
 
     fn pass_ms(&mut self) -> BTreeMap<String, f64> {
         let mut out = BTreeMap::new();
-        if let Some(ExecutorTimes { reconstruct, trace }) = &self.times {
+        if let Some(ExecutorTimes {
+            reconstruct,
+            trace,
+            shadow,
+        }) = &self.times
+        {
             if let Some(ms) = take(trace).and_then(|t| t.gpu_pass_ms) {
                 out.insert("trace".to_string(), ms);
+            }
+            if let Some(ms) = take(shadow).and_then(|t| t.gpu_pass_ms) {
+                out.insert("shadow".to_string(), ms);
             }
             if let Some(ms) = take(reconstruct).and_then(|t| t.gpu_pass_ms) {
                 out.insert("reconstruct".to_string(), ms);
@@ -313,26 +328,23 @@ impl BenchScene for LoadedScene<'_> {
 }
 
 /// Runs the benchmark on `loaded` (viewed as `scene` says) with a progress bar per method
-/// unless `quiet`, printing each run as it ends when `print`.
-pub fn measure(
+/// unless `quiet`, nothing printed, the frames on what `--backend` (`requested`, found by
+/// `preflight`) resolves to for each method, as `fovea bench --backend` runs them.
+pub fn measure_on(
     loaded: &mut Loaded,
     scene: &SceneArgs,
     params: &BenchParams,
+    requested: BackendArg,
+    preflight: &Preflight,
     quiet: bool,
-    print: bool,
 ) -> Result<BenchResult> {
-    measure_with(
-        loaded,
-        scene,
-        params,
-        &mut CpuOnly,
-        quiet,
-        print.then_some(false),
-    )
+    let mut executors = BenchBackend::new(requested, preflight);
+    measure_with(loaded, scene, params, &mut executors, quiet, None)
 }
 
-/// [`measure`] with `executors` in each method's frames; `print`: `Some(labels)` prints each
-/// run, with the trace and reconstruct stages labelled `(cpu)` / `(gpu)` when `labels`.
+/// The benchmark with `executors` in each method's frames (progress bars unless `quiet`);
+/// `print`: `Some(labels)` prints each run as it ends, with the trace, shade and reconstruct
+/// stages labelled `(cpu)` / `(gpu)` when `labels`.
 fn measure_with(
     loaded: &mut Loaded,
     scene: &SceneArgs,
@@ -479,8 +491,8 @@ fn print_dof(display: &str, rows: &[DofTiming]) {
     }
 }
 
-/// One run's line; with `labels`, the trace and reconstruct stages say where they ran and the
-/// GPU passes' own times follow.
+/// One run's line; with `labels`, the trace, shade and reconstruct stages say where they (and
+/// the shade stage's shadow rays) ran and the GPU passes' own times follow.
 fn print_run(r: &BenchRun, labels: bool) {
     let s = &r.stats;
     let st = |k: Stage| s.stages_ms.get(k);
@@ -502,7 +514,7 @@ fn print_run(r: &BenchRun, labels: bool) {
         format!(" | gpu passes {} ms", passes.join(" "))
     };
     println!(
-        "{:>5}x{:<5} {:>6} rays {:>13} | trace {:>8.0}{} shade {:>8.0} aa {:>6.0} reconstruct {:>6.0}{}{gpu} | wall {:>8.0} ms, cpu {:>8.0} ms ({:.0}% of {} cores){} | {:.2} fps | speedup {:>6.2}x wall, {:>6.2}x cpu",
+        "{:>5}x{:<5} {:>6} rays {:>13} | trace {:>8.0}{} shade {:>8.0}{} aa {:>6.0} reconstruct {:>6.0}{}{gpu} | wall {:>8.0} ms, cpu {:>8.0} ms ({:.0}% of {} cores){} | {:.2} fps | speedup {:>6.2}x wall, {:>6.2}x cpu",
         s.width,
         s.height,
         s.method,
@@ -510,6 +522,7 @@ fn print_run(r: &BenchRun, labels: bool) {
         st(Stage::Trace),
         on(&s.trace_backend),
         st(Stage::Shade),
+        on(&format!("cpu, shadow rays {}", s.shadow_backend)),
         st(Stage::Aa),
         st(Stage::Reconstruct),
         on(&s.reconstruct_backend),

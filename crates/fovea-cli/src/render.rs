@@ -106,9 +106,9 @@ pub struct RenderArgs {
     /// buffer to the right eye and trace only the holes, VaFR_Rep).
     #[arg(long, value_enum, ignore_case = true, default_value_t = Stereo::Rep)]
     pub stereo: Stereo,
-    /// Which executor runs the stages a GPU can run (today the primary rays of the trace
-    /// stage and the reconstruct stage, for polar methods; every other stage runs on the
-    /// CPU): cpu, gpu (any adapter, lavapipe included; an error without one) or auto (a
+    /// Which executor runs the stages a GPU can run (today every method's primary and shadow
+    /// rays, and the reconstruct stage of polar methods; surfaces, shading arithmetic and
+    /// every other stage run on the CPU): cpu, gpu (any adapter, lavapipe included; an error without one) or auto (a
     /// hardware GPU when there is one, else the CPU). The GPU needs a fovea built with
     /// `--features gpu`.
     #[arg(long, value_enum, ignore_case = true, default_value_t = BackendArg::Auto)]
@@ -459,6 +459,11 @@ pub fn run(args: RenderArgs) -> Result<()> {
         Stage::Trace if s.trace_backend != "cpu" => {
             format!("{k} {:.1} ({})", s.stages_ms.get(k), s.trace_backend)
         }
+        Stage::Shade if s.shadow_backend != "cpu" => format!(
+            "{k} {:.1} (shadow rays {})",
+            s.stages_ms.get(k),
+            s.shadow_backend
+        ),
         _ => format!("{k} {:.1}", s.stages_ms.get(k)),
     })
     .collect();
@@ -633,14 +638,16 @@ fn run_stereo(
     Ok(())
 }
 
-/// "backend: GPU: <adapter> | primary rays on the GPU, reconstruct on the GPU, every other
-/// stage on the CPU", or "backend: CPU (<why>)": where a frame's stages ran.
+/// "backend: GPU: <adapter> | primary rays on the GPU, shadow rays on the GPU, reconstruct on
+/// the GPU, every other stage on the CPU", or "backend: CPU (<why>)": where a frame's stages
+/// ran.
 fn backend_line(
     backend: &crate::backend::Backend,
     s: &fovea_render::pipeline::FrameStats,
 ) -> String {
     let on_gpu: Vec<String> = [
         ("primary rays", &s.trace_backend),
+        ("shadow rays", &s.shadow_backend),
         ("reconstruct", &s.reconstruct_backend),
     ]
     .into_iter()

@@ -84,29 +84,111 @@ fn cpu_backend_reports_every_stage_on_the_cpu() {
     }
 }
 
+/// A screen-aligned method (Guenter's, reconstructed on the CPU) on the GPU: its primary and
+/// shadow rays are cast there, its reconstruction stays on the CPU, and the stats say so.
+#[cfg(feature = "gpu")]
 #[test]
-fn gpu_backend_refuses_frames_it_has_no_stage_for() {
+fn gpu_backend_casts_a_screen_aligned_methods_rays() {
     let dir = tempfile::tempdir().unwrap();
-    let e = one_line_error(&render(
+    let out = render(
         dir.path(),
         "g",
         &["--method", "guenter", "--backend", "gpu"],
         &[],
-    ));
-    assert!(
-        e.contains("polar methods only") && e.contains("--backend cpu"),
-        "{e}"
     );
-    // `auto` takes the CPU for them and says why.
-    let out = render(
-        dir.path(),
-        "a",
-        &["--method", "guenter", "--backend", "auto"],
-        &[],
-    );
-    assert!(out.status.success());
+    if !gpu_ran(&out, "gpu_backend_casts_a_screen_aligned_methods_rays") {
+        return;
+    }
+    let s = stats(dir.path(), "g");
+    assert_eq!(s["frame"]["trace_backend"], "gpu");
+    assert_eq!(s["frame"]["shadow_backend"], "gpu");
+    assert_eq!(s["frame"]["reconstruct_backend"], "cpu");
+    assert_eq!(s["backend"]["rays"]["shadow"], "gpu");
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(stdout.contains("backend: CPU (auto: "), "{stdout}");
+    assert!(
+        stdout.contains("primary rays on the GPU, shadow rays on the GPU, every other stage"),
+        "{stdout}"
+    );
+}
+
+/// The frame of `--backend gpu` against the frame of `--backend cpu`, as issue 18 asks: the
+/// built-in scene and (where `../shared/scenes` is present) the classroom at 320×180, full
+/// resolution, VaFR, KFR and Weier, without and with the gather DOF filter — luma PSNR ≥ 40 dB
+/// and mean ꟻLIP ≤ 0.01 (`fovea_eval::metrics`, at the display's pixels per degree). Today
+/// the GPU casts every primary and shadow ray and reconstructs the polar methods; the
+/// shading arithmetic, AA and DOF run on the CPU in both frames.
+#[cfg(feature = "gpu")]
+#[test]
+fn gpu_frames_are_the_cpu_frames_method_by_method() {
+    use fovea_eval::metrics::{flip_mean, luma_psnr, Region};
+    let dir = tempfile::tempdir().unwrap();
+    let classroom = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/scenes/japanese-classroom/scene.xml");
+    let mut scenes = vec![("builtin", None)];
+    if classroom.exists() {
+        scenes.push(("classroom", Some(classroom.to_string_lossy().into_owned())));
+    } else {
+        println!("classroom skipped: ../shared/scenes is absent (a fresh clone); CI has it");
+    }
+    let read = |name: &str| {
+        let img = image::open(dir.path().join(format!("{name}.exr")))
+            .unwrap()
+            .into_rgb32f();
+        let (w, h) = img.dimensions();
+        let data = img.pixels().map(|p| [p[0], p[1], p[2]]).collect();
+        fovea_core::Image::from_vec(w, h, data).unwrap()
+    };
+    for (scene, path) in &scenes {
+        for method in ["full", "vafr", "kfr", "weier"] {
+            for dof in ["none", "gather"] {
+                let name = format!("{scene}-{method}-{dof}");
+                let mut args = vec!["--method", method, "--dof", dof];
+                if let Some(p) = path {
+                    args.extend(["--scene", p.as_str()]);
+                }
+                let run = |backend: &str| {
+                    let out = render(
+                        dir.path(),
+                        &format!("{name}-{backend}"),
+                        &[&args[..], &["--backend", backend]].concat(),
+                        &[],
+                    );
+                    let err = String::from_utf8_lossy(&out.stderr);
+                    assert!(backend == "gpu" || out.status.success(), "{name}: {err}");
+                    out
+                };
+                if !gpu_ran(
+                    &run("gpu"),
+                    "gpu_frames_are_the_cpu_frames_method_by_method",
+                ) {
+                    return;
+                }
+                let cpu = run("cpu");
+                let s = stats(dir.path(), &format!("{name}-gpu"));
+                assert_eq!(s["frame"]["trace_backend"], "gpu", "{name}");
+                assert_eq!(s["frame"]["shadow_backend"], "gpu", "{name}");
+                // "display 320x180 …: 1.23 px/deg across, …"
+                let stdout = String::from_utf8_lossy(&cpu.stdout);
+                let ppd: f32 = stdout
+                    .lines()
+                    .filter(|l| l.starts_with("display "))
+                    .find_map(|l| l.split(": ").nth(1)?.split(" px/deg").next()?.parse().ok())
+                    .unwrap_or_else(|| panic!("no px/deg in {stdout}"));
+                let (g, c) = (read(&format!("{name}-gpu")), read(&format!("{name}-cpu")));
+                let all = Region {
+                    x0: 0,
+                    y0: 0,
+                    x1: c.width(),
+                    y1: c.height(),
+                };
+                let psnr = luma_psnr(&c, &g, all).unwrap();
+                let flip = flip_mean(&c, &g, all, ppd).unwrap();
+                eprintln!("[fovea-cli] GPU vs CPU {name}: luma PSNR {psnr:.1} dB, ꟻLIP {flip:.5}");
+                assert!(psnr >= 40.0, "{name}: {psnr} dB");
+                assert!(flip <= 0.01, "{name}: ꟻLIP {flip}");
+            }
+        }
+    }
 }
 
 #[cfg(not(feature = "gpu"))]
@@ -200,10 +282,21 @@ fn gpu_backend_traces_and_reconstructs_on_the_gpu() {
         // The passes run inside the calls: their sum cannot exceed the calls' wall time.
         assert!(pass > 0.0 && pass <= total, "{trace}");
     }
+    // The shade stage's shadow rays too (the frame is direct shading, one ray per texel).
+    assert_eq!(s["frame"]["shadow_backend"], "gpu");
+    let shadow = &s["backend"]["gpu_shadow"];
+    assert!(shadow["calls"].as_u64().unwrap() >= 1, "{shadow}");
+    if let Some(pass) = shadow["gpu_pass_ms"].as_f64() {
+        assert!(
+            pass > 0.0 && pass <= shadow["total_ms"].as_f64().unwrap(),
+            "{shadow}"
+        );
+    }
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         stdout.contains(
-            "primary rays on the GPU, reconstruct on the GPU, every other stage on the CPU"
+            "primary rays on the GPU, shadow rays on the GPU, reconstruct on the GPU, every \
+             other stage on the CPU"
         ),
         "{stdout}"
     );
@@ -219,8 +312,12 @@ fn gpu_backend_traces_and_reconstructs_on_the_gpu() {
 }
 
 /// The GPU's image `gpu.exr` against the CPU's `cpu.exr` in `dir`: within the GPU
-/// reconstruction tests' worst-case bound per channel (relative above 1), and a mean far below
-/// theirs (shaded content is smooth where random texels are not).
+/// reconstruction tests' worst-case bound per channel (relative above 1) at all but 0.05 % of
+/// the pixels, and a mean far below theirs (shaded content is smooth where random texels are
+/// not). The few pixels allowed past the bound are shadow rays that graze an edge: the GPU
+/// answers them in its own f32 arithmetic, so one in tens of thousands can differ (measured on
+/// lavapipe, VaFR at 320×180: 7 of 57,600 pixels past 1e-3, 2 past the bound, of 4 million
+/// shadow rays).
 #[cfg(feature = "gpu")]
 fn assert_gpu_image_is_the_cpus(dir: &Path, gpu: &str, cpu: &str) {
     let read = |name: &str| {
@@ -230,20 +327,31 @@ fn assert_gpu_image_is_the_cpus(dir: &Path, gpu: &str, cpu: &str) {
     };
     let (g, c) = (read(gpu), read(cpu));
     assert_eq!(g.dimensions(), c.dimensions());
-    let (mut max, mut sum, mut n) = (0.0f32, 0.0f64, 0usize);
+    const BOUND: f32 = 2.0 / 64.0 + 2e-3;
+    let (mut max, mut sum, mut n, mut past) = (0.0f32, 0.0f64, 0usize, 0usize);
     for (a, b) in g.pixels().zip(c.pixels()) {
+        let mut worst = 0.0f32;
         for k in 0..3 {
             let e = (a[k] - b[k]).abs();
             let scale = a[k].abs().max(b[k].abs()).max(1.0);
-            max = max.max(e / scale);
+            worst = worst.max(e / scale);
             sum += e as f64;
             n += 1;
         }
+        max = max.max(worst);
+        past += usize::from(worst > BOUND);
     }
     let mean = sum / n as f64;
-    eprintln!("[fovea-cli] GPU vs CPU {gpu}: max relative difference {max:.4}, mean {mean:.2e}");
-    assert!(max <= 2.0 / 64.0 + 2e-3, "{max}");
-    // Smooth shaded content (measured on lavapipe: max 6e-4, mean 1.6e-5); random texels
+    let pixels = n / 3;
+    eprintln!(
+        "[fovea-cli] GPU vs CPU {gpu}: max relative difference {max:.4} ({past} of {pixels} \
+         pixels past {BOUND:.4}), mean {mean:.2e}"
+    );
+    assert!(
+        past <= (pixels / 2000).max(1),
+        "{past} of {pixels} pixels past {BOUND}"
+    );
+    // Smooth shaded content (measured on lavapipe: mean 1.6e-5 to 1.8e-5); random texels
     // reach 9e-4 in the mean.
     assert!(mean <= 2e-4, "{mean}");
 }
@@ -439,9 +547,10 @@ fn bench_gpu_without_an_adapter_is_one_line() {
     );
 }
 
-/// VaFR's primary rays and reconstruction on the GPU with their passes' own times from
-/// timestamps, full resolution on the CPU in the same run; on lavapipe the figures are
-/// labelled CPU-emulated. Presence, sign and finiteness only: no timing is compared.
+/// VaFR's primary and shadow rays and its reconstruction on the GPU with their passes' own
+/// times from timestamps, and full resolution's rays on the GPU in the same run (the
+/// speedup's reference); on lavapipe the figures are labelled CPU-emulated. Presence, sign and
+/// finiteness only: no timing is compared.
 #[cfg(feature = "gpu")]
 #[test]
 fn bench_gpu_reports_pass_times_fps_and_speedup() {
@@ -463,15 +572,18 @@ fn bench_gpu_reports_pass_times_fps_and_speedup() {
             .unwrap_or_else(|| panic!("no {m} run: {j}"))
     };
     let full = run("full");
-    assert_eq!(full["stage_backends"]["trace"], "cpu", "{full}");
-    assert!(
-        full["gpu_pass_ms"].as_object().unwrap().is_empty(),
-        "{full}"
-    );
+    assert_eq!(full["stage_backends"]["trace"], "gpu", "{full}");
+    assert_eq!(full["stage_backends"]["shadow_rays"], "gpu", "{full}");
+    assert_eq!(full["stage_backends"]["reconstruct"], "cpu", "{full}");
+    for pass in ["trace", "shadow"] {
+        let ms = full["gpu_pass_ms"][pass].as_f64().unwrap_or(f64::NAN);
+        assert!(ms.is_finite() && ms > 0.0, "{pass}: {full}");
+    }
     let vafr = run("vafr");
     assert_eq!(vafr["stage_backends"]["trace"], "gpu", "{vafr}");
+    assert_eq!(vafr["stage_backends"]["shadow_rays"], "gpu", "{vafr}");
     assert_eq!(vafr["stage_backends"]["reconstruct"], "gpu", "{vafr}");
-    for pass in ["trace", "reconstruct"] {
+    for pass in ["trace", "shadow", "reconstruct"] {
         let ms = vafr["gpu_pass_ms"][pass].as_f64().unwrap_or(f64::NAN);
         assert!(ms.is_finite() && ms > 0.0, "{pass}: {vafr}");
     }
@@ -527,4 +639,61 @@ fn demo_says_which_backend_made_its_frames() {
         "{}",
         page()
     );
+}
+
+/// `fovea report --backend`: the speed section's frames on the GPU say where their rays and
+/// reconstruction ran and give the GPU passes' times, and its reproduce line carries the
+/// backend; `gpu` without the feature (or an adapter) is a one-line error before any work.
+#[test]
+fn report_speed_section_says_which_backend_ran() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("report");
+    let report = |backend: &str, env: &[(&str, &str)]| {
+        let mut c = fovea();
+        c.args([
+            "report",
+            "--quick",
+            "--sections",
+            "speed",
+            "--bench-res",
+            "160x90",
+        ])
+        .args(["-q", "--backend", backend, "--out"])
+        .arg(&out_dir);
+        for (k, v) in env {
+            c.env(k, v);
+        }
+        c.output().unwrap()
+    };
+    let hide = [("VK_ICD_FILENAMES", "/nonexistent")];
+    let e = one_line_error(&report("gpu", &hide));
+    if cfg!(feature = "gpu") {
+        assert!(e.contains("no GPU adapter"), "{e}");
+    } else {
+        assert!(e.contains("--features gpu"), "{e}");
+    }
+    assert!(
+        !out_dir.exists(),
+        "the failed report wrote {}",
+        out_dir.display()
+    );
+    let out = report("gpu", &[]);
+    if cfg!(not(feature = "gpu")) || !gpu_ran(&out, "report_speed_section_says_which_backend_ran") {
+        return;
+    }
+    let md = std::fs::read_to_string(out_dir.join("report.md")).unwrap();
+    assert!(md.contains("Backend: GPU ("), "{md}");
+    assert!(md.contains("--backend gpu."), "{md}");
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out_dir.join("report.json")).unwrap()).unwrap();
+    let text = json.to_string();
+    for want in ["GPU trace pass (ms)", "GPU shadow pass (ms)", "rays on"] {
+        assert!(text.contains(want), "no {want} in {text}");
+    }
+    let v = fovea()
+        .args(["report", "--verify"])
+        .arg(&out_dir)
+        .output()
+        .unwrap();
+    assert!(v.status.success(), "{}", String::from_utf8_lossy(&v.stdout));
 }

@@ -275,9 +275,7 @@ impl GpuTracer {
     /// [`closest_hits`](Self::closest_hits), and where its time went: the compute passes'
     /// own time from timestamps, as the reconstructor reports its pass.
     pub fn closest_hits_timed(&self, rays: &[GpuRay]) -> Result<(Vec<Option<GpuHit>>, TraceTimes)> {
-        let t = std::time::Instant::now();
-        let mut times = TraceTimes::default();
-        let raw = self.run(rays, false, Some(&mut times))?;
+        let (raw, times) = self.run_timed(rays, false)?;
         let hits = raw
             .iter()
             .map(|h| {
@@ -288,27 +286,34 @@ impl GpuTracer {
                 })
             })
             .collect();
-        times.total_ms = t.elapsed().as_secs_f64() * 1e3;
         Ok((hits, times))
     }
 
-    /// Whether anything lies on each ray within its interval (shadow rays).
+    /// Whether anything lies on each ray within its interval (shadow rays; `t_max` may be
+    /// infinite).
     pub fn occluded(&self, rays: &[GpuRay]) -> Result<Vec<bool>> {
-        Ok(self
-            .run(rays, true, None)?
-            .iter()
-            .map(|h| h.prim != MISS)
-            .collect())
+        Ok(self.occluded_timed(rays)?.0)
     }
 
-    /// Runs `rays` in batches that fit the device's bindings and dispatch limits; with
-    /// `times`, each batch's pass is timed and counted there.
-    fn run(
-        &self,
-        rays: &[GpuRay],
-        any_hit: bool,
-        mut times: Option<&mut TraceTimes>,
-    ) -> Result<Vec<HitGpu>> {
+    /// [`occluded`](Self::occluded), and where its time went (as
+    /// [`closest_hits_timed`](Self::closest_hits_timed)).
+    pub fn occluded_timed(&self, rays: &[GpuRay]) -> Result<(Vec<bool>, TraceTimes)> {
+        let (raw, times) = self.run_timed(rays, true)?;
+        Ok((raw.iter().map(|h| h.prim != MISS).collect(), times))
+    }
+
+    /// [`run`](Self::run) with its batches timed, and its wall time.
+    fn run_timed(&self, rays: &[GpuRay], any_hit: bool) -> Result<(Vec<HitGpu>, TraceTimes)> {
+        let t = std::time::Instant::now();
+        let mut times = TraceTimes::default();
+        let raw = self.run(rays, any_hit, &mut times)?;
+        times.total_ms = t.elapsed().as_secs_f64() * 1e3;
+        Ok((raw, times))
+    }
+
+    /// Runs `rays` in batches that fit the device's bindings and dispatch limits; each
+    /// batch's pass is timed and counted in `times`.
+    fn run(&self, rays: &[GpuRay], any_hit: bool, times: &mut TraceTimes) -> Result<Vec<HitGpu>> {
         let miss = HitGpu {
             t: 0.0,
             prim: MISS,
@@ -343,12 +348,10 @@ impl GpuTracer {
                     }
                 })
                 .collect();
-            let (hits, ms) = self.run_batch(scene, &input, any_hit, times.is_some())?;
-            if let Some(times) = times.as_deref_mut() {
-                times.batches += 1;
-                if let Some(ms) = ms {
-                    times.gpu_pass_ms = Some(times.gpu_pass_ms.unwrap_or(0.0) + ms);
-                }
+            let (hits, ms) = self.run_batch(scene, &input, any_hit)?;
+            times.batches += 1;
+            if let Some(ms) = ms {
+                times.gpu_pass_ms = Some(times.gpu_pass_ms.unwrap_or(0.0) + ms);
             }
             out.extend(
                 hits.into_iter()
@@ -359,13 +362,12 @@ impl GpuTracer {
         Ok(out)
     }
 
-    /// One batch; with `timed`, also its pass's milliseconds from timestamps.
+    /// One batch, and its pass's milliseconds from timestamps (when the device has them).
     fn run_batch(
         &self,
         scene: &SceneBuffers,
         rays: &[GpuRay],
         any_hit: bool,
-        timed: bool,
     ) -> Result<(Vec<HitGpu>, Option<f64>)> {
         if rays.is_empty() {
             return Ok((Vec::new(), None));
@@ -411,7 +413,7 @@ impl GpuTracer {
             ],
             n,
             HIT_BYTES,
-            timed,
+            true,
         )?;
         Ok((bytemuck::cast_slice::<u8, HitGpu>(&raw).to_vec(), ms))
     }

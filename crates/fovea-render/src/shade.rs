@@ -26,6 +26,7 @@ use crate::bvh::Ray;
 use crate::scene::Light;
 
 mod env_light;
+mod shadow_batch;
 
 use crate::trace::{trace_sample, GSample};
 use crate::world::World;
@@ -33,6 +34,7 @@ pub use env_light::{
     environment_light, subsample_key, texel_key, unoccluded_estimate, EnvLight,
     DEFAULT_ENV_SAMPLES, MAX_ENV_SAMPLES,
 };
+pub use shadow_batch::{direct_batch, shade_direct_batch, ShadowRays};
 
 /// Ray counts of one shading call.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -311,65 +313,6 @@ fn shadow_ray(origin: Vec3, l: Vec3, dist: f32) -> Ray {
         } else {
             f32::INFINITY
         },
-    }
-}
-
-/// [`direct`] of a batch of surface samples (neighbours in a chunk), into `out`: the shadow
-/// rays are cast light by light, each light's rays of the whole batch as one
-/// [`crate::bvh::RayCaster::occluded_batch`] — rays from nearby points towards one light
-/// traverse the same BVH nodes, where [`direct`] alternates between the lights at every
-/// sample. Each sample sums its lights in [`direct`]'s order, so the values are the same, bit
-/// for bit (`tests/shade_batch.rs`).
-pub fn direct_batch(world: &World, gs: &[&GSample], out: &mut [Vec3], counts: &mut RayCounts) {
-    let origins: Vec<Vec3> = gs.iter().map(|g| offset_origin(g)).collect();
-    out.iter_mut().for_each(|o| *o = Vec3::ZERO);
-    let mut rays = Vec::with_capacity(gs.len());
-    let mut lit = Vec::with_capacity(gs.len());
-    let mut blocked = Vec::with_capacity(gs.len());
-    for light in &world.lights {
-        rays.clear();
-        lit.clear();
-        for (s, (g, &origin)) in gs.iter().zip(&origins).enumerate() {
-            if let Some((l, dist, c)) = light_at(light, g, origin) {
-                rays.push(shadow_ray(origin, l, dist));
-                lit.push((s, c));
-            }
-        }
-        counts.shadow += rays.len() as u64;
-        blocked.clear();
-        blocked.resize(rays.len(), false);
-        world.caster.occluded_batch(&rays, &mut blocked);
-        for (&(s, c), &b) in lit.iter().zip(&blocked) {
-            if !b {
-                out[s] += c;
-            }
-        }
-    }
-}
-
-/// [`shade`] in [`ShadingMode::Direct`] of a batch of G-buffer samples (hits and misses;
-/// `keys[s]` is sample `s`'s key), into `out`: the lights' shadow rays are cast per light over
-/// the batch ([`direct_batch`]), the environment's per sample as in [`shade`]. The same values
-/// as [`shade`], bit for bit.
-pub fn shade_direct_batch(
-    world: &World,
-    gs: &[&GSample],
-    keys: &[u64],
-    env_light: EnvLight,
-    out: &mut [Vec3],
-    counts: &mut RayCounts,
-) {
-    let hits: Vec<&GSample> = gs.iter().copied().filter(|g| g.is_hit()).collect();
-    let mut direct = vec![Vec3::ZERO; hits.len()];
-    direct_batch(world, &hits, &mut direct, counts);
-    let mut direct = direct.into_iter();
-    for ((g, &key), o) in gs.iter().zip(keys).zip(out.iter_mut()) {
-        *o = if g.is_hit() {
-            let d = direct.next().unwrap_or(Vec3::ZERO);
-            g.emissive + d + environment_light(world, g, env_light, key, counts)
-        } else {
-            world.scene.environment.radiance(-g.to_eye)
-        };
     }
 }
 

@@ -322,8 +322,8 @@ impl FrameRenderer {
                 "cpu".to_string()
             } else {
                 format!(
-                    "primary rays {}, reconstruct {}",
-                    s.trace_backend, s.reconstruct_backend
+                    "primary rays {}, shadow rays {}, reconstruct {}",
+                    s.trace_backend, s.shadow_backend, s.reconstruct_backend
                 )
             }
         });

@@ -26,6 +26,8 @@ use clap::Args;
 use fovea_core::display::{DisplayProfile, Gaze};
 use fovea_render::camera::EyeCamera;
 
+use crate::backend::Preflight;
+use crate::choices::BackendArg;
 use crate::choices::{self, EyeChoice, Headset};
 use crate::common::DisplayArgs;
 use crate::scene_args::{load, GazeArgs, Loaded, SceneArgs};
@@ -75,6 +77,15 @@ pub struct ReportArgs {
     #[arg(long,
           value_parser = clap::value_parser!(u32).range(1..=i64::from(fovea_render::settings::MAX_PIXEL_SAMPLES)))]
     pub reference_pixel_samples: Option<u32>,
+    /// Which executor runs the speed section's frames: cpu (the default: a report does not
+    /// change what it measures with the machine), gpu (any adapter, lavapipe included; an
+    /// error before any work without one or in a build without the `gpu` feature) or auto (a
+    /// hardware GPU when there is one). On the GPU every method casts its primary and shadow
+    /// rays there and polar methods reconstruct there, as with `fovea bench --backend`; the
+    /// section says where each stage ran and the GPU passes' own times. Every other section
+    /// runs on the CPU.
+    #[arg(long, value_enum, ignore_case = true, default_value_t = BackendArg::Cpu)]
+    pub backend: BackendArg,
     /// Output folder: report.html, report.md, report.json and each section's files.
     #[arg(long, default_value = "fovea-out/report")]
     pub out: PathBuf,
@@ -111,6 +122,8 @@ pub struct Ctx<'a> {
     pub gaze: Gaze,
     /// The report folder.
     pub out: PathBuf,
+    /// What `--backend` found before any work (the speed section's frames).
+    pub backend: Preflight,
 }
 
 impl Ctx<'_> {
@@ -232,6 +245,8 @@ pub fn run(args: ReportArgs) -> Result<()> {
             crate::common::display_of(t, args.display.vfov_deg())?;
         }
     }
+    // `gpu` without an adapter or the feature fails here, before any work.
+    let backend = crate::backend::preflight(args.backend)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create directory {}", args.out.display()))?;
     let t0 = Instant::now();
@@ -252,6 +267,7 @@ pub fn run(args: ReportArgs) -> Result<()> {
         camera,
         gaze,
         out: args.out.clone(),
+        backend,
     };
     let mut sections = Vec::new();
     for (k, id) in wanted.iter().enumerate() {

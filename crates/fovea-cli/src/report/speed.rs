@@ -2,11 +2,12 @@
 //! backends' primary-ray throughput.
 
 use anyhow::Result;
+use clap::ValueEnum;
 
 use fovea_core::mapping::Method;
 use fovea_eval::experiments::bench::BenchParams;
 
-use crate::bench::measure;
+use crate::bench::measure_on;
 use crate::common::display_of;
 
 use super::doc::{Cell, Section, Table};
@@ -48,7 +49,14 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
     params.validate()?;
     // `measure` sets the lights for each resolution; the next section sees the report's view
     // again, whether or not the benchmark finished.
-    let measured = measure(&mut ctx.loaded, &args.scene, &params, args.quiet, false);
+    let measured = measure_on(
+        &mut ctx.loaded,
+        &args.scene,
+        &params,
+        args.backend,
+        &ctx.backend,
+        args.quiet,
+    );
     ctx.restore_view()?;
     let result = measured?;
 
@@ -69,6 +77,14 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         .to_vec();
     cols.extend(stages.iter().map(|s| format!("{s} (ms)")));
     cols.extend(["total (ms)", "CPU (ms)", "speedup (wall)", "speedup (CPU)"].map(String::from));
+    // Where the rays and the reconstruction ran, and the GPU passes' own times, when a GPU
+    // ran any (`--backend`).
+    let on_gpu = result.runs.iter().any(|r| !r.device_pass_ms.is_empty());
+    const PASSES: [&str; 3] = ["trace", "shadow", "reconstruct"];
+    if on_gpu {
+        cols.extend(["rays on", "reconstruct on"].map(String::from));
+        cols.extend(PASSES.map(|p| format!("GPU {p} pass (ms)")));
+    }
     let col_refs: Vec<&str> = cols.iter().map(String::as_str).collect();
     let mut t = Table::new(
         "speed",
@@ -102,9 +118,40 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
             num(r.speedup, 2),
             num(r.speedup_cpu, 2),
         ]);
+        if on_gpu {
+            cells.push(Cell::text(format!(
+                "primary {}, shadow {}",
+                s.trace_backend, s.shadow_backend
+            )));
+            cells.push(Cell::text(s.reconstruct_backend.clone()));
+            for p in PASSES {
+                cells.push(
+                    r.device_pass_ms
+                        .get(p)
+                        .map_or(Cell::text("—"), |&ms| num(ms, 2)),
+                );
+            }
+        }
         t.row(cells);
     }
     sec.table(t);
+    let emulated = if ctx.backend.cpu_emulated {
+        "; its times are CPU-emulated (the adapter is a CPU device)"
+    } else {
+        ""
+    };
+    sec.text(match (&ctx.backend.adapter, on_gpu) {
+        (Some(adapter), true) => format!(
+            "Backend: GPU ({adapter}){emulated}. Every method cast its primary and shadow rays \
+             there and polar methods reconstructed there; surfaces, shading arithmetic, AA and \
+             post ran on the CPU. The GPU pass columns are the passes' own times from \
+             timestamps, summed over the frame's calls."
+        ),
+        _ => format!(
+            "Backend: {} — every stage on the CPU.",
+            ctx.backend.describe
+        ),
+    });
     sec.text(
         "Weier Table 1 (GPU, 1280×1440, primary rays and simple shading): ray tracing 3.09 ms foveated against 5.52 ms full (1.79×), 7.64 against 8.68 ms in total (1.14×), 558,945 of 1,843,200 samples (30.3 %). Here every sample also casts shadow rays to each light, so tracing and shading dominate.",
     );
@@ -136,12 +183,15 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
     sec.table(bvh);
     let method_names: Vec<&str> = params.methods.iter().map(|m| m.name()).collect();
     sec.text(format!(
-        "Reproduce: fovea bench {} --res {} --vfov {} --methods {} --bvh-rays {}.",
+        "Reproduce: fovea bench {} --res {} --vfov {} --methods {} --bvh-rays {} --backend {}.",
         super::scene_flags(&args.scene),
         res,
         vfov,
         method_names.join(","),
-        params.bvh_rays
+        params.bvh_rays,
+        args.backend
+            .to_possible_value()
+            .map_or_else(String::new, |v| v.get_name().to_string())
     ));
     sec.data = result.to_json();
     Ok(())

@@ -720,6 +720,7 @@ impl BenchResult {
                     "fps": r.fps(),
                     "stage_backends": {
                         "trace": s.trace_backend,
+                        "shadow_rays": s.shadow_backend,
                         "reconstruct": s.reconstruct_backend,
                     },
                     "gpu_pass_ms": r.device_pass_ms,

@@ -115,6 +115,10 @@ pub struct FrameStats {
     /// The backend that cast the primary rays: `cpu`, or the name of the
     /// [`trace_shade::TraceExecutor`] in the frame's context (`gpu`).
     pub trace_backend: String,
+    /// The backend that cast the shade stage's shadow rays (lights and environment): `cpu`,
+    /// or the [`trace_shade::TraceExecutor`]'s name where it cast them (direct shading, one
+    /// ray per texel, no DOF culling).
+    pub shadow_backend: String,
 }
 
 /// A rendered frame.
@@ -280,7 +284,7 @@ pub fn render_planned<'c>(
 
     // 3–4. Trace and shade into the sample buffers.
     let (samples, tracer) = ctx.samples_and_tracer(plan, prefill)?;
-    let (counts, trace_backend) = trace_shade::trace_and_shade(
+    let (counts, casters) = trace_shade::trace_and_shade(
         world, camera, plan, known, samples, &mut times, tracer, progress,
     )?;
 
@@ -338,7 +342,8 @@ pub fn render_planned<'c>(
     let mut stats = frame_stats(plan, counts, times, temporal, total_ms, total_cpu_ms);
     stats.inset_smoothing = inset_smoothing.map(|s| s.name().to_string());
     stats.reconstruct_backend = reconstruct_backend;
-    stats.trace_backend = trace_backend;
+    stats.trace_backend = casters.primary;
+    stats.shadow_backend = casters.shadow;
     Ok(ctx.store(Frame {
         color,
         depth,
@@ -391,6 +396,7 @@ fn frame_stats(
         covers_screen: plan.covers_screen,
         reconstruct_backend: reconstruct::CPU.to_string(),
         trace_backend: trace_shade::CPU.to_string(),
+        shadow_backend: trace_shade::CPU.to_string(),
     }
 }
 

@@ -30,14 +30,15 @@ use crate::camera::EyeCamera;
 use crate::cull_fill::{fill_culled, shade_or_cull, CullBuffers, SampleCull};
 use crate::error::{RenderError, Result};
 use crate::plan::FramePlan;
-use crate::shade::{shade, shade_direct_batch, subsample_key, texel_key, RayCounts, ShadingMode};
+use crate::shade::{shade, subsample_key, texel_key, RayCounts, ShadingMode, ShadowRays};
 use crate::trace::{surface, GSample};
 use crate::world::World;
 
-/// Another executor of the trace stage's ray casting (e.g. the GPU's, `fovea-gpu`): the
-/// closest hits of a chunk's primary rays against the triangles of the world it was built
-/// for. The surface attributes (normals, UVs, materials, the ray cone) and shading stay on the
-/// CPU; so do the rays of a world it was not built for (a level-of-detail world).
+/// Another executor of the trace and shade stages' ray casting (e.g. the GPU's, `fovea-gpu`):
+/// the closest hits of a chunk's primary rays, and the shadow rays of its direct shading,
+/// against the triangles of the world it was built for. The surface attributes (normals, UVs,
+/// materials, the ray cone) and the shading arithmetic stay on the CPU; so do the rays of a
+/// world it was not built for (a level-of-detail world).
 pub trait TraceExecutor: Send {
     /// The backend's short name in stats and JSON, e.g. `gpu`.
     fn backend(&self) -> &str;
@@ -46,6 +47,9 @@ pub trait TraceExecutor: Send {
     /// The closest hit of every ray in `[t_min, t_max]`, `Hit::tri` indexing `world.tris`.
     /// An error is one line saying what to do.
     fn closest_hits(&mut self, rays: &[Ray]) -> std::result::Result<Vec<Option<Hit>>, String>;
+    /// Whether anything lies on each ray in `[t_min, t_max]` (the shade stage's shadow rays,
+    /// `t_max` possibly infinite). An error is one line saying what to do.
+    fn occluded(&mut self, rays: &[Ray]) -> std::result::Result<Vec<bool>, String>;
 }
 
 /// The name of the CPU trace in [`FrameStats::trace_backend`](super::FrameStats::trace_backend).
@@ -214,11 +218,21 @@ pub const TRACE_BATCH: u32 = 64;
 /// rays of this many neighbouring texels are cast as one batch.
 pub const SHADE_BATCH: usize = 256;
 
+/// Texels whose shadow rays [`shade_chunk`] hands another executor in one call (a multiple
+/// of [`SHADE_BATCH`]): at most 16 rays each with 12 lights and 4 environment rays, 32 bytes
+/// a ray, so up to about 34 MB of rays per call.
+pub const SHADE_GROUP: usize = SHADE_BATCH * 256;
+
 /// Shade: every texel of `chunk` whose rays hit (`gbuf`, texel-major from `starts`) shaded —
 /// the mean of its rays — or culled by the plan's DOF roulette (decided by the ray nearest the texel
 /// centre, whose depth is the texel's), and scattered into the chunk's colour and depth
 /// (`color`, `depth`: the chunk's rows). Records the cull state of each sample in
 /// `cull_state` when culling.
+///
+/// With `tracer`, the shadow rays of direct shading of one ray per texel without culling
+/// (the default frame) are cast there, [`SHADE_GROUP`] texels' at a time; the shading
+/// arithmetic stays here. Returns whether they were (the other frames' shadow rays are cast on
+/// the CPU).
 #[allow(clippy::too_many_arguments)]
 pub fn shade_chunk(
     world: &World,
@@ -231,7 +245,8 @@ pub fn shade_chunk(
     depth: &mut [f32],
     mut cull_state: Option<&mut CullBuffers>,
     counts: &mut TraceCounts,
-) {
+    tracer: Option<&mut (dyn TraceExecutor + 'static)>,
+) -> Result<bool> {
     let Chunk {
         layer,
         j0,
@@ -243,46 +258,92 @@ pub fn shade_chunk(
     // The key of the chunk's texel `k` (row-major in the chunk's rows): its random numbers.
     let key_of_texel = |k: u32| texel_key(layer, k % row_len as u32, j0 + k / row_len as u32);
     // Direct shading of one ray per texel without culling (the default frame): the shadow
-    // rays go light by light over batches of neighbouring texels.
+    // rays of batches of neighbouring texels are gathered and cast together (light by light,
+    // then the environment's), on the CPU per batch or by `tracer` for many batches at once.
     if let (ShadingMode::Direct { env_light }, None, true) = (
         shading,
         cull,
         plan.rays.per_column.is_empty() && plan.rays.uniform == 1,
     ) {
-        // Per batch: each texel's colour and depth (none where nothing was traced), and the
-        // batch's secondary rays.
-        type Batch = (Vec<Option<(Rgb, f32)>>, RayCounts);
-        let blocks: Vec<Batch> = order
-            .par_chunks(SHADE_BATCH)
-            .enumerate()
-            .map(|(b, ks)| {
-                let t0 = b * SHADE_BATCH;
-                let reps: Vec<Option<&GSample>> = (0..ks.len())
-                    .map(|i| gbuf[starts[t0 + i] as usize].as_ref())
-                    .collect();
-                let gs: Vec<&GSample> = reps.iter().flatten().copied().collect();
-                let keys: Vec<u64> = ks
-                    .iter()
-                    .zip(&reps)
-                    .filter(|(_, r)| r.is_some())
-                    .map(|(&k, _)| key_of_texel(k))
-                    .collect();
-                let mut rc = RayCounts::default();
-                let mut values = vec![Vec3::ZERO; gs.len()];
-                shade_direct_batch(world, &gs, &keys, env_light, &mut values, &mut rc);
-                let mut values = values.into_iter();
-                let out = reps
-                    .iter()
-                    .map(|r| {
-                        r.map(|g| {
-                            let v = values.next().unwrap_or(Vec3::ZERO);
-                            (v.to_array(), camera.view_depth(-g.to_eye, g.t))
-                        })
+        // A batch's texels' representative records (none where nothing was traced) and
+        // their shadow rays.
+        type Gathered<'g> = (Vec<Option<&'g GSample>>, ShadowRays, RayCounts);
+        let gather = |t0: usize, ks: &[u32]| -> Gathered<'_> {
+            let reps: Vec<Option<&GSample>> = (0..ks.len())
+                .map(|i| gbuf[starts[t0 + i] as usize].as_ref())
+                .collect();
+            let gs: Vec<&GSample> = reps.iter().flatten().copied().collect();
+            let keys: Vec<u64> = ks
+                .iter()
+                .zip(&reps)
+                .filter(|(_, r)| r.is_some())
+                .map(|(&k, _)| key_of_texel(k))
+                .collect();
+            let mut rc = RayCounts::default();
+            let rays = ShadowRays::gather(world, &gs, &keys, env_light, &mut rc);
+            (reps, rays, rc)
+        };
+        // Each texel's colour and depth once its batch's rays are answered (`blocked`).
+        let finish = |(reps, rays, rc): Gathered<'_>, blocked: &[bool]| -> Batch {
+            let gs: Vec<&GSample> = reps.iter().flatten().copied().collect();
+            let mut values = vec![Vec3::ZERO; gs.len()];
+            rays.shade(world, &gs, env_light, blocked, &mut values);
+            let mut values = values.into_iter();
+            let out = reps
+                .iter()
+                .map(|r| {
+                    r.map(|g| {
+                        let v = values.next().unwrap_or(Vec3::ZERO);
+                        (v.to_array(), camera.view_depth(-g.to_eye, g.t))
                     })
-                    .collect();
-                (out, rc)
-            })
-            .collect();
+                })
+                .collect();
+            (out, rc)
+        };
+        // Per batch: each texel's colour and depth, and the batch's secondary rays.
+        type Batch = (Vec<Option<(Rgb, f32)>>, RayCounts);
+        let on_executor = tracer.is_some();
+        let blocks: Vec<Batch> = match tracer {
+            None => order
+                .par_chunks(SHADE_BATCH)
+                .enumerate()
+                .map(|(b, ks)| {
+                    let g = gather(b * SHADE_BATCH, ks);
+                    let blocked = g.1.cast(world);
+                    finish(g, &blocked)
+                })
+                .collect(),
+            Some(tracer) => {
+                let mut blocks = Vec::with_capacity(order.len().div_ceil(SHADE_BATCH));
+                for (n, group) in order.chunks(SHADE_GROUP).enumerate() {
+                    let gathered: Vec<Gathered<'_>> = group
+                        .par_chunks(SHADE_BATCH)
+                        .enumerate()
+                        .map(|(b, ks)| gather(n * SHADE_GROUP + b * SHADE_BATCH, ks))
+                        .collect();
+                    let rays: Vec<Ray> = gathered
+                        .iter()
+                        .flat_map(|g| g.1.rays.iter().copied())
+                        .collect();
+                    let blocked = executor_occluded(tracer, &rays)?;
+                    let mut at = 0;
+                    let spans: Vec<(Gathered<'_>, &[bool])> = gathered
+                        .into_iter()
+                        .map(|g| {
+                            let n = g.1.rays.len();
+                            at += n;
+                            (g, &blocked[at - n..at])
+                        })
+                        .collect();
+                    let done: Vec<Batch> = spans
+                        .into_par_iter()
+                        .map(|(g, blocked)| finish(g, blocked))
+                        .collect();
+                    blocks.extend(done);
+                }
+                blocks
+            }
+        };
         for (ks, (values, rc)) in order.chunks(SHADE_BATCH).zip(blocks) {
             counts.secondary += rc;
             for (&k, v) in ks.iter().zip(values) {
@@ -294,7 +355,7 @@ pub fn shade_chunk(
                 }
             }
         }
-        return;
+        return Ok(on_executor);
     }
     type Shaded = (Option<Rgb>, f32, Option<SampleCull>, RayCounts);
     let shaded: Vec<Option<Shaded>> = order
@@ -363,12 +424,36 @@ pub fn shade_chunk(
             cb.record(chunk_start + k as usize, state, info);
         }
     }
+    Ok(false)
+}
+
+/// `tracer`'s answer for every shadow ray of `rays`, checked to be one per ray.
+fn executor_occluded(
+    tracer: &mut (dyn TraceExecutor + 'static),
+    rays: &[Ray],
+) -> Result<Vec<bool>> {
+    let backend = tracer.backend().to_string();
+    let failed = |message: String| RenderError::Executor {
+        stage: "shade",
+        backend: backend.clone(),
+        message,
+    };
+    let blocked = tracer.occluded(rays).map_err(failed)?;
+    if blocked.len() != rays.len() {
+        return Err(failed(format!(
+            "{} answers for {} shadow rays",
+            blocked.len(),
+            rays.len()
+        )));
+    }
+    Ok(blocked)
 }
 
 /// Trace and shade every layer of the plan into `samples` (sized and reset for the plan, or
 /// holding the prefilled texels of `known`), chunk by chunk; then fill culled samples.
 /// `progress(done, total)` is called after each chunk. With `tracer` (for `world`) the
-/// primary rays are cast there. Returns the counts and the backend that cast the rays.
+/// primary rays are cast there, and so are the shadow rays of frames [`shade_chunk`] can hand
+/// it. Returns the counts and the backends that cast the rays.
 #[allow(clippy::too_many_arguments)]
 pub fn trace_and_shade(
     world: &World,
@@ -379,7 +464,7 @@ pub fn trace_and_shade(
     times: &mut StageTimes,
     mut tracer: Option<&mut (dyn TraceExecutor + 'static)>,
     progress: &(dyn Fn(u64, u64) + Sync),
-) -> Result<(TraceCounts, String)> {
+) -> Result<(TraceCounts, Casters)> {
     let total = plan.sample_count;
     // Another executor only for the world it holds.
     if tracer.as_ref().is_some_and(|t| !t.serves(world)) {
@@ -388,6 +473,10 @@ pub fn trace_and_shade(
     let backend = tracer
         .as_ref()
         .map_or(CPU.to_string(), |t| t.backend().to_string());
+    let mut casters = Casters {
+        primary: backend.clone(),
+        shadow: CPU.to_string(),
+    };
     let mut counts = TraceCounts::default();
     let mut gbuf = Vec::new();
     for (layer, size) in plan.buffers.iter().enumerate() {
@@ -439,7 +528,7 @@ pub fn trace_and_shade(
 
             let t = Stopwatch::start();
             let cs = cull_state.as_mut();
-            shade_chunk(
+            let on_executor = shade_chunk(
                 world,
                 camera,
                 plan,
@@ -450,7 +539,11 @@ pub fn trace_and_shade(
                 d_chunk,
                 cs,
                 &mut counts,
-            );
+                tracer.as_deref_mut(),
+            )?;
+            if on_executor {
+                casters.shadow.clone_from(&backend);
+            }
             times.add(Stage::Shade, &t);
             progress(counts.primary.min(total), total);
         }
@@ -461,5 +554,14 @@ pub fn trace_and_shade(
             times.add(Stage::CullFill, &t);
         }
     }
-    Ok((counts, backend))
+    Ok((counts, casters))
+}
+
+/// Which backend cast a frame's rays ([`CPU`] or another executor's name).
+#[derive(Clone, Debug)]
+pub struct Casters {
+    /// The primary rays'.
+    pub primary: String,
+    /// The shade stage's shadow rays' (lights and environment).
+    pub shadow: String,
 }

@@ -243,11 +243,32 @@ impl BrdfSampler {
     }
 }
 
-/// The MIS estimator of the module header with `n` rays.
+/// The MIS estimator of the module header with `n` rays, each shadow ray cast here.
 fn occluded(world: &World, g: &GSample, n: u32, key: u64, counts: &mut RayCounts) -> Vec3 {
+    let mut sum = Vec3::ZERO;
+    environment_rays(world, g, n, key, |ray, c| {
+        counts.environment += 1;
+        if !world.caster.occluded(&ray) {
+            sum += c;
+        }
+    });
+    sum
+}
+
+/// The shadow rays of the MIS estimator of the module header with `n` rays at `g`, in the
+/// order the estimator sums them: `emit(ray, c)` for each, where `c` is what the ray adds to
+/// the estimate when it is unoccluded. Rays that would add nothing (below the surface, a
+/// black direction, a zero density) are not emitted.
+pub(crate) fn environment_rays(
+    world: &World,
+    g: &GSample,
+    n: u32,
+    key: u64,
+    mut emit: impl FnMut(Ray, Vec3),
+) {
     let env = &world.scene.environment;
     if env.is_black() {
-        return Vec3::ZERO;
+        return;
     }
     // The tile's offset and the texel's place in the tile's sequence (module header).
     let rank = (key & 15) as u32;
@@ -263,7 +284,6 @@ fn occluded(world: &World, g: &GSample, n: u32, key: u64, counts: &mut RayCounts
     let n_brdf = n - n_map;
     let brdf = BrdfSampler::new(g);
     let origin = offset_origin(g);
-    let mut sum = Vec3::ZERO;
     for i in 0..n {
         let (dir, radiance) = match map {
             Some(m) if i < n_map => match m.sample(r2_shifted(rank * n_map + i, shift_map)) {
@@ -287,18 +307,14 @@ fn occluded(world: &World, g: &GSample, n: u32, key: u64, counts: &mut RayCounts
         if !(denom > 0.0 && denom.is_finite()) {
             continue;
         }
-        counts.environment += 1;
         let ray = Ray {
             origin,
             dir,
             t_min: 0.0,
             t_max: f32::INFINITY,
         };
-        if !world.caster.occluded(&ray) {
-            sum += f * radiance / denom;
-        }
+        emit(ray, f * radiance / denom);
     }
-    sum
 }
 
 #[cfg(test)]
