@@ -58,6 +58,7 @@ pub use trace::{BvhStats, GpuHit, GpuRay, GpuTracer, TraceTimes};
 pub const ALL_SHADERS: &[shaders::ShaderSource] = &[
     mapping::vafr::SHADER,
     mapping::kfr::SHADER,
+    mapping::lafr::SHADER,
     reconstruct::SHADER,
     trace::SHADER,
 ];

@@ -18,7 +18,8 @@ mod common;
 use fovea_core::acuity::{AcuityModel, TangentialFactor};
 use fovea_core::display::{DisplayProfile, Gaze};
 use fovea_core::mapping::{
-    Coverage, FoveationMapping, Kfr, KfrParams, SamplePoint, Vafr, VafrParams, VafrRings,
+    Coverage, FoveationMapping, Kfr, KfrParams, Lafr, LafrParams, SamplePoint, Vafr, VafrParams,
+    VafrRings,
 };
 use fovea_core::units::{CyclesPerDegree, Degrees, ScreenPoint};
 use fovea_gpu::GpuMapping;
@@ -60,6 +61,10 @@ struct Polar<'a> {
     u_max: f64,
     /// Rows per full turn at column `u` (the angle axis's period).
     period: Box<dyn Fn(f64) -> f64 + 'a>,
+    /// Where the forward map's slope `du/dr` is unbounded (LaFR's periphery at the buffer's
+    /// outer edge, from acos's infinite slope at −1): the forward answers for screen points
+    /// farther out than this radius are measured backward instead (below).
+    unbounded_slope_beyond_px: Option<f64>,
 }
 
 /// Screen points: the gaze and points within a pixel of it, every radius of interest (and
@@ -170,6 +175,10 @@ struct Tally {
     max_err: f64,
     worst: String,
     edge_disagreements: usize,
+    /// Forward answers measured backward (see [`Polar::unbounded_slope_beyond_px`]), and the
+    /// largest such error, screen pixels.
+    backward: usize,
+    max_backward_px: f64,
 }
 
 fn compare_forward(p: &Polar, gpu: &GpuMapping, pts: &[[f32; 2]], label: &str) -> Tally {
@@ -186,8 +195,26 @@ fn compare_forward(p: &Polar, gpu: &GpuMapping, pts: &[[f32; 2]], label: &str) -
                 if period > 0.0 {
                     dv -= period * (dv / period).round();
                 }
-                let err = du.max(dv.abs());
+                let mut err = du.max(dv.abs());
                 t.compared += 1;
+                // Where du/dr is unbounded an f32 radius's rounding (~1e-4 px) moves u by more
+                // than the bound, so the answer is judged by its backward error: how far from
+                // the point is the point the f64 mapping sends to the GPU's (u, v)? Within the
+                // bound, the GPU answered for a point within 0.01 px of the one asked.
+                let beyond = p
+                    .unbounded_slope_beyond_px
+                    .is_some_and(|r0| s.distance(p.gaze) > r0);
+                if beyond {
+                    // (u as f32 may round past the buffer's f64 width.)
+                    let u = (g[0] as f64).min(p.u_max);
+                    let back = p
+                        .mapping
+                        .inverse(SamplePoint::new(u, g[1] as f64))
+                        .map_or(f64::INFINITY, |b| b.distance(s));
+                    t.backward += 1;
+                    t.max_backward_px = t.max_backward_px.max(back);
+                    err = back;
+                }
                 if err > t.max_err {
                     t.max_err = err;
                     t.worst = format!(
@@ -254,9 +281,16 @@ fn check(p: &Polar, gpu: &GpuMapping, d: &DisplayProfile, label: &str, seed: u64
     let f = compare_forward(p, gpu, &fwd_pts, label);
     let i = compare_inverse(p, gpu, &inv_pts, label);
     common::shout(&format!(
-        "[fovea-gpu] {label}: forward {} pts, max {:.2e} buffer px; inverse {} pts, max {:.2e} px; \
-         edge disagreements {}/{}",
-        f.compared, f.max_err, i.compared, i.max_err, f.edge_disagreements, i.edge_disagreements
+        "[fovea-gpu] {label}: forward {} pts, max {:.2e} buffer px ({} measured backward, max \
+         {:.2e} px); inverse {} pts, max {:.2e} px; edge disagreements {}/{}",
+        f.compared,
+        f.max_err,
+        f.backward,
+        f.max_backward_px,
+        i.compared,
+        i.max_err,
+        f.edge_disagreements,
+        i.edge_disagreements
     ));
     // Nothing vacuous: a good share of the points have samples on both sides.
     assert!(
@@ -307,6 +341,7 @@ fn vafr_polar(v: &Vafr) -> Polar<'_> {
         columns,
         u_max: v.u_max(),
         period: Box::new(move |u| v.shading_height(acuity.e_of_u(u))),
+        unbounded_slope_beyond_px: None,
     }
 }
 
@@ -319,6 +354,24 @@ fn kfr_polar(k: &Kfr) -> Polar<'_> {
         columns: vec![g.width],
         u_max: g.width,
         period: Box::new(move |_| g.height),
+        unbounded_slope_beyond_px: None,
+    }
+}
+
+/// LaFR's hard points besides KFR's: the foveal boundary `Z_ef` (where the kernel changes
+/// form) as a radius and as a column.
+fn lafr_polar(m: &Lafr) -> Polar<'_> {
+    let g = m.geometry();
+    let c = m.kernel_constants();
+    Polar {
+        mapping: m,
+        gaze: g.gaze,
+        radii_px: vec![1.0, (c.z_ef * g.ln_l).exp(), g.max_radius_px],
+        columns: vec![c.u_ef * g.width, g.width],
+        u_max: g.width,
+        period: Box::new(move |_| g.height),
+        // 1 − U ∝ √(1 − z) within the outermost 1 % of ln r.
+        unbounded_slope_beyond_px: Some((0.99 * g.ln_l).exp()),
     }
 }
 
@@ -400,6 +453,50 @@ fn kfr_on_the_gpu_equals_the_rust_mapping() {
     }
     common::shout(&format!(
         "[fovea-gpu] KFR over {runs} mappings: forward max {:.2e} buffer px, inverse max {:.2e} px (bound {TOLERANCE_PX})",
+        worst.0, worst.1
+    ));
+}
+
+#[test]
+fn lafr_on_the_gpu_equals_the_rust_mapping() {
+    let Some(ctx) = common::gpu_or_skip("lafr_on_the_gpu_equals_the_rust_mapping") else {
+        return;
+    };
+    let mut worst = (0.0f64, 0.0f64);
+    let mut runs = 0;
+    for preset in ["vive-pro-eye", "8k"] {
+        let d = DisplayProfile::preset(preset).unwrap();
+        for (k, g) in gazes(&d).into_iter().enumerate() {
+            // The paper's LaFR and the retinal tuning (VaFR Sec. 4.5).
+            for params in [
+                LafrParams::default(),
+                LafrParams {
+                    delta: 2.2,
+                    alpha: 0.78,
+                    beta: 0.9,
+                    ..LafrParams::default()
+                },
+            ] {
+                let m = Lafr::new(&d, g, params).unwrap();
+                let gpu = GpuMapping::lafr(&ctx, &m).unwrap();
+                let label = format!(
+                    "lafr δ={} α={} β={} {preset} gaze ({:.3}, {:.3})",
+                    params.delta, params.alpha, params.beta, g.point.x_px, g.point.y_px
+                );
+                let (f, i) = check(
+                    &lafr_polar(&m),
+                    &gpu,
+                    &d,
+                    &label,
+                    13 + 100 * k as u64 + runs,
+                );
+                worst = (worst.0.max(f), worst.1.max(i));
+                runs += 1;
+            }
+        }
+    }
+    common::shout(&format!(
+        "[fovea-gpu] LaFR over {runs} mappings: forward max {:.2e} buffer px, inverse max {:.2e} px (bound {TOLERANCE_PX})",
         worst.0, worst.1
     ));
 }

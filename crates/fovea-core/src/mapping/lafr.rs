@@ -183,6 +183,36 @@ impl Lafr {
     pub fn exponent_f(&self) -> f64 {
         self.kernel.f
     }
+
+    /// Where the buffer lies on the screen (for an executor that evaluates the mapping
+    /// elsewhere, e.g. a shader).
+    pub fn geometry(&self) -> super::LogPolarGeometry {
+        self.frame.geometry()
+    }
+
+    /// The kernel's constants (module header), for an executor that evaluates it elsewhere.
+    pub fn kernel_constants(&self) -> LafrKernelConstants {
+        let k = &self.kernel;
+        LafrKernelConstants {
+            f: k.f,
+            z_ef: k.z_ef,
+            u_ef: k.u_ef,
+            k: k.k,
+        }
+    }
+}
+
+/// The numbers of LaFR's kernel `U(z)` (module header), computed once in f64 by [`Lafr::new`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LafrKernelConstants {
+    /// LaFR's exponent `F` of the foveal part, in (0, 1).
+    pub f: f64,
+    /// `Z_ef = z(e_f)`, the foveal boundary's `z`, in (0, 1).
+    pub z_ef: f64,
+    /// `U_ef = U(Z_ef)`.
+    pub u_ef: f64,
+    /// The peripheral part's exponent `β/0.7`.
+    pub k: f64,
 }
 
 impl FoveationMapping for Lafr {

@@ -38,7 +38,7 @@ pub use full::FullResolution;
 pub use guenter::{GuenterLayers, GuenterParams};
 pub use inset::{Inset, InsetParams};
 pub use kfr::{Kfr, KfrParams};
-pub use lafr::{Lafr, LafrParams};
+pub use lafr::{Lafr, LafrKernelConstants, LafrParams};
 pub use log_polar::LogPolarGeometry;
 pub use vafr::{Vafr, VafrParams, VafrRings};
 pub use visual_polar::{VisualPolar, VisualPolarInverse, VisualPolarParams};

@@ -5,12 +5,14 @@
 //!
 //! * [`vafr`]: VaFR (Zhang et al., Eq. 3–12, 19).
 //! * [`kfr`]: KFR / LMFR (VaFR Eq. 1, 14).
+//! * [`lafr`]: LaFR (VaFR Eq. 15 on KFR's frame).
 //!
 //! Points travel as f32 (`[x, y]` screen pixels or `[u, v]` buffer pixels); the answer is
 //! `None` where the Rust mapping returns `None`. Non-finite inputs are answered on the CPU
 //! (`None`, as the reference does) and never reach a shader.
 
 pub mod kfr;
+pub mod lafr;
 pub mod vafr;
 
 use crate::device::GpuContext;
@@ -52,6 +54,12 @@ impl GpuMapping {
     pub fn kfr(ctx: &GpuContext, kfr: &fovea_core::mapping::Kfr) -> Result<Self> {
         let block = kfr::KfrUniform::new(kfr);
         Self::new(ctx, "kfr", &kfr::SHADER, bytemuck::bytes_of(&block))
+    }
+
+    /// The LaFR mapping `lafr` on `ctx`.
+    pub fn lafr(ctx: &GpuContext, lafr: &fovea_core::mapping::Lafr) -> Result<Self> {
+        let block = lafr::LafrUniform::new(lafr);
+        Self::new(ctx, "lafr", &lafr::SHADER, bytemuck::bytes_of(&block))
     }
 
     fn new(
