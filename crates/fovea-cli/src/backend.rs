@@ -1,8 +1,9 @@
 //! `fovea render --backend cpu|gpu|auto` (issue 18, docs/gpu.md): which executor runs which
 //! stage of the frame. Today the GPU casts every method's rays — the trace stage's primary
 //! rays (closest hits through a BVH, `fovea_gpu::GpuTracer`) and the shade stage's shadow rays
-//! towards the lights and the environment (any-hit, the same BVH) — while the surfaces and the
-//! shading arithmetic stay on the CPU; and it runs the reconstruct stage's lookup of polar
+//! — and computes the lights' part of direct shading (the BRDF, the lights' falloff, their
+//! shadow rays: `GpuTracer::direct_light_timed`), while the surfaces and the environment's
+//! estimator stay on the CPU; and it runs the reconstruct stage's lookup of polar
 //! buffers (VaFR, KFR, LaFR, visual-polar, liu-hybrid; `fovea_gpu::GpuReconstructor`). Every
 //! other stage runs on the CPU.
 //!
@@ -76,6 +77,8 @@ pub struct Backend {
     pub trace_times: Arc<Mutex<Option<GpuTraceMs>>>,
     /// Filled by the trace executor after each frame: the shade stage's shadow rays.
     pub shadow_times: Arc<Mutex<Option<GpuTraceMs>>>,
+    /// Filled by the trace executor after each frame: the lights' part of direct shading.
+    pub direct_times: Arc<Mutex<Option<GpuTraceMs>>>,
     /// The adapter is a CPU device (lavapipe, llvmpipe, WARP): its times are CPU-emulated.
     pub cpu_emulated: bool,
 }
@@ -97,6 +100,7 @@ impl Backend {
             times: Arc::default(),
             trace_times: Arc::default(),
             shadow_times: Arc::default(),
+            direct_times: Arc::default(),
             cpu_emulated: false,
         }
     }
@@ -145,7 +149,9 @@ impl Backend {
             "gpu_reconstruct": *self.times.lock().unwrap_or_else(|e| e.into_inner()),
             "gpu_trace": *self.trace_times.lock().unwrap_or_else(|e| e.into_inner()),
             "gpu_shadow": *self.shadow_times.lock().unwrap_or_else(|e| e.into_inner()),
+            "gpu_direct_light": *self.direct_times.lock().unwrap_or_else(|e| e.into_inner()),
             "rays": {"primary": trace, "shadow": frame.shadow_backend},
+            "direct_light": frame.direct_light_backend,
             "cpu_emulated": self.cpu_emulated,
             "gpu_bvh": self.gpu_bvh,
         })
@@ -282,6 +288,7 @@ fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend
     let times = Arc::new(Mutex::new(None));
     let trace_times = Arc::new(Mutex::new(None));
     let shadow_times = Arc::new(Mutex::new(None));
+    let direct_times = Arc::new(Mutex::new(None));
     let executor = GpuExecutor {
         gpu: GpuReconstructor::new(&ctx)?,
         times: times.clone(),
@@ -296,11 +303,13 @@ fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend
             fingerprint: world.tris_fingerprint,
             times: trace_times.clone(),
             shadow_times: shadow_times.clone(),
+            direct_times: direct_times.clone(),
         })),
         gpu_bvh: Some(gpu_bvh),
         times,
         trace_times,
         shadow_times,
+        direct_times,
         cpu_emulated: facts.cpu_emulated,
     })
 }
@@ -314,6 +323,8 @@ struct GpuTraceExecutor {
     times: Arc<Mutex<Option<GpuTraceMs>>>,
     /// The shadow rays' times.
     shadow_times: Arc<Mutex<Option<GpuTraceMs>>>,
+    /// The direct-light passes' times.
+    direct_times: Arc<Mutex<Option<GpuTraceMs>>>,
 }
 
 #[cfg(feature = "gpu")]
@@ -388,6 +399,29 @@ impl TraceExecutor for GpuTraceExecutor {
             .map_err(|e| e.to_string())?;
         Self::add(&self.shadow_times, t);
         Ok(blocked)
+    }
+
+    fn shades_direct_light(&self) -> bool {
+        true
+    }
+
+    fn direct_light(
+        &mut self,
+        hits: &[&fovea_render::trace::GSample],
+        lights: &[fovea_render::scene::Light],
+    ) -> std::result::Result<Vec<(glam::Vec3, u32)>, String> {
+        use fovea_gpu::{DirectLightModel, GpuLight, GpuSurface};
+        let surfaces: Vec<GpuSurface> = hits.iter().map(|g| GpuSurface::of(g)).collect();
+        let lights: Vec<GpuLight> = lights.iter().map(GpuLight::of).collect();
+        let (out, t) = self
+            .gpu
+            .direct_light_timed(&surfaces, &lights, &DirectLightModel::RENDERER)
+            .map_err(|e| e.to_string())?;
+        Self::add(&self.direct_times, t);
+        Ok(out
+            .into_iter()
+            .map(|d| (glam::Vec3::from(d.radiance), d.shadow_rays))
+            .collect())
     }
 }
 

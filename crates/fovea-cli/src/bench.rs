@@ -222,7 +222,8 @@ fn print_backend(requested: BackendArg, p: &Preflight) {
     match &p.adapter {
         Some(adapter) => println!(
             "backend: GPU: {adapter}{emulated}; every method casts its primary and shadow rays \
-             on it and polar methods reconstruct on it, every other stage on the CPU"
+             and computes its direct light on it, polar methods reconstruct on it, every other \
+             stage on the CPU"
         ),
         None => println!("backend: {}: every stage on the CPU", p.describe),
     }
@@ -257,6 +258,7 @@ struct ExecutorTimes {
     reconstruct: Arc<Mutex<Option<GpuReconstructMs>>>,
     trace: Arc<Mutex<Option<GpuTraceMs>>>,
     shadow: Arc<Mutex<Option<GpuTraceMs>>>,
+    direct_light: Arc<Mutex<Option<GpuTraceMs>>>,
 }
 
 impl BenchExecutors for BenchBackend {
@@ -276,6 +278,7 @@ impl BenchExecutors for BenchBackend {
             reconstruct: backend.times.clone(),
             trace: backend.trace_times.clone(),
             shadow: backend.shadow_times.clone(),
+            direct_light: backend.direct_times.clone(),
         });
         backend.install(ctx);
         Ok(())
@@ -287,8 +290,12 @@ impl BenchExecutors for BenchBackend {
             reconstruct,
             trace,
             shadow,
+            direct_light,
         }) = &self.times
         {
+            if let Some(ms) = take(direct_light).and_then(|t| t.gpu_pass_ms) {
+                out.insert("direct_light".to_string(), ms);
+            }
             if let Some(ms) = take(trace).and_then(|t| t.gpu_pass_ms) {
                 out.insert("trace".to_string(), ms);
             }
@@ -522,7 +529,10 @@ fn print_run(r: &BenchRun, labels: bool) {
         st(Stage::Trace),
         on(&s.trace_backend),
         st(Stage::Shade),
-        on(&format!("cpu, shadow rays {}", s.shadow_backend)),
+        on(&format!(
+            "cpu, direct light {}, shadow rays {}",
+            s.direct_light_backend, s.shadow_backend
+        )),
         st(Stage::Aa),
         st(Stage::Reconstruct),
         on(&s.reconstruct_backend),

@@ -107,8 +107,8 @@ pub struct RenderArgs {
     #[arg(long, value_enum, ignore_case = true, default_value_t = Stereo::Rep)]
     pub stereo: Stereo,
     /// Which executor runs the stages a GPU can run (today every method's primary and shadow
-    /// rays, and the reconstruct stage of polar methods; surfaces, shading arithmetic and
-    /// every other stage run on the CPU): cpu, gpu (any adapter, lavapipe included; an error without one) or auto (a
+    /// rays, the lights' part of direct shading, and the reconstruct stage of polar methods;
+    /// surfaces, the environment's estimator and every other stage run on the CPU): cpu, gpu (any adapter, lavapipe included; an error without one) or auto (a
     /// hardware GPU when there is one, else the CPU). The GPU needs a fovea built with
     /// `--features gpu`.
     #[arg(long, value_enum, ignore_case = true, default_value_t = BackendArg::Auto)]
@@ -460,8 +460,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
             format!("{k} {:.1} ({})", s.stages_ms.get(k), s.trace_backend)
         }
         Stage::Shade if s.shadow_backend != "cpu" => format!(
-            "{k} {:.1} (shadow rays {})",
+            "{k} {:.1} (direct light {}, shadow rays {})",
             s.stages_ms.get(k),
+            s.direct_light_backend,
             s.shadow_backend
         ),
         _ => format!("{k} {:.1}", s.stages_ms.get(k)),
@@ -638,8 +639,8 @@ fn run_stereo(
     Ok(())
 }
 
-/// "backend: GPU: <adapter> | primary rays on the GPU, shadow rays on the GPU, reconstruct on
-/// the GPU, every other stage on the CPU", or "backend: CPU (<why>)": where a frame's stages
+/// "backend: GPU: <adapter> | primary rays on the GPU, shadow rays on the GPU, direct light on
+/// the GPU, reconstruct on the GPU, every other stage on the CPU", or "backend: CPU (<why>)": where a frame's stages
 /// ran.
 fn backend_line(
     backend: &crate::backend::Backend,
@@ -648,6 +649,7 @@ fn backend_line(
     let on_gpu: Vec<String> = [
         ("primary rays", &s.trace_backend),
         ("shadow rays", &s.shadow_backend),
+        ("direct light", &s.direct_light_backend),
         ("reconstruct", &s.reconstruct_backend),
     ]
     .into_iter()

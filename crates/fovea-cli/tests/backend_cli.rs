@@ -102,11 +102,15 @@ fn gpu_backend_casts_a_screen_aligned_methods_rays() {
     let s = stats(dir.path(), "g");
     assert_eq!(s["frame"]["trace_backend"], "gpu");
     assert_eq!(s["frame"]["shadow_backend"], "gpu");
+    assert_eq!(s["frame"]["direct_light_backend"], "gpu");
     assert_eq!(s["frame"]["reconstruct_backend"], "cpu");
     assert_eq!(s["backend"]["rays"]["shadow"], "gpu");
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
-        stdout.contains("primary rays on the GPU, shadow rays on the GPU, every other stage"),
+        stdout.contains(
+            "primary rays on the GPU, shadow rays on the GPU, direct light on the GPU, every \
+             other stage"
+        ),
         "{stdout}"
     );
 }
@@ -115,8 +119,9 @@ fn gpu_backend_casts_a_screen_aligned_methods_rays() {
 /// built-in scene and (where `../shared/scenes` is present) the classroom at 320×180, full
 /// resolution, VaFR, KFR and Weier, without and with the gather DOF filter — luma PSNR ≥ 40 dB
 /// and mean ꟻLIP ≤ 0.01 (`fovea_eval::metrics`, at the display's pixels per degree). Today
-/// the GPU casts every primary and shadow ray and reconstructs the polar methods; the
-/// shading arithmetic, AA and DOF run on the CPU in both frames.
+/// the GPU casts every primary and shadow ray, computes the lights' part of direct shading
+/// and reconstructs the polar methods; the environment's estimator, AA and DOF run on the
+/// CPU in both frames.
 #[cfg(feature = "gpu")]
 #[test]
 fn gpu_frames_are_the_cpu_frames_method_by_method() {
@@ -165,8 +170,9 @@ fn gpu_frames_are_the_cpu_frames_method_by_method() {
                 }
                 let cpu = run("cpu");
                 let s = stats(dir.path(), &format!("{name}-gpu"));
-                assert_eq!(s["frame"]["trace_backend"], "gpu", "{name}");
-                assert_eq!(s["frame"]["shadow_backend"], "gpu", "{name}");
+                for stage in ["trace", "shadow", "direct_light"] {
+                    assert_eq!(s["frame"][format!("{stage}_backend")], "gpu", "{name}");
+                }
                 // "display 320x180 …: 1.23 px/deg across, …"
                 let stdout = String::from_utf8_lossy(&cpu.stdout);
                 let ppd: f32 = stdout
@@ -282,21 +288,25 @@ fn gpu_backend_traces_and_reconstructs_on_the_gpu() {
         // The passes run inside the calls: their sum cannot exceed the calls' wall time.
         assert!(pass > 0.0 && pass <= total, "{trace}");
     }
-    // The shade stage's shadow rays too (the frame is direct shading, one ray per texel).
+    // The shade stage's shadow rays and direct light too (the frame is direct shading, one
+    // ray per texel).
     assert_eq!(s["frame"]["shadow_backend"], "gpu");
-    let shadow = &s["backend"]["gpu_shadow"];
-    assert!(shadow["calls"].as_u64().unwrap() >= 1, "{shadow}");
-    if let Some(pass) = shadow["gpu_pass_ms"].as_f64() {
-        assert!(
-            pass > 0.0 && pass <= shadow["total_ms"].as_f64().unwrap(),
-            "{shadow}"
-        );
+    assert_eq!(s["frame"]["direct_light_backend"], "gpu");
+    for key in ["gpu_shadow", "gpu_direct_light"] {
+        let t = &s["backend"][key];
+        assert!(t["calls"].as_u64().unwrap() >= 1, "{key}: {t}");
+        if let Some(pass) = t["gpu_pass_ms"].as_f64() {
+            assert!(
+                pass > 0.0 && pass <= t["total_ms"].as_f64().unwrap(),
+                "{key}: {t}"
+            );
+        }
     }
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         stdout.contains(
-            "primary rays on the GPU, shadow rays on the GPU, reconstruct on the GPU, every \
-             other stage on the CPU"
+            "primary rays on the GPU, shadow rays on the GPU, direct light on the GPU, \
+             reconstruct on the GPU, every other stage on the CPU"
         ),
         "{stdout}"
     );
@@ -574,8 +584,9 @@ fn bench_gpu_reports_pass_times_fps_and_speedup() {
     let full = run("full");
     assert_eq!(full["stage_backends"]["trace"], "gpu", "{full}");
     assert_eq!(full["stage_backends"]["shadow_rays"], "gpu", "{full}");
+    assert_eq!(full["stage_backends"]["direct_light"], "gpu", "{full}");
     assert_eq!(full["stage_backends"]["reconstruct"], "cpu", "{full}");
-    for pass in ["trace", "shadow"] {
+    for pass in ["trace", "direct_light", "shadow"] {
         let ms = full["gpu_pass_ms"][pass].as_f64().unwrap_or(f64::NAN);
         assert!(ms.is_finite() && ms > 0.0, "{pass}: {full}");
     }
@@ -583,7 +594,7 @@ fn bench_gpu_reports_pass_times_fps_and_speedup() {
     assert_eq!(vafr["stage_backends"]["trace"], "gpu", "{vafr}");
     assert_eq!(vafr["stage_backends"]["shadow_rays"], "gpu", "{vafr}");
     assert_eq!(vafr["stage_backends"]["reconstruct"], "gpu", "{vafr}");
-    for pass in ["trace", "shadow", "reconstruct"] {
+    for pass in ["trace", "direct_light", "shadow", "reconstruct"] {
         let ms = vafr["gpu_pass_ms"][pass].as_f64().unwrap_or(f64::NAN);
         assert!(ms.is_finite() && ms > 0.0, "{pass}: {vafr}");
     }
@@ -687,7 +698,12 @@ fn report_speed_section_says_which_backend_ran() {
     let json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out_dir.join("report.json")).unwrap()).unwrap();
     let text = json.to_string();
-    for want in ["GPU trace pass (ms)", "GPU shadow pass (ms)", "rays on"] {
+    for want in [
+        "GPU trace pass (ms)",
+        "GPU direct_light pass (ms)",
+        "GPU shadow pass (ms)",
+        "rays on",
+    ] {
         assert!(text.contains(want), "no {want} in {text}");
     }
     let v = fovea()

@@ -11,11 +11,25 @@
 // child is pushed once per level at most, so the stack cannot overflow.
 
 struct TraceParams {
-    // Rays in this batch.
+    // Rays in this batch (direct_light.wgsl: surface samples).
     ray_count: u32,
+    // direct_light.wgsl: the lights, and the shading model's constants
+    // (`fovea_render::shade::constants`, π, the largest distance); unused by the traversal.
+    light_count: u32,
     _pad0: u32,
     _pad1: u32,
-    _pad2: u32,
+    pi: f32,
+    offset_per_t: f32,
+    offset_t_cap: f32,
+    shadow_shorten: f32,
+    min_light_distance: f32,
+    spot_min_width: f32,
+    min_nv: f32,
+    d_floor: f32,
+    vis_floor: f32,
+    max_distance: f32,
+    _pad2: f32,
+    _pad3: f32,
 }
 
 // obvhs's Bvh2Node, repacked: an inner node when prim_count == 0 (children at first_index and

@@ -10,11 +10,13 @@
 //! * [`device`]: opening a device with typed, one-line errors and no panics
 //!   ([`GpuContext`], [`GpuRequest`], [`AdapterSummary`]).
 //! * [`backend`]: `--backend cpu|gpu|auto` ([`BackendChoice`]).
-//! * [`mapping`]: VaFR and KFR forward/inverse mappings on the GPU ([`GpuMapping`]).
+//! * [`mapping`]: VaFR, KFR and LaFR forward/inverse mappings on the GPU ([`GpuMapping`]).
 //! * [`reconstruct`]: polar sample buffers back to the screen, bilinear or footprint-filtered
 //!   ([`GpuReconstructor`]).
 //! * [`trace`]: closest hits and occlusion of ray batches through a BVH built by obvhs
 //!   ([`GpuTracer`]).
+//! * [`direct_light`]: the renderer's direct lighting of surface samples, shadow rays
+//!   through the same BVH ([`GpuTracer::direct_light_timed`]).
 //! * [`shaders`]: the WGSL sources, validated with naga in a plain `cargo test`.
 //!
 //! ```no_run
@@ -39,6 +41,7 @@
 
 pub mod backend;
 pub mod device;
+pub mod direct_light;
 pub mod error;
 pub mod mapping;
 pub mod reconstruct;
@@ -49,10 +52,11 @@ mod transfer;
 
 pub use backend::{BackendChoice, Resolved};
 pub use device::{AdapterSummary, DeviceKind, GpuContext, GpuRequest};
+pub use direct_light::{DirectLight, GpuLight, GpuSurface};
 pub use error::{GpuError, Result};
 pub use mapping::{Direction, GpuMapping};
 pub use reconstruct::{GpuReconstructor, ReconstructTimes};
-pub use trace::{BvhStats, GpuHit, GpuRay, GpuTracer, TraceTimes};
+pub use trace::{BvhStats, DirectLightModel, GpuHit, GpuRay, GpuTracer, TraceTimes};
 
 /// Every WGSL module of the crate, as the device compiles it.
 pub const ALL_SHADERS: &[shaders::ShaderSource] = &[

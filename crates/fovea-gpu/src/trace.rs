@@ -23,14 +23,16 @@ use crate::error::{GpuError, Result};
 use crate::shaders::ShaderSource;
 use crate::transfer::{batch_len, run_1d, upload};
 
-/// The module: `closest_hit` and `any_hit`, [`TraceUniform`] at binding 0.
+/// The module: `closest_hit` and `any_hit`, and `direct_light` (`shaders/direct_light.wgsl`,
+/// appended: it walks the same BVH; see [`crate::direct_light`]), [`TraceUniform`] at binding 0.
 pub const SHADER: ShaderSource = ShaderSource {
     file: "trace.wgsl",
     source: concat!(
         include_str!("../shaders/common.wgsl"),
-        include_str!("../shaders/trace.wgsl")
+        include_str!("../shaders/trace.wgsl"),
+        include_str!("../shaders/direct_light.wgsl")
     ),
-    entry_points: &["closest_hit", "any_hit"],
+    entry_points: &["closest_hit", "any_hit", "direct_light"],
     uniform: ("TraceParams", std::mem::size_of::<TraceUniform>()),
 };
 
@@ -41,13 +43,60 @@ pub const TRIANGLE_BYTES: u64 = std::mem::size_of::<[f32; 12]>() as u64;
 /// The traversal stack of `trace.wgsl` (`STACK_SIZE`): the deepest tree it can walk.
 pub const STACK_SIZE: usize = 64;
 
+/// The shading model's constants as `TraceParams` carries them (see
+/// `fovea_render::shade::constants` for each one's meaning; the renderer's values are
+/// `DirectLightModel::RENDERER`, in `crate::direct_light`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct DirectLightModel {
+    /// π.
+    pub pi: f32,
+    /// Shadow-ray origin offset per (1 + t).
+    pub offset_per_t: f32,
+    /// The cap on `t` in that offset.
+    pub offset_t_cap: f32,
+    /// A shadow ray stops `dist · (1 − shadow_shorten)` along.
+    pub shadow_shorten: f32,
+    /// Lights nearer than this light nothing.
+    pub min_light_distance: f32,
+    /// A spot's cone width is taken at least this wide.
+    pub spot_min_width: f32,
+    /// `n·v` is taken at least this large.
+    pub min_nv: f32,
+    /// GGX `D`'s denominator floor.
+    pub d_floor: f32,
+    /// The visibility term's denominator floor.
+    pub vis_floor: f32,
+}
+
 /// The uniform block `TraceParams` of `trace.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct TraceUniform {
-    /// Rays in the batch.
+    /// Rays in the batch (`direct_light`: surface samples).
     pub ray_count: u32,
-    _pad: [u32; 3],
+    /// `direct_light`: the lights.
+    pub light_count: u32,
+    _pad: [u32; 2],
+    /// `direct_light`: the shading model's constants.
+    pub model: DirectLightModel,
+    /// The largest `t_max` the shader sees (`direct_light`: a directional light's shadow rays).
+    pub max_distance: f32,
+    _pad2: [f32; 2],
+}
+
+impl TraceUniform {
+    /// The block of a batch of `count` rays or samples, with `lights` lights and `model`.
+    pub(crate) fn new(count: usize, lights: usize, model: DirectLightModel) -> Self {
+        Self {
+            ray_count: count as u32,
+            light_count: lights as u32,
+            _pad: [0; 2],
+            model,
+            max_distance: MAX_DISTANCE,
+            _pad2: [0.0; 2],
+        }
+    }
 }
 
 /// A ray as the shader reads it: origin, `t_min`, direction (any length; the hit's `t` is in
@@ -97,7 +146,7 @@ struct HitGpu {
 }
 
 /// The largest `t_max` the shader sees (below its `FAR` marker of 3e38).
-const MAX_DISTANCE: f32 = 1.0e38;
+pub(crate) const MAX_DISTANCE: f32 = 1.0e38;
 /// `Hit::prim` of a miss.
 const MISS: u32 = u32::MAX;
 const RAY_BYTES: u64 = std::mem::size_of::<GpuRay>() as u64;
@@ -131,18 +180,19 @@ pub struct TraceTimes {
 
 /// The scene's triangles and BVH on one device, with the two traversal pipelines.
 pub struct GpuTracer {
-    ctx: GpuContext,
+    pub(crate) ctx: GpuContext,
     stats: BvhStats,
     /// `None` for an empty scene (every ray misses without a dispatch).
-    scene: Option<SceneBuffers>,
+    pub(crate) scene: Option<SceneBuffers>,
 }
 
-struct SceneBuffers {
-    nodes: wgpu::Buffer,
-    tris: wgpu::Buffer,
-    prim_ids: wgpu::Buffer,
+pub(crate) struct SceneBuffers {
+    pub(crate) nodes: wgpu::Buffer,
+    pub(crate) tris: wgpu::Buffer,
+    pub(crate) prim_ids: wgpu::Buffer,
     closest: wgpu::ComputePipeline,
     any: wgpu::ComputePipeline,
+    pub(crate) direct: wgpu::ComputePipeline,
 }
 
 impl GpuTracer {
@@ -235,11 +285,14 @@ impl GpuTracer {
                 )
             },
         )?;
-        // `closest_hit`, `any_hit`: the order of the module's entry points.
+        // `closest_hit`, `any_hit`, `direct_light`: the order of the module's entry points.
         let mut pipelines = pipelines.into_iter();
-        let (Some(closest), Some(any)) = (pipelines.next(), pipelines.next()) else {
+        let (Some(closest), Some(any), Some(direct)) =
+            (pipelines.next(), pipelines.next(), pipelines.next())
+        else {
             return Err(GpuError::Input(
-                "the trace module lacks its closest_hit and any_hit entry points".into(),
+                "the trace module lacks its closest_hit, any_hit and direct_light entry points"
+                    .into(),
             ));
         };
         let scene = SceneBuffers {
@@ -248,6 +301,7 @@ impl GpuTracer {
             prim_ids: ids_buf,
             closest,
             any,
+            direct,
         };
         Ok(Self {
             ctx: ctx.clone(),
@@ -380,10 +434,7 @@ impl GpuTracer {
         );
         self.ctx.check_storage_binding(&what, n * RAY_BYTES)?;
         let pipeline = if any_hit { &scene.any } else { &scene.closest };
-        let block = TraceUniform {
-            ray_count: rays.len() as u32,
-            _pad: [0; 3],
-        };
+        let block = TraceUniform::new(rays.len(), 0, DirectLightModel::zeroed());
         let (uniform, ray_buf) = self.ctx.scoped(&what, || {
             (
                 upload(

@@ -75,6 +75,36 @@ pub(crate) fn run_1d(
     out_bytes: u64,
     timed: bool,
 ) -> Result<(Vec<u8>, Option<f64>)> {
+    let numbered: Vec<(u32, wgpu::BindingResource<'_>)> = inputs
+        .iter()
+        .cloned()
+        .enumerate()
+        .map(|(k, r)| (k as u32, r))
+        .collect();
+    run_1d_at(
+        ctx,
+        what,
+        pipeline,
+        &numbered,
+        inputs.len() as u32,
+        n,
+        out_bytes,
+        timed,
+    )
+}
+
+/// [`run_1d`] with the inputs at the given bindings and the output at `out_binding`.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn run_1d_at(
+    ctx: &GpuContext,
+    what: &str,
+    pipeline: &wgpu::ComputePipeline,
+    inputs: &[(u32, wgpu::BindingResource<'_>)],
+    out_binding: u32,
+    n: u64,
+    out_bytes: u64,
+    timed: bool,
+) -> Result<(Vec<u8>, Option<f64>)> {
     let device = ctx.device();
     let size = n.max(1) * out_bytes;
     let (readback, timer) = ctx.scoped(what, || {
@@ -94,12 +124,8 @@ pub(crate) fn run_1d(
         let entries: Vec<wgpu::BindGroupEntry> = inputs
             .iter()
             .cloned()
-            .chain([output.as_entire_binding()])
-            .enumerate()
-            .map(|(k, resource)| wgpu::BindGroupEntry {
-                binding: k as u32,
-                resource,
-            })
+            .chain([(out_binding, output.as_entire_binding())])
+            .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource })
             .collect();
         let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some(what),

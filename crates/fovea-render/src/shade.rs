@@ -125,9 +125,32 @@ impl ShadingMode {
     }
 }
 
+/// The shading model's constants, named so another executor of the model (the GPU's
+/// `direct_light` pass, `fovea-gpu`) uploads these values instead of deriving its own.
+pub mod constants {
+    /// Shadow rays start `SHADOW_OFFSET_PER_T · (1 + min(t, SHADOW_OFFSET_T_CAP))` off the
+    /// surface along its geometric normal (`t`: the primary ray's distance, metres).
+    pub const SHADOW_OFFSET_PER_T: f32 = 1e-4;
+    /// See [`SHADOW_OFFSET_PER_T`].
+    pub const SHADOW_OFFSET_T_CAP: f32 = 1e4;
+    /// A shadow ray towards a point or spot light `d` away stops at `d · (1 − SHADOW_SHORTEN)`.
+    pub const SHADOW_SHORTEN: f32 = 1e-4;
+    /// A point or spot light nearer than this (metres) lights nothing.
+    pub const MIN_LIGHT_DISTANCE: f32 = 1e-6;
+    /// A spot's `cos_inner − cos_outer` is taken at least this wide.
+    pub const SPOT_MIN_WIDTH: f32 = 1e-6;
+    /// `n·v` is taken at least this large in the BRDF.
+    pub const MIN_NV: f32 = 1e-4;
+    /// The GGX `D`'s denominator `π (…)²` is taken at least this large.
+    pub const GGX_D_FLOOR: f32 = 1e-12;
+    /// The Smith visibility's denominator is taken at least this large.
+    pub const VIS_FLOOR: f32 = 1e-8;
+}
+use constants::*;
+
 #[inline]
 fn offset_origin(g: &GSample) -> Vec3 {
-    g.position + g.face_normal * (1e-4 * (1.0 + g.t.min(1e4)))
+    g.position + g.face_normal * (SHADOW_OFFSET_PER_T * (1.0 + g.t.min(SHADOW_OFFSET_T_CAP)))
 }
 
 /// GGX + Lambert BRDF times `n·l`, for unit `l` towards the light.
@@ -136,7 +159,7 @@ pub fn brdf_cos(g: &GSample, l: Vec3) -> Vec3 {
     let n = g.normal;
     let v = g.to_eye;
     let nl = n.dot(l);
-    let nv = n.dot(v).max(1e-4);
+    let nv = n.dot(v).max(MIN_NV);
     if nl <= 0.0 {
         return Vec3::ZERO;
     }
@@ -145,10 +168,10 @@ pub fn brdf_cos(g: &GSample, l: Vec3) -> Vec3 {
     let vh = v.dot(h).max(0.0);
     let a = g.roughness * g.roughness;
     let a2 = a * a;
-    let d = a2 / (std::f32::consts::PI * (nh * nh * (a2 - 1.0) + 1.0).powi(2)).max(1e-12);
+    let d = a2 / (std::f32::consts::PI * (nh * nh * (a2 - 1.0) + 1.0).powi(2)).max(GGX_D_FLOOR);
     let vis = 0.5
         / (nl * (nv * nv * (1.0 - a2) + a2).sqrt() + nv * (nl * nl * (1.0 - a2) + a2).sqrt())
-            .max(1e-8);
+            .max(VIS_FLOOR);
     let f0 = g.specular.lerp(g.albedo, g.metallic);
     let f = f0 + (Vec3::ONE - f0) * (1.0 - vh).powi(5);
     let spec = d * vis * f;
@@ -254,7 +277,7 @@ fn light_at(light: &Light, g: &GSample, origin: Vec3) -> Option<(Vec3, f32, Vec3
     let towards = |position: Vec3, range: f32| -> Option<(Vec3, f32)> {
         let d = position - origin;
         let dist = d.length();
-        if dist > range || dist < 1e-6 {
+        if dist > range || dist < MIN_LIGHT_DISTANCE {
             None
         } else {
             Some((d / dist, dist))
@@ -279,7 +302,7 @@ fn light_at(light: &Light, g: &GSample, origin: Vec3) -> Option<(Vec3, f32, Vec3
         } => {
             let (l, dist) = towards(position, range)?;
             let c = (-l).dot(direction);
-            let k = ((c - cos_outer) / (cos_inner - cos_outer).max(1e-6)).clamp(0.0, 1.0);
+            let k = ((c - cos_outer) / (cos_inner - cos_outer).max(SPOT_MIN_WIDTH)).clamp(0.0, 1.0);
             if k <= 0.0 {
                 return None;
             }
@@ -309,7 +332,7 @@ fn shadow_ray(origin: Vec3, l: Vec3, dist: f32) -> Ray {
         dir: l,
         t_min: 0.0,
         t_max: if dist.is_finite() {
-            dist * (1.0 - 1e-4)
+            dist * (1.0 - SHADOW_SHORTEN)
         } else {
             f32::INFINITY
         },

@@ -322,8 +322,11 @@ impl FrameRenderer {
                 "cpu".to_string()
             } else {
                 format!(
-                    "primary rays {}, shadow rays {}, reconstruct {}",
-                    s.trace_backend, s.shadow_backend, s.reconstruct_backend
+                    "primary rays {}, shadow rays {}, direct light {}, reconstruct {}",
+                    s.trace_backend,
+                    s.shadow_backend,
+                    s.direct_light_backend,
+                    s.reconstruct_backend
                 )
             }
         });

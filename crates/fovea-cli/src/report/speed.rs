@@ -80,7 +80,7 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
     // Where the rays and the reconstruction ran, and the GPU passes' own times, when a GPU
     // ran any (`--backend`).
     let on_gpu = result.runs.iter().any(|r| !r.device_pass_ms.is_empty());
-    const PASSES: [&str; 3] = ["trace", "shadow", "reconstruct"];
+    const PASSES: [&str; 4] = ["trace", "direct_light", "shadow", "reconstruct"];
     if on_gpu {
         cols.extend(["rays on", "reconstruct on"].map(String::from));
         cols.extend(PASSES.map(|p| format!("GPU {p} pass (ms)")));
@@ -120,8 +120,8 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         ]);
         if on_gpu {
             cells.push(Cell::text(format!(
-                "primary {}, shadow {}",
-                s.trace_backend, s.shadow_backend
+                "primary {}, shadow {}, direct light {}",
+                s.trace_backend, s.shadow_backend, s.direct_light_backend
             )));
             cells.push(Cell::text(s.reconstruct_backend.clone()));
             for p in PASSES {
@@ -143,9 +143,9 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
     sec.text(match (&ctx.backend.adapter, on_gpu) {
         (Some(adapter), true) => format!(
             "Backend: GPU ({adapter}){emulated}. Every method cast its primary and shadow rays \
-             there and polar methods reconstructed there; surfaces, shading arithmetic, AA and \
-             post ran on the CPU. The GPU pass columns are the passes' own times from \
-             timestamps, summed over the frame's calls."
+             and computed its direct light there, and polar methods reconstructed there; \
+             surfaces, the environment's estimator, AA and post ran on the CPU. The GPU pass \
+             columns are the passes' own times from timestamps, summed over the frame's calls."
         ),
         _ => format!(
             "Backend: {} — every stage on the CPU.",

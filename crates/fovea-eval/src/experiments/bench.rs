@@ -721,6 +721,7 @@ impl BenchResult {
                     "stage_backends": {
                         "trace": s.trace_backend,
                         "shadow_rays": s.shadow_backend,
+                        "direct_light": s.direct_light_backend,
                         "reconstruct": s.reconstruct_backend,
                     },
                     "gpu_pass_ms": r.device_pass_ms,

@@ -119,6 +119,9 @@ pub struct FrameStats {
     /// or the [`trace_shade::TraceExecutor`]'s name where it cast them (direct shading, one
     /// ray per texel, no DOF culling).
     pub shadow_backend: String,
+    /// The backend that computed the lights' part of direct shading (their BRDF-weighted
+    /// radiance behind their shadow rays): `cpu`, or the executor's name where it did.
+    pub direct_light_backend: String,
 }
 
 /// A rendered frame.
@@ -344,6 +347,7 @@ pub fn render_planned<'c>(
     stats.reconstruct_backend = reconstruct_backend;
     stats.trace_backend = casters.primary;
     stats.shadow_backend = casters.shadow;
+    stats.direct_light_backend = casters.direct_light;
     Ok(ctx.store(Frame {
         color,
         depth,
@@ -397,6 +401,7 @@ fn frame_stats(
         reconstruct_backend: reconstruct::CPU.to_string(),
         trace_backend: trace_shade::CPU.to_string(),
         shadow_backend: trace_shade::CPU.to_string(),
+        direct_light_backend: trace_shade::CPU.to_string(),
     }
 }
 

@@ -30,6 +30,7 @@ use crate::camera::EyeCamera;
 use crate::cull_fill::{fill_culled, shade_or_cull, CullBuffers, SampleCull};
 use crate::error::{RenderError, Result};
 use crate::plan::FramePlan;
+use crate::scene::Light;
 use crate::shade::{shade, subsample_key, texel_key, RayCounts, ShadingMode, ShadowRays};
 use crate::trace::{surface, GSample};
 use crate::world::World;
@@ -50,6 +51,22 @@ pub trait TraceExecutor: Send {
     /// Whether anything lies on each ray in `[t_min, t_max]` (the shade stage's shadow rays,
     /// `t_max` possibly infinite). An error is one line saying what to do.
     fn occluded(&mut self, rays: &[Ray]) -> std::result::Result<Vec<bool>, String>;
+    /// Whether it computes the lights' part of direct shading itself
+    /// ([`Self::direct_light`]); if not, the lights' shadow rays come to [`Self::occluded`].
+    fn shades_direct_light(&self) -> bool {
+        false
+    }
+    /// The lights' part of direct shading at each surface sample of `hits` (all hits):
+    /// [`crate::shade::direct`]'s radiance from `lights`, and the shadow rays it cast. Called
+    /// only when [`Self::shades_direct_light`]. An error is one line saying what to do.
+    fn direct_light(
+        &mut self,
+        hits: &[&GSample],
+        lights: &[Light],
+    ) -> std::result::Result<Vec<(Vec3, u32)>, String> {
+        let _ = (hits, lights);
+        Err(format!("{} does not compute direct light", self.backend()))
+    }
 }
 
 /// The name of the CPU trace in [`FrameStats::trace_backend`](super::FrameStats::trace_backend).
@@ -231,8 +248,9 @@ pub const SHADE_GROUP: usize = SHADE_BATCH * 256;
 ///
 /// With `tracer`, the shadow rays of direct shading of one ray per texel without culling
 /// (the default frame) are cast there, [`SHADE_GROUP`] texels' at a time; the shading
-/// arithmetic stays here. Returns whether they were (the other frames' shadow rays are cast on
-/// the CPU).
+/// arithmetic stays here — except the lights' part where the executor computes it
+/// ([`TraceExecutor::shades_direct_light`]). Returns what the executor did (the other frames'
+/// shadow rays are cast and shaded on the CPU).
 #[allow(clippy::too_many_arguments)]
 pub fn shade_chunk(
     world: &World,
@@ -246,7 +264,7 @@ pub fn shade_chunk(
     mut cull_state: Option<&mut CullBuffers>,
     counts: &mut TraceCounts,
     tracer: Option<&mut (dyn TraceExecutor + 'static)>,
-) -> Result<bool> {
+) -> Result<ShadeCast> {
     let Chunk {
         layer,
         j0,
@@ -268,7 +286,12 @@ pub fn shade_chunk(
         // A batch's texels' representative records (none where nothing was traced) and
         // their shadow rays.
         type Gathered<'g> = (Vec<Option<&'g GSample>>, ShadowRays, RayCounts);
-        let gather = |t0: usize, ks: &[u32]| -> Gathered<'_> {
+        // The lights' part of a batch's surface samples and their shadow rays, when another
+        // executor computed it.
+        type Given<'d> = Option<&'d [(Vec3, u32)]>;
+        // `lights`: the lights' rays too (else only the environment's: another executor
+        // computes the lights' part).
+        let gather = |t0: usize, ks: &[u32], lights: bool| -> Gathered<'_> {
             let reps: Vec<Option<&GSample>> = (0..ks.len())
                 .map(|i| gbuf[starts[t0 + i] as usize].as_ref())
                 .collect();
@@ -280,14 +303,39 @@ pub fn shade_chunk(
                 .map(|(&k, _)| key_of_texel(k))
                 .collect();
             let mut rc = RayCounts::default();
-            let rays = ShadowRays::gather(world, &gs, &keys, env_light, &mut rc);
+            let rays = if lights {
+                ShadowRays::gather(world, &gs, &keys, env_light, &mut rc)
+            } else {
+                ShadowRays::gather_environment(world, &gs, &keys, env_light, &mut rc)
+            };
             (reps, rays, rc)
         };
-        // Each texel's colour and depth once its batch's rays are answered (`blocked`).
-        let finish = |(reps, rays, rc): Gathered<'_>, blocked: &[bool]| -> Batch {
+        // Each texel's colour and depth once its batch's rays are answered (`blocked`), with
+        // the lights' part given per surface sample (`direct`) or summed from the rays.
+        let finish = |(reps, rays, rc): Gathered<'_>,
+                      blocked: &[bool],
+                      direct: Given<'_>|
+         -> Batch {
             let gs: Vec<&GSample> = reps.iter().flatten().copied().collect();
             let mut values = vec![Vec3::ZERO; gs.len()];
-            rays.shade(world, &gs, env_light, blocked, &mut values);
+            let mut rc = rc;
+            match direct {
+                Some(direct) => {
+                    let mut given = direct.iter();
+                    let lights: Vec<Vec3> = gs
+                        .iter()
+                        .map(|g| match g.is_hit().then(|| given.next()).flatten() {
+                            Some(&(v, n)) => {
+                                rc.shadow += u64::from(n);
+                                v
+                            }
+                            None => Vec3::ZERO,
+                        })
+                        .collect();
+                    rays.shade_given_direct(world, &gs, env_light, &lights, blocked, &mut values);
+                }
+                None => rays.shade(world, &gs, env_light, blocked, &mut values),
+            }
             let mut values = values.into_iter();
             let out = reps
                 .iter()
@@ -302,42 +350,62 @@ pub fn shade_chunk(
         };
         // Per batch: each texel's colour and depth, and the batch's secondary rays.
         type Batch = (Vec<Option<(Rgb, f32)>>, RayCounts);
-        let on_executor = tracer.is_some();
+        let on_executor = ShadeCast {
+            shadow_rays: tracer.is_some(),
+            direct_light: tracer.as_ref().is_some_and(|t| t.shades_direct_light()),
+        };
         let blocks: Vec<Batch> = match tracer {
             None => order
                 .par_chunks(SHADE_BATCH)
                 .enumerate()
                 .map(|(b, ks)| {
-                    let g = gather(b * SHADE_BATCH, ks);
+                    let g = gather(b * SHADE_BATCH, ks, true);
                     let blocked = g.1.cast(world);
-                    finish(g, &blocked)
+                    finish(g, &blocked, None)
                 })
                 .collect(),
             Some(tracer) => {
+                let shades = tracer.shades_direct_light();
                 let mut blocks = Vec::with_capacity(order.len().div_ceil(SHADE_BATCH));
                 for (n, group) in order.chunks(SHADE_GROUP).enumerate() {
                     let gathered: Vec<Gathered<'_>> = group
                         .par_chunks(SHADE_BATCH)
                         .enumerate()
-                        .map(|(b, ks)| gather(n * SHADE_GROUP + b * SHADE_BATCH, ks))
+                        .map(|(b, ks)| gather(n * SHADE_GROUP + b * SHADE_BATCH, ks, !shades))
                         .collect();
                     let rays: Vec<Ray> = gathered
                         .iter()
                         .flat_map(|g| g.1.rays.iter().copied())
                         .collect();
                     let blocked = executor_occluded(tracer, &rays)?;
-                    let mut at = 0;
-                    let spans: Vec<(Gathered<'_>, &[bool])> = gathered
+                    // The lights' part of every surface sample of the group, in one call.
+                    let direct = if shades {
+                        let hits: Vec<&GSample> = gathered
+                            .iter()
+                            .flat_map(|g| g.0.iter().flatten().copied())
+                            .filter(|g| g.is_hit())
+                            .collect();
+                        executor_direct_light(tracer, &hits, &world.lights)?
+                    } else {
+                        Vec::new()
+                    };
+                    let (mut at, mut lit) = (0, 0);
+                    let spans: Vec<(Gathered<'_>, &[bool], Given<'_>)> = gathered
                         .into_iter()
                         .map(|g| {
                             let n = g.1.rays.len();
                             at += n;
-                            (g, &blocked[at - n..at])
+                            let hits = g.0.iter().flatten().filter(|g| g.is_hit()).count();
+                            let d = shades.then(|| {
+                                lit += hits;
+                                &direct[lit - hits..lit]
+                            });
+                            (g, &blocked[at - n..at], d)
                         })
                         .collect();
                     let done: Vec<Batch> = spans
                         .into_par_iter()
-                        .map(|(g, blocked)| finish(g, blocked))
+                        .map(|(g, blocked, direct)| finish(g, blocked, direct))
                         .collect();
                     blocks.extend(done);
                 }
@@ -424,7 +492,41 @@ pub fn shade_chunk(
             cb.record(chunk_start + k as usize, state, info);
         }
     }
-    Ok(false)
+    Ok(ShadeCast::default())
+}
+
+/// What another executor did in a chunk's shading ([`shade_chunk`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ShadeCast {
+    /// It cast the shadow rays (the environment's, and the lights' unless it computed the
+    /// lights' part).
+    pub shadow_rays: bool,
+    /// It computed the lights' part of direct shading ([`TraceExecutor::direct_light`]).
+    pub direct_light: bool,
+}
+
+/// `tracer`'s direct light at every surface sample of `hits` from `lights`, checked to be one
+/// per sample.
+fn executor_direct_light(
+    tracer: &mut (dyn TraceExecutor + 'static),
+    hits: &[&GSample],
+    lights: &[Light],
+) -> Result<Vec<(Vec3, u32)>> {
+    let backend = tracer.backend().to_string();
+    let failed = |message: String| RenderError::Executor {
+        stage: "shade",
+        backend: backend.clone(),
+        message,
+    };
+    let direct = tracer.direct_light(hits, lights).map_err(failed)?;
+    if direct.len() != hits.len() {
+        return Err(failed(format!(
+            "{} values for {} surface samples",
+            direct.len(),
+            hits.len()
+        )));
+    }
+    Ok(direct)
 }
 
 /// `tracer`'s answer for every shadow ray of `rays`, checked to be one per ray.
@@ -476,6 +578,7 @@ pub fn trace_and_shade(
     let mut casters = Casters {
         primary: backend.clone(),
         shadow: CPU.to_string(),
+        direct_light: CPU.to_string(),
     };
     let mut counts = TraceCounts::default();
     let mut gbuf = Vec::new();
@@ -541,8 +644,11 @@ pub fn trace_and_shade(
                 &mut counts,
                 tracer.as_deref_mut(),
             )?;
-            if on_executor {
+            if on_executor.shadow_rays {
                 casters.shadow.clone_from(&backend);
+            }
+            if on_executor.direct_light {
+                casters.direct_light.clone_from(&backend);
             }
             times.add(Stage::Shade, &t);
             progress(counts.primary.min(total), total);
@@ -564,4 +670,6 @@ pub struct Casters {
     pub primary: String,
     /// The shade stage's shadow rays' (lights and environment).
     pub shadow: String,
+    /// The lights' part of direct shading (BRDF, falloff, their shadow rays).
+    pub direct_light: String,
 }

@@ -42,6 +42,7 @@ use std::f32::consts::PI;
 use glam::Vec3;
 use serde::Serialize;
 
+use super::constants::GGX_D_FLOOR;
 use super::{brdf_cos, cosine_hemisphere, offset_origin, RayCounts};
 use crate::bvh::Ray;
 use crate::error::{RenderError, Result};
@@ -234,7 +235,7 @@ impl BrdfSampler {
         let h = (l + self.v).normalize_or_zero();
         let (nh, vh) = (self.n.dot(h), self.v.dot(h));
         let p_ggx = if nh > 0.0 && vh > 0.0 {
-            let d = self.a2 / (PI * (nh * nh * (self.a2 - 1.0) + 1.0).powi(2)).max(1e-12);
+            let d = self.a2 / (PI * (nh * nh * (self.a2 - 1.0) + 1.0).powi(2)).max(GGX_D_FLOOR);
             d * nh / (4.0 * vh)
         } else {
             0.0

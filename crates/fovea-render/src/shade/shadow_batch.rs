@@ -54,11 +54,34 @@ impl ShadowRays {
         env_light: EnvLight,
         counts: &mut RayCounts,
     ) -> Self {
+        let mut out = Self::default();
+        out.push_lights(world, gs, counts);
+        out.push_environment(world, gs, keys, env_light, counts);
+        out
+    }
+
+    /// The environment's shadow rays alone (for an executor that computes the lights' part,
+    /// [`crate::pipeline::TraceExecutor::direct_light`]; sum with [`Self::shade_given_direct`]).
+    pub fn gather_environment(
+        world: &World,
+        gs: &[&GSample],
+        keys: &[u64],
+        env_light: EnvLight,
+        counts: &mut RayCounts,
+    ) -> Self {
+        let mut out = Self::default();
+        out.push_environment(world, gs, keys, env_light, counts);
+        out
+    }
+
+    /// The lights' rays, light by light over the batch's surface samples.
+    fn push_lights(&mut self, world: &World, gs: &[&GSample], counts: &mut RayCounts) {
         let origins: Vec<Option<Vec3>> = gs
             .iter()
             .map(|g| g.is_hit().then(|| offset_origin(g)))
             .collect();
-        let mut out = Self::default();
+        let out = self;
+        let before = out.rays.len();
         for light in &world.lights {
             for (s, (g, origin)) in gs.iter().zip(&origins).enumerate() {
                 let Some(origin) = *origin else { continue };
@@ -68,20 +91,31 @@ impl ShadowRays {
                 }
             }
         }
-        counts.shadow += out.rays.len() as u64;
-        if let EnvLight::Occluded { samples } = env_light {
-            let before = out.rays.len();
-            for (s, (g, &key)) in gs.iter().zip(keys).enumerate() {
-                if g.is_hit() && samples > 0 {
-                    environment_rays(world, g, samples, key, |ray, c| {
-                        out.rays.push(ray);
-                        out.adds.push((s as u32, Term::Environment, c));
-                    });
-                }
+        counts.shadow += (out.rays.len() - before) as u64;
+    }
+
+    /// Each surface sample's environment rays.
+    fn push_environment(
+        &mut self,
+        world: &World,
+        gs: &[&GSample],
+        keys: &[u64],
+        env_light: EnvLight,
+        counts: &mut RayCounts,
+    ) {
+        let EnvLight::Occluded { samples } = env_light else {
+            return;
+        };
+        let before = self.rays.len();
+        for (s, (g, &key)) in gs.iter().zip(keys).enumerate() {
+            if g.is_hit() && samples > 0 {
+                environment_rays(world, g, samples, key, |ray, c| {
+                    self.rays.push(ray);
+                    self.adds.push((s as u32, Term::Environment, c));
+                });
             }
-            counts.environment += (out.rays.len() - before) as u64;
         }
-        out
+        counts.environment += (self.rays.len() - before) as u64;
     }
 
     /// Casts every ray on the world's BVH as one [`crate::bvh::RayCaster::occluded_batch`]:
@@ -113,6 +147,20 @@ impl ShadowRays {
     ) {
         let mut direct = vec![Vec3::ZERO; gs.len()];
         self.sum(Term::Light, blocked, &mut direct);
+        self.shade_given_direct(world, gs, env_light, &direct, blocked, out);
+    }
+
+    /// [`Self::shade`] with the lights' part of each sample given (`direct`, one per sample
+    /// of the batch; e.g. computed by another executor) rather than summed from the rays.
+    pub fn shade_given_direct(
+        &self,
+        world: &World,
+        gs: &[&GSample],
+        env_light: EnvLight,
+        direct: &[Vec3],
+        blocked: &[bool],
+        out: &mut [Vec3],
+    ) {
         let mut env = vec![Vec3::ZERO; gs.len()];
         match env_light {
             EnvLight::Occluded { .. } => self.sum(Term::Environment, blocked, &mut env),
