@@ -2,7 +2,8 @@
 # Issue 18's device check: the GPU tests and timings of fovea-gpu, run on a machine with a
 # real GPU from prebuilt binaries (no Rust toolchain needed there), in one call.
 #
-#   scripts/gpu-bench.sh build        # here: builds and strips everything into gpu-bench/
+#   scripts/gpu-bench.sh build [--with-classroom]
+#                                     # here: builds and strips everything into gpu-bench/
 #   scripts/gpu-bench.sh run [OUT]    # there (or here, on lavapipe): runs it, writes OUT/gpu-bench.md
 #
 # `build` compiles, in release with the `gpu` feature, the `fovea` binary, the timing examples
@@ -16,7 +17,12 @@
 #   * reconstruct_timing at the Vive Pro Eye, 2K and 8K presets;
 #   * trace_timing on the built-in scene at the Vive Pro Eye and 8K presets;
 #   * `fovea render --backend gpu` against `--backend cpu`, VaFR, Vive Pro Eye and 8K, with
-#     each frame's stage times and backend JSON.
+#     each frame's stage times and backend JSON;
+#   * `fovea bench --backend gpu` at the Vive Pro Eye, 4K and 8K, then issue 18's headline:
+#     both eyes (`--eyes both`), VaFR at 8K per eye and retinal, 1 light and 12, on the
+#     classroom when the bundle holds it (`build --with-classroom` copies
+#     ../shared/scenes/japanese-classroom, 14 MB, into gpu-bench/scenes: mind the 64 MiB the
+#     device tool carries), else on the built-in scene.
 #
 # Everything prints to stdout and goes to OUT/gpu-bench.md (default $OUT, else ./gpu-bench-out);
 # record what it printed in docs/gpu.md. No step asserts a time.
@@ -53,6 +59,10 @@ build)
       esac
     done
   strip "$bundle"/bin/* 2>/dev/null || true
+  if [ "${2:-}" = --with-classroom ]; then
+    mkdir -p "$bundle/scenes"
+    cp -r ../shared/scenes/japanese-classroom "$bundle/scenes/"
+  fi
   du -sh "$bundle"
   ls "$bundle/bin"
   ;;
@@ -107,6 +117,16 @@ run)
   # full-resolution frame of the same run (the CPU's), at the Vive Pro Eye, 4K and 8K.
   step "bench --backend gpu" -- "$bin/fovea" bench --backend gpu --res vive-pro-eye,4k,8k \
     --methods vafr,kfr --lights 1 --bvh-rays 0 --json
+  # Both eyes on the GPU, VaFR at 8K per eye and retinal, against full resolution in the same
+  # run, 1 light with shadows and 12.
+  scene="$bundle/scenes/japanese-classroom/scene.xml"
+  scene_args=(--scene "$scene")
+  [ -f "$scene" ] || { echo "(no classroom in the bundle: the built-in scene instead)"; scene_args=(); }
+  for lights in 1 12; do
+    step "bench both eyes, $lights light(s)" -- "$bin/fovea" bench --backend gpu "${scene_args[@]}" \
+      --eyes both --stereo-reps 2 --lights "$lights" --res 8k,retinal --methods vafr \
+      --bvh-rays 0 --json
+  done
   echo "gpu-bench: $failed step(s) failed; report in $report" | tee -a "$report"
   [ "$failed" = 0 ]
   ;;

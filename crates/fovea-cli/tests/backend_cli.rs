@@ -529,9 +529,33 @@ fn cpu_bench_reports_every_stage_on_the_cpu_and_no_gpu_passes() {
         let fps = r["fps"].as_f64().unwrap();
         assert!(fps.is_finite() && fps > 0.0, "{r}");
     }
-    // One eye only on the GPU, refused before any work in every build.
-    let e = one_line_error(&bench(&["--backend", "gpu", "--eyes", "both"], &[]));
-    assert!(e.contains("one eye") && e.contains("--backend cpu"), "{e}");
+}
+
+/// `fovea bench --eyes both --backend gpu`: both eyes of the binocular frames (Dup and Rep) run
+/// on the GPU's executors, and each mode's GPU passes (both eyes summed) are reported. Presence
+/// and sign only: no timing is compared.
+#[cfg(feature = "gpu")]
+#[test]
+fn bench_gpu_times_both_eyes_on_the_gpu() {
+    let out = bench(
+        &["--backend", "gpu", "--eyes", "both", "--stereo-reps", "1"],
+        &[],
+    );
+    if !gpu_ran(&out, "bench_gpu_times_both_eyes_on_the_gpu") {
+        return;
+    }
+    let j = bench_json(&out);
+    let rows = j["binocular"].as_array().unwrap();
+    assert_eq!(rows.len(), 1, "{j}");
+    let row = &rows[0];
+    assert_eq!(row["trace_backend"], "gpu", "{row}");
+    for mode in ["dup_device_pass_ms", "rep_device_pass_ms"] {
+        for pass in ["trace", "direct_light", "reconstruct"] {
+            let ms = row[mode][pass].as_f64().unwrap_or(f64::NAN);
+            assert!(ms.is_finite() && ms > 0.0, "{mode} {pass}: {row}");
+        }
+    }
+    assert!(row["rep_rays_primary"].as_u64().unwrap() < row["dup_rays_primary"].as_u64().unwrap());
 }
 
 #[cfg(not(feature = "gpu"))]

@@ -34,7 +34,7 @@ use fovea_render::pipeline::{
 };
 use fovea_render::plan::FramePlan;
 use fovea_render::scene::Light;
-use fovea_render::stereo::{fixating_eyes, render_stereo, StereoMode};
+use fovea_render::stereo::{fixating_eyes, render_stereo_in, StereoMode};
 use fovea_render::world::World;
 use glam::Vec3;
 
@@ -302,6 +302,13 @@ pub struct StereoTiming {
     pub rep_over_dup_time: f64,
     /// `rep_rays_primary / dup_rays_primary`.
     pub rep_over_dup_rays: f64,
+    /// The median Dup frame's per-pass times on a device, both eyes summed, ms by pass
+    /// ([`BenchExecutors`]; empty when every stage ran on the CPU).
+    pub dup_device_pass_ms: BTreeMap<String, f64>,
+    /// The same for the median Rep frame.
+    pub rep_device_pass_ms: BTreeMap<String, f64>,
+    /// Where the left eye's primary rays were cast (`cpu` or the executor's name).
+    pub trace_backend: String,
 }
 
 /// Wall and CPU time of one timed piece of work, best of its repetitions.
@@ -649,6 +656,7 @@ pub fn run_with(
                     m,
                     &params.frame,
                     params.stereo_reps,
+                    executors,
                 )?;
                 observe(BenchEvent::Stereo(&row));
                 result.binocular.push(row);
@@ -951,7 +959,10 @@ fn steal_fraction(a: Option<(u64, u64)>, b: Option<(u64, u64)>) -> Option<f64> {
 }
 
 /// Binocular frame of `method` on `display`, Dup and Rep alternately `reps` times, both eyes
-/// fixating the first surface under the centre of the cyclopean view; medians.
+/// fixating the first surface under the centre of the cyclopean view; medians. Both modes
+/// render in one frame context holding `executors`' executors (installed for the left eye's
+/// first plan), so a device runs both eyes of every frame.
+#[allow(clippy::too_many_arguments)]
 fn time_stereo(
     world: &World,
     rig: &HmdRig,
@@ -959,39 +970,45 @@ fn time_stereo(
     method: Method,
     template: &FrameSettings,
     reps: u32,
+    executors: &mut dyn BenchExecutors,
 ) -> Result<StereoTiming> {
     let (_, [(lc, lg), (rc, rg)]) = fixating_eyes(world, rig, display, &display.centre_gaze())?;
     let mut settings = template.clone();
     settings.method = method;
     let eyes = [EyeState::looking_at(lg), EyeState::looking_at(rg)];
-    let (mut dup_ms, mut rep_ms) = (Vec::new(), Vec::new());
+    let mut ctx = FrameContext::new();
+    let plan = FramePlan::new(world, &lc, &settings, &eyes[0], [0.0, 0.0])?;
+    executors.install(world, &plan, &mut ctx)?;
+    drop(plan);
+    // Per mode: each rep's wall ms and device passes.
+    type Reps = Vec<(f64, BTreeMap<String, f64>)>;
+    let (mut dup, mut rep): (Reps, Reps) = (Vec::new(), Vec::new());
     let (mut dup_rays, mut rep_rays, mut holes) = (0, 0, 0);
+    let mut trace_backend = String::new();
     for _ in 0..reps {
-        let d = render_stereo(
-            world,
-            &lc,
-            &rc,
-            &settings,
-            eyes,
-            StereoMode::Dup,
-            &|_, _| {},
-        )?;
-        dup_ms.push(d.stats.total_ms);
-        dup_rays = d.stats.rays_primary;
-        let r = render_stereo(
-            world,
-            &lc,
-            &rc,
-            &settings,
-            eyes,
-            StereoMode::Rep,
-            &|_, _| {},
-        )?;
-        rep_ms.push(r.stats.total_ms);
-        rep_rays = r.stats.rays_primary;
-        holes = r.stats.holes_traced;
+        for mode in [StereoMode::Dup, StereoMode::Rep] {
+            let f = render_stereo_in(&mut ctx, world, &lc, &rc, &settings, eyes, mode, &|_, _| {})?;
+            let passes = executors.pass_ms();
+            trace_backend.clone_from(&f.left.stats.trace_backend);
+            match mode {
+                StereoMode::Dup => {
+                    dup.push((f.stats.total_ms, passes));
+                    dup_rays = f.stats.rays_primary;
+                }
+                StereoMode::Rep => {
+                    rep.push((f.stats.total_ms, passes));
+                    rep_rays = f.stats.rays_primary;
+                    holes = f.stats.holes_traced;
+                }
+            }
+        }
     }
-    let (dm, rm) = (median(&mut dup_ms), median(&mut rep_ms));
+    // The median rep's wall time and its device passes.
+    let median_of = |mut v: Reps| -> (f64, BTreeMap<String, f64>) {
+        v.sort_by(|a, b| a.0.total_cmp(&b.0));
+        v.swap_remove(v.len() / 2)
+    };
+    let ((dm, dup_device_pass_ms), (rm, rep_device_pass_ms)) = (median_of(dup), median_of(rep));
     Ok(StereoTiming {
         display: display.name.clone(),
         width: display.width_px,
@@ -1004,6 +1021,9 @@ fn time_stereo(
         rep_holes: holes,
         rep_over_dup_time: rm / dm,
         rep_over_dup_rays: rep_rays as f64 / dup_rays as f64,
+        dup_device_pass_ms,
+        rep_device_pass_ms,
+        trace_backend,
     })
 }
 
