@@ -19,6 +19,7 @@ pub mod brute;
 #[cfg(feature = "embree")]
 pub mod embree_bvh;
 pub mod obvhs_bvh;
+pub mod packet;
 
 /// A ray: origin, unit direction and the parametric interval `[t_min, t_max]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -187,7 +188,8 @@ impl Triangles {
 }
 
 /// Möller–Trumbore ray/triangle test: `(t, u, v)` of the hit in `[t_min, t_max]`, both faces.
-#[inline]
+/// Always inlined: it is the inner loop of every backend's traversal.
+#[inline(always)]
 pub fn intersect_triangle(ray: &Ray, v: &[Vec3; 3]) -> Option<(f32, f32, f32)> {
     let e1 = v[1] - v[0];
     let e2 = v[2] - v[0];
