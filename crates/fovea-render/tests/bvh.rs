@@ -204,3 +204,155 @@ fn signed_zero_direction_components_hit_like_positive_zero() {
     }
     assert!(checked > 500, "{checked} hits checked");
 }
+
+/// Batches of the obvhs backend (its packet traversal, `bvh::packet`) give exactly the
+/// one-ray query's closest hit and the brute-force scan's: the same triangle, distance and
+/// barycentrics, bit for bit (and shadow-ray batches the one-ray occlusion), on coherent packets (a pinhole camera's neighbouring pixels,
+/// some through axis-aligned and `-0.0` directions, some with `t_min`/`t_max` cutting the
+/// scene), incoherent rays, rays that miss everything, and duplicated triangles (ties in `t`
+/// go to the lower index), in batches of every length around a packet's 64.
+#[test]
+fn obvhs_packets_give_the_single_ray_and_brute_force_hits_exactly() {
+    let mut rng = Pcg64::seed_from_u64(23);
+    let mut tris = soup(3000, &mut rng);
+    // Exact duplicates and an axis-aligned floor and wall (triangles in their box's face).
+    for k in 0..200 {
+        let v = tris.verts[k * 7];
+        tris.verts.push(v);
+        tris.source.push((0, tris.source.len() as u32));
+    }
+    for v in [
+        [
+            Vec3::new(-1.0, 0.0, -1.0),
+            Vec3::new(2.0, 0.0, -1.0),
+            Vec3::new(2.0, 0.0, 2.0),
+        ],
+        [
+            Vec3::new(-1.0, 0.0, -1.0),
+            Vec3::new(2.0, 0.0, 2.0),
+            Vec3::new(-1.0, 0.0, 2.0),
+        ],
+        [
+            Vec3::new(-1.0, -1.0, 1.0),
+            Vec3::new(2.0, -1.0, 1.0),
+            Vec3::new(2.0, 2.0, 1.0),
+        ],
+        [
+            Vec3::new(-1.0, -1.0, 1.0),
+            Vec3::new(2.0, 2.0, 1.0),
+            Vec3::new(-1.0, 2.0, 1.0),
+        ],
+    ] {
+        tris.verts.push(v);
+        tris.source.push((0, tris.source.len() as u32));
+    }
+    let brute = build(Backend::BruteForce, &tris).unwrap();
+    let obvhs = build(Backend::Obvhs, &tris).unwrap();
+    let mut all: Vec<Vec<Ray>> = Vec::new();
+    // Pinhole cameras: 16×16 pixels row by row, so a batch of 64 is four rows.
+    for cam in 0..24 {
+        let eye = Vec3::new(rng.random(), rng.random(), rng.random()) * 3.0 - 1.0;
+        let look = Vec3::new(rng.random(), rng.random(), rng.random());
+        let fwd = (look - eye).normalize();
+        let right = fwd.cross(Vec3::Y).normalize_or(Vec3::X);
+        let up = right.cross(fwd);
+        let fov = 0.02 + 0.5 * rng.random::<f32>();
+        let (t_min, t_max) = match cam % 4 {
+            0 => (0.0, f32::INFINITY),
+            1 => (1e-4, (look - eye).length()),
+            2 => ((look - eye).length() * 0.8, f32::INFINITY),
+            _ => (1e-3, 1e3),
+        };
+        let mut batch = Vec::new();
+        for j in 0..16 {
+            for i in 0..16 {
+                let x = (i as f32 - 7.5) / 8.0 * fov;
+                let y = (j as f32 - 7.5) / 8.0 * fov;
+                batch.push(Ray::new(eye, fwd + x * right + y * up, t_min, t_max));
+            }
+        }
+        all.push(batch);
+    }
+    // Axis-aligned directions with ±0.0 components, from one origin and from a grid.
+    for axis in 0..3 {
+        for sign in [1.0f32, -1.0] {
+            let mut batch = Vec::new();
+            for k in 0..70 {
+                let mut o = Vec3::new(rng.random(), rng.random(), rng.random());
+                if k % 5 == 0 {
+                    // In the floor's or the wall's plane, running along it: the box test's
+                    // slabs of zero thickness and zero direction (NaN distances).
+                    if axis == 1 {
+                        o.z = 1.0;
+                    } else {
+                        o.y = 0.0;
+                    }
+                }
+                let mut d = Vec3::ZERO;
+                d[axis] = sign;
+                for (a, c) in [0.0f32, -0.0]
+                    .iter()
+                    .cycle()
+                    .skip(k % 2)
+                    .take(3)
+                    .enumerate()
+                {
+                    if a != axis {
+                        d[a] = *c;
+                    }
+                }
+                batch.push(Ray {
+                    origin: o,
+                    dir: d,
+                    t_min: 0.0,
+                    t_max: f32::INFINITY,
+                });
+            }
+            all.push(batch);
+        }
+    }
+    all.push(rays(500, &mut rng));
+    // Misses: from outside, pointing away.
+    all.push(
+        (0..100)
+            .map(|k| {
+                Ray::new(
+                    Vec3::new(5.0, 5.0, 5.0),
+                    Vec3::new(1.0, 0.1 * k as f32 / 100.0, 0.3),
+                    0.0,
+                    f32::INFINITY,
+                )
+            })
+            .collect(),
+    );
+    let (mut total, mut hits) = (0usize, 0usize);
+    for batch in &all {
+        for len in [batch.len(), 1, 63, 64, 65] {
+            let rs = &batch[..len.min(batch.len())];
+            let mut got = vec![None; rs.len()];
+            obvhs.intersect_batch(rs, &mut got);
+            let mut occ = vec![false; rs.len()];
+            obvhs.occluded_batch(rs, &mut occ);
+            for (r, (g, o)) in rs.iter().zip(got.iter().zip(&occ)) {
+                let one = obvhs.intersect(r);
+                let reference = brute.intersect(r);
+                assert_eq!(*g, one, "packet against one ray: {r:?}");
+                assert_eq!(*g, reference, "packet against brute force: {r:?}");
+                assert_eq!(
+                    *o,
+                    obvhs.occluded(r),
+                    "shadow packet against one ray: {r:?}"
+                );
+                assert_eq!(
+                    *o,
+                    g.is_some(),
+                    "shadow packet against the closest hit: {r:?}"
+                );
+                total += 1;
+                hits += usize::from(g.is_some());
+            }
+        }
+    }
+    println!("{total} rays, {hits} hits, all equal");
+    assert!(hits > total / 4 && hits < total, "{hits} of {total}");
+}

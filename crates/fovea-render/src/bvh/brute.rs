@@ -21,11 +21,12 @@ impl RayCaster for BruteForce {
         Backend::BruteForce
     }
 
+    /// The least `(t, triangle index)` in `[t_min, t_max)`, as the BVHs report it.
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let mut best: Option<Hit> = None;
         let mut r = *ray;
         for (k, v) in self.verts.iter().enumerate() {
-            if let Some((t, u, w)) = intersect_triangle(&r, v) {
+            if let Some((t, u, w)) = intersect_triangle(&r, v).filter(|h| h.0 < r.t_max) {
                 r.t_max = t;
                 best = Some(Hit {
                     t,

@@ -3,7 +3,8 @@
 //!
 //! Backends implement [`RayCaster`]:
 //! * [`obvhs_bvh::ObvhsCaster`], the default: the pure-Rust `obvhs` compressed-wide BVH
-//!   (PLOC build, 8-wide nodes), no system dependency.
+//!   (PLOC build, 8-wide nodes), no system dependency; batches go as packets of 64 rays
+//!   through the binary BVH under it ([`packet`]).
 //! * `embree_bvh::EmbreeCaster` (cargo feature `embree`): Intel Embree 3 through the
 //!   `embree` crate, needs Debian's `libembree-dev`.
 //! * [`brute::BruteForce`]: a linear scan over every triangle, the reference the tests check
@@ -19,6 +20,7 @@ pub mod brute;
 #[cfg(feature = "embree")]
 pub mod embree_bvh;
 pub mod obvhs_bvh;
+pub mod packet;
 
 /// A ray: origin, unit direction and the parametric interval `[t_min, t_max]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -117,7 +119,8 @@ pub trait RayCaster: Send + Sync {
     fn occluded(&self, ray: &Ray) -> bool;
     /// [`RayCaster::intersect`] of every ray of a batch, into `out` (the same length). The
     /// renderer hands over coherent batches (primary rays of neighbouring texels); the default
-    /// casts one ray at a time, a backend with packet or stream traversal (Embree) overrides it.
+    /// casts one ray at a time, a backend with packet or stream traversal (Embree, obvhs)
+    /// overrides it.
     fn intersect_batch(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
         for (r, o) in rays.iter().zip(out.iter_mut()) {
             *o = self.intersect(r);
@@ -187,7 +190,8 @@ impl Triangles {
 }
 
 /// Möller–Trumbore ray/triangle test: `(t, u, v)` of the hit in `[t_min, t_max]`, both faces.
-#[inline]
+/// Always inlined: it is the inner loop of every backend's traversal.
+#[inline(always)]
 pub fn intersect_triangle(ray: &Ray, v: &[Vec3; 3]) -> Option<(f32, f32, f32)> {
     let e1 = v[1] - v[0];
     let e2 = v[2] - v[0];

@@ -3,11 +3,15 @@
 //! contiguous in memory; hits are reported by the original index.
 
 use glam::{Vec2, Vec3A};
-use obvhs::cwbvh::builder::build_cwbvh_from_tris;
+use obvhs::bvh2::leaf_collapser::collapse;
+use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
+use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
 use obvhs::cwbvh::CwBvh;
+use obvhs::ploc::PlocBuilder;
 use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
 
+use super::packet::{PacketBvh, LEAF_MAX};
 use super::{intersect_triangle, Backend, Hit, Ray, RayCaster, Triangles};
 
 /// `obvhs` CWBVH over the scene triangles.
@@ -17,6 +21,8 @@ pub struct ObvhsCaster {
     verts: Vec<[glam::Vec3; 3]>,
     /// Original index of each triangle in BVH order.
     original: Vec<u32>,
+    /// The binary BVH under the CWBVH, for packets of rays (`intersect_batch`).
+    packet: PacketBvh,
 }
 
 impl ObvhsCaster {
@@ -31,17 +37,28 @@ impl ObvhsCaster {
                 v2: Vec3A::from(v[2]),
             })
             .collect();
-        let bvh = build_cwbvh_from_tris(
+        // `obvhs::cwbvh::builder::build_cwbvh_from_tris` (no pre-splits) step by step, keeping
+        // its binary BVH for the packets: PLOC, reinsertion, then widened to the CWBVH.
+        let params = BvhBuildParams::medium_build();
+        let mut bvh2 = PlocBuilder::with_capacity(t.len()).build(
+            params.ploc_search_distance,
             &t,
-            BvhBuildParams::medium_build(),
-            &mut std::time::Duration::default(),
+            (0..t.len() as u32).collect::<Vec<_>>(),
+            params.sort_precision,
+            params.search_depth_threshold,
         );
+        ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
+        let bvh = bvh2_to_cwbvh(&bvh2, params.max_prims_per_leaf.clamp(1, 3), true, false);
+        // The packets' tree: leaves of up to `LEAF_MAX` triangles.
+        collapse(&mut bvh2, LEAF_MAX, params.collapse_traversal_cost);
+        let packet = PacketBvh::new(&bvh2, &tris.verts);
         let original = bvh.primitive_indices.clone();
         let verts = original.iter().map(|&i| tris.verts[i as usize]).collect();
         Self {
             bvh,
             verts,
             original,
+            packet,
         }
     }
 
@@ -68,30 +85,43 @@ impl RayCaster for ObvhsCaster {
         Backend::Obvhs
     }
 
+    /// The least `(t, triangle index)` in `[t_min, t_max)` (`packet`'s header): a tie in `t`
+    /// goes to the lower index whichever leaf `obvhs` meets first.
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let mut rh = obvhs::ray::RayHit::none();
-        let mut best = Vec2::ZERO;
+        let mut best: Option<Hit> = None;
         let r = Self::to_obvhs(ray);
-        let hit = self.bvh.ray_traverse(r, &mut rh, |orr, id| {
+        self.bvh.ray_traverse(r, &mut rh, |orr, id| {
             let q = Ray {
                 origin: ray.origin,
                 dir: ray.dir,
                 t_min: ray.t_min,
                 t_max: orr.tmax,
             };
+            let tri = self.original[id];
             match intersect_triangle(&q, &self.verts[id]) {
-                Some((t, u, v)) if t < orr.tmax => {
-                    best = Vec2::new(u, v);
+                Some((t, u, v))
+                    if t < orr.tmax || best.is_some_and(|b| t == b.t && tri < b.tri) =>
+                {
+                    best = Some(Hit {
+                        t,
+                        tri,
+                        bary: Vec2::new(u, v),
+                    });
                     t
                 }
                 _ => f32::INFINITY,
             }
         });
-        hit.then(|| Hit {
-            t: rh.t,
-            tri: self.original[rh.primitive_id as usize],
-            bary: best,
-        })
+        best
+    }
+
+    fn intersect_batch(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        self.packet.intersect_batch(rays, out);
+    }
+
+    fn occluded_batch(&self, rays: &[Ray], out: &mut [bool]) {
+        self.packet.occluded_batch(rays, out);
     }
 
     fn occluded(&self, ray: &Ray) -> bool {

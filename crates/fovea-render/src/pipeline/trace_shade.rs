@@ -171,7 +171,7 @@ pub fn trace_chunk(
     };
     let Some(tracer) = tracer else {
         // On the CPU: batches of neighbouring texels' rays, each cast as one
-        // `intersect_batch` (Embree traverses them as packets).
+        // `intersect_batch` (Embree and obvhs traverse them as packets).
         gbuf.clear();
         gbuf.resize(total as usize, None);
         gbuf.par_chunks_mut(TRACE_BATCH as usize)
