@@ -153,8 +153,11 @@ fn offset_origin(g: &GSample) -> Vec3 {
     g.position + g.face_normal * (SHADOW_OFFSET_PER_T * (1.0 + g.t.min(SHADOW_OFFSET_T_CAP)))
 }
 
-/// GGX + Lambert BRDF times `n·l`, for unit `l` towards the light.
-#[inline]
+/// GGX + Lambert BRDF times `n·l`, for unit `l` towards the light. Always inlined: its callers
+/// (each light, each environment ray) are the shade stage's hot loops, and left to itself the
+/// compiler stopped inlining it once it had a third caller (measured: the shade stage 1.2×
+/// slower, classroom at 1080p, 12 lights).
+#[inline(always)]
 pub fn brdf_cos(g: &GSample, l: Vec3) -> Vec3 {
     let n = g.normal;
     let v = g.to_eye;

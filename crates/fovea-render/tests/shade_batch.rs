@@ -13,7 +13,7 @@ use fovea_render::camera::{Eye, HmdRig};
 use fovea_render::pipeline::{render_frame, FrameSettings};
 use fovea_render::scene::{builtin, Light};
 use fovea_render::shade::{
-    direct, direct_batch, shade, shade_direct_batch, EnvLight, RayCounts, ShadingMode,
+    direct, direct_batch, shade, shade_direct_batch, EnvLight, RayCounts, ShadingMode, ShadowRays,
 };
 use fovea_render::trace::{trace_sample, GSample};
 use fovea_render::world::World;
@@ -93,6 +93,53 @@ fn batched_direct_shading_is_shade_bit_for_bit_hits_and_misses() {
             );
         }
         assert_eq!(one.total(), many.total());
+    }
+}
+
+/// The shadow rays gathered for another executor ([`ShadowRays`]), answered ray by ray by the
+/// CPU's BVH, shade every sample as `shade` does, bit for bit, and count the same rays; so do
+/// the lights' part given from `direct` with only the environment's rays gathered (what an
+/// executor that computes direct light gets).
+#[test]
+fn gathered_shadow_rays_shade_as_shade_does_bit_for_bit() {
+    let (world, gs) = scene(Backend::Obvhs);
+    let refs: Vec<&GSample> = gs.iter().collect();
+    for env_light in [EnvLight::Occluded { samples: 4 }, EnvLight::Unshadowed] {
+        let mode = ShadingMode::Direct { env_light };
+        let keys: Vec<u64> = (0..refs.len() as u64).map(|k| k * 7919).collect();
+        let answer = |rays: &ShadowRays| -> Vec<bool> {
+            rays.rays.iter().map(|r| world.caster.occluded(r)).collect()
+        };
+        let mut many = RayCounts::default();
+        let rays = ShadowRays::gather(&world, &refs, &keys, env_light, &mut many);
+        let mut out = vec![Vec3::NAN; refs.len()];
+        rays.shade(&world, &refs, env_light, &answer(&rays), &mut out);
+        let mut env_only = RayCounts::default();
+        let env_rays =
+            ShadowRays::gather_environment(&world, &refs, &keys, env_light, &mut env_only);
+        let given: Vec<Vec3> = refs
+            .iter()
+            .map(|g| direct(&world, g, &mut env_only))
+            .collect();
+        let mut out_given = vec![Vec3::NAN; refs.len()];
+        env_rays.shade_given_direct(
+            &world,
+            &refs,
+            env_light,
+            &given,
+            &answer(&env_rays),
+            &mut out_given,
+        );
+        let mut one = RayCounts::default();
+        for ((g, &key), (a, b)) in refs.iter().zip(&keys).zip(out.iter().zip(&out_given)) {
+            let want = shade(&world, g, mode, key, &mut one)
+                .to_array()
+                .map(f32::to_bits);
+            assert_eq!(want, a.to_array().map(f32::to_bits));
+            assert_eq!(want, b.to_array().map(f32::to_bits));
+        }
+        assert_eq!(one.total(), many.total());
+        assert_eq!(one.total(), env_only.total());
     }
 }
 

@@ -31,7 +31,9 @@ use crate::cull_fill::{fill_culled, shade_or_cull, CullBuffers, SampleCull};
 use crate::error::{RenderError, Result};
 use crate::plan::FramePlan;
 use crate::scene::Light;
-use crate::shade::{shade, subsample_key, texel_key, RayCounts, ShadingMode, ShadowRays};
+use crate::shade::{
+    shade, shade_direct_batch, subsample_key, texel_key, RayCounts, ShadingMode, ShadowRays,
+};
 use crate::trace::{surface, GSample};
 use crate::world::World;
 
@@ -275,23 +277,19 @@ pub fn shade_chunk(
     let cull = plan.culling.as_ref();
     // The key of the chunk's texel `k` (row-major in the chunk's rows): its random numbers.
     let key_of_texel = |k: u32| texel_key(layer, k % row_len as u32, j0 + k / row_len as u32);
-    // Direct shading of one ray per texel without culling (the default frame): the shadow
-    // rays of batches of neighbouring texels are gathered and cast together (light by light,
-    // then the environment's), on the CPU per batch or by `tracer` for many batches at once.
+    // Direct shading of one ray per texel without culling (the default frame): on the CPU
+    // each light's shadow rays of a batch of neighbouring texels are cast together; `tracer`
+    // gets the shadow rays of many batches at once (gathered first) and may compute the
+    // lights' part itself.
     if let (ShadingMode::Direct { env_light }, None, true) = (
         shading,
         cull,
         plan.rays.per_column.is_empty() && plan.rays.uniform == 1,
     ) {
-        // A batch's texels' representative records (none where nothing was traced) and
-        // their shadow rays.
-        type Gathered<'g> = (Vec<Option<&'g GSample>>, ShadowRays, RayCounts);
-        // The lights' part of a batch's surface samples and their shadow rays, when another
-        // executor computed it.
-        type Given<'d> = Option<&'d [(Vec3, u32)]>;
-        // `lights`: the lights' rays too (else only the environment's: another executor
-        // computes the lights' part).
-        let gather = |t0: usize, ks: &[u32], lights: bool| -> Gathered<'_> {
+        // A batch's texels' representative records (none where nothing was traced), the
+        // records, and their keys.
+        type Records<'g> = (Vec<Option<&'g GSample>>, Vec<&'g GSample>, Vec<u64>);
+        let records = |t0: usize, ks: &[u32]| -> Records<'_> {
             let reps: Vec<Option<&GSample>> = (0..ks.len())
                 .map(|i| gbuf[starts[t0 + i] as usize].as_ref())
                 .collect();
@@ -302,6 +300,29 @@ pub fn shade_chunk(
                 .filter(|(_, r)| r.is_some())
                 .map(|(&k, _)| key_of_texel(k))
                 .collect();
+            (reps, gs, keys)
+        };
+        // Each texel's colour and depth from its record's radiance (`values`, one per record).
+        let emit = |reps: &[Option<&GSample>], values: Vec<Vec3>| -> Vec<Option<(Rgb, f32)>> {
+            let mut values = values.into_iter();
+            reps.iter()
+                .map(|r| {
+                    r.map(|g| {
+                        let v = values.next().unwrap_or(Vec3::ZERO);
+                        (v.to_array(), camera.view_depth(-g.to_eye, g.t))
+                    })
+                })
+                .collect()
+        };
+        // For another executor: a batch's representative records and their shadow rays.
+        type Gathered<'g> = (Vec<Option<&'g GSample>>, ShadowRays, RayCounts);
+        // The lights' part of a batch's surface samples and their shadow rays, when another
+        // executor computed it.
+        type Given<'d> = Option<&'d [(Vec3, u32)]>;
+        // `lights`: the lights' rays too (else only the environment's: the executor computes
+        // the lights' part).
+        let gather = |t0: usize, ks: &[u32], lights: bool| -> Gathered<'_> {
+            let (reps, gs, keys) = records(t0, ks);
             let mut rc = RayCounts::default();
             let rays = if lights {
                 ShadowRays::gather(world, &gs, &keys, env_light, &mut rc)
@@ -336,17 +357,7 @@ pub fn shade_chunk(
                 }
                 None => rays.shade(world, &gs, env_light, blocked, &mut values),
             }
-            let mut values = values.into_iter();
-            let out = reps
-                .iter()
-                .map(|r| {
-                    r.map(|g| {
-                        let v = values.next().unwrap_or(Vec3::ZERO);
-                        (v.to_array(), camera.view_depth(-g.to_eye, g.t))
-                    })
-                })
-                .collect();
-            (out, rc)
+            (emit(&reps, values), rc)
         };
         // Per batch: each texel's colour and depth, and the batch's secondary rays.
         type Batch = (Vec<Option<(Rgb, f32)>>, RayCounts);
@@ -359,9 +370,11 @@ pub fn shade_chunk(
                 .par_chunks(SHADE_BATCH)
                 .enumerate()
                 .map(|(b, ks)| {
-                    let g = gather(b * SHADE_BATCH, ks, true);
-                    let blocked = g.1.cast(world);
-                    finish(g, &blocked, None)
+                    let (reps, gs, keys) = records(b * SHADE_BATCH, ks);
+                    let mut rc = RayCounts::default();
+                    let mut values = vec![Vec3::ZERO; gs.len()];
+                    shade_direct_batch(world, &gs, &keys, env_light, &mut values, &mut rc);
+                    (emit(&reps, values), rc)
                 })
                 .collect(),
             Some(tracer) => {
