@@ -197,20 +197,8 @@ pub fn trace_chunk(
     };
     let rays: Vec<Option<(Ray, f32)>> = (0..total).into_par_iter().map(ray_of).collect();
     let batch: Vec<Ray> = rays.iter().flatten().map(|&(ray, _)| ray).collect();
-    let backend = tracer.backend().to_string();
-    let failed = |message: String| RenderError::Executor {
-        stage: "trace",
-        backend: backend.clone(),
-        message,
-    };
-    let hits = tracer.closest_hits(&batch).map_err(failed)?;
-    if hits.len() != batch.len() {
-        return Err(failed(format!(
-            "{} hits for {} rays",
-            hits.len(),
-            batch.len()
-        )));
-    }
+    let got = tracer.closest_hits(&batch);
+    let hits = checked(tracer, "trace", ("hits", "rays"), batch.len(), got)?;
     // Each traced ray with its hit, in order (rays of texels that are not traced have none).
     let mut hits = hits.into_iter();
     let traced: Vec<Option<(Ray, f32, Option<Hit>)>> = rays
@@ -324,11 +312,7 @@ pub fn shade_chunk(
         let gather = |t0: usize, ks: &[u32], lights: bool| -> Gathered<'_> {
             let (reps, gs, keys) = records(t0, ks);
             let mut rc = RayCounts::default();
-            let rays = if lights {
-                ShadowRays::gather(world, &gs, &keys, env_light, &mut rc)
-            } else {
-                ShadowRays::gather_environment(world, &gs, &keys, env_light, &mut rc)
-            };
+            let rays = ShadowRays::gather(world, &gs, &keys, env_light, lights, &mut rc);
             (reps, rays, rc)
         };
         // Each texel's colour and depth once its batch's rays are answered (`blocked`), with
@@ -390,7 +374,9 @@ pub fn shade_chunk(
                         .iter()
                         .flat_map(|g| g.1.rays.iter().copied())
                         .collect();
-                    let blocked = executor_occluded(tracer, &rays)?;
+                    let got = tracer.occluded(&rays);
+                    let blocked =
+                        checked(tracer, "shade", ("answers", "shadow rays"), rays.len(), got)?;
                     // The lights' part of every surface sample of the group, in one call.
                     let direct = if shades {
                         let hits: Vec<&GSample> = gathered
@@ -398,7 +384,9 @@ pub fn shade_chunk(
                             .flat_map(|g| g.0.iter().flatten().copied())
                             .filter(|g| g.is_hit())
                             .collect();
-                        executor_direct_light(tracer, &hits, &world.lights)?
+                        let got = tracer.direct_light(&hits, &world.lights);
+                        let what = ("values", "surface samples");
+                        checked(tracer, "shade", what, hits.len(), got)?
                     } else {
                         Vec::new()
                     };
@@ -518,50 +506,31 @@ pub struct ShadeCast {
     pub direct_light: bool,
 }
 
-/// `tracer`'s direct light at every surface sample of `hits` from `lights`, checked to be one
-/// per sample.
-fn executor_direct_light(
-    tracer: &mut (dyn TraceExecutor + 'static),
-    hits: &[&GSample],
-    lights: &[Light],
-) -> Result<Vec<(Vec3, u32)>> {
-    let backend = tracer.backend().to_string();
+/// An executor's answer `got` for `expected` items of stage `stage` (what each answer is:
+/// `what`, e.g. "hits for … rays"), as the renderer's error when it failed or gave another
+/// number of answers.
+fn checked<T>(
+    tracer: &(dyn TraceExecutor + 'static),
+    stage: &'static str,
+    what: (&str, &str),
+    expected: usize,
+    got: std::result::Result<Vec<T>, String>,
+) -> Result<Vec<T>> {
     let failed = |message: String| RenderError::Executor {
-        stage: "shade",
-        backend: backend.clone(),
+        stage,
+        backend: tracer.backend().to_string(),
         message,
     };
-    let direct = tracer.direct_light(hits, lights).map_err(failed)?;
-    if direct.len() != hits.len() {
+    let got = got.map_err(failed)?;
+    if got.len() != expected {
         return Err(failed(format!(
-            "{} values for {} surface samples",
-            direct.len(),
-            hits.len()
+            "{} {} for {expected} {}",
+            got.len(),
+            what.0,
+            what.1
         )));
     }
-    Ok(direct)
-}
-
-/// `tracer`'s answer for every shadow ray of `rays`, checked to be one per ray.
-fn executor_occluded(
-    tracer: &mut (dyn TraceExecutor + 'static),
-    rays: &[Ray],
-) -> Result<Vec<bool>> {
-    let backend = tracer.backend().to_string();
-    let failed = |message: String| RenderError::Executor {
-        stage: "shade",
-        backend: backend.clone(),
-        message,
-    };
-    let blocked = tracer.occluded(rays).map_err(failed)?;
-    if blocked.len() != rays.len() {
-        return Err(failed(format!(
-            "{} answers for {} shadow rays",
-            blocked.len(),
-            rays.len()
-        )));
-    }
-    Ok(blocked)
+    Ok(got)
 }
 
 /// Trace and shade every layer of the plan into `samples` (sized and reset for the plan, or

@@ -48,31 +48,22 @@ pub struct ShadowRays {
 
 impl ShadowRays {
     /// The shadow rays of direct shading with `env_light` of the batch `gs` (misses have
-    /// none; `keys[s]` seeds sample `s`'s environment rays, see
-    /// [`super::texel_key`]), counted in `counts` (`shadow`, `environment`).
+    /// none; `keys[s]` seeds sample `s`'s environment rays, see [`super::texel_key`]),
+    /// counted in `counts` (`shadow`, `environment`). Without `lights` only the environment's
+    /// (for an executor that computes the lights' part,
+    /// [`crate::pipeline::TraceExecutor::direct_light`]; sum with [`Self::shade_given_direct`]).
     pub fn gather(
         world: &World,
         gs: &[&GSample],
         keys: &[u64],
         env_light: EnvLight,
+        lights: bool,
         counts: &mut RayCounts,
     ) -> Self {
         let mut out = Self::default();
-        out.push_lights(world, gs, counts);
-        out.push_environment(world, gs, keys, env_light, counts);
-        out
-    }
-
-    /// The environment's shadow rays alone (for an executor that computes the lights' part,
-    /// [`crate::pipeline::TraceExecutor::direct_light`]; sum with [`Self::shade_given_direct`]).
-    pub fn gather_environment(
-        world: &World,
-        gs: &[&GSample],
-        keys: &[u64],
-        env_light: EnvLight,
-        counts: &mut RayCounts,
-    ) -> Self {
-        let mut out = Self::default();
+        if lights {
+            out.push_lights(world, gs, counts);
+        }
         out.push_environment(world, gs, keys, env_light, counts);
         out
     }
