@@ -393,33 +393,54 @@ fn vafr_variants(d: &DisplayProfile) -> Vec<(&'static str, VafrParams)> {
     ]
 }
 
-#[test]
-fn vafr_on_the_gpu_equals_the_rust_mapping() {
-    let Some(ctx) = common::gpu_or_skip("vafr_on_the_gpu_equals_the_rust_mapping") else {
-        return;
-    };
+/// Checks `variants` variants of a mapping on the Vive Pro Eye and 8K presets at every gaze of
+/// [`gazes`]: `one(display, preset, gaze, variant, seed)` builds variant `variant` there and
+/// returns [`check`]'s worst errors (the seed is `seed0 + 100 · gaze index + runs so far`);
+/// prints the worst over all of them under `name`.
+fn check_presets_and_gazes(
+    name: &str,
+    seed0: u64,
+    variants: usize,
+    mut one: impl FnMut(&DisplayProfile, &str, Gaze, usize, u64) -> (f64, f64),
+) {
     let mut worst = (0.0f64, 0.0f64);
     let mut runs = 0;
     for preset in ["vive-pro-eye", "8k"] {
         let d = DisplayProfile::preset(preset).unwrap();
         for (k, g) in gazes(&d).into_iter().enumerate() {
-            for (name, params) in vafr_variants(&d) {
-                let v = Vafr::new(&d, g, params).unwrap();
-                let gpu = GpuMapping::vafr(&ctx, &v).unwrap();
-                let label = format!(
-                    "{name} {preset} gaze ({:.3}, {:.3})",
-                    g.point.x_px, g.point.y_px
-                );
-                let (f, i) = check(&vafr_polar(&v), &gpu, &d, &label, 100 * k as u64 + runs);
+            for v in 0..variants {
+                let (f, i) = one(&d, preset, g, v, seed0 + 100 * k as u64 + runs);
                 worst = (worst.0.max(f), worst.1.max(i));
                 runs += 1;
             }
         }
     }
     common::shout(&format!(
-        "[fovea-gpu] VaFR over {runs} mappings: forward max {:.2e} buffer px, inverse max {:.2e} px (bound {TOLERANCE_PX})",
+        "[fovea-gpu] {name} over {runs} mappings: forward max {:.2e} buffer px, inverse max {:.2e} px (bound {TOLERANCE_PX})",
         worst.0, worst.1
     ));
+}
+
+/// The label of one checked mapping: what it is, the preset and the gaze.
+fn label(what: &str, preset: &str, g: Gaze) -> String {
+    format!(
+        "{what} {preset} gaze ({:.3}, {:.3})",
+        g.point.x_px, g.point.y_px
+    )
+}
+
+#[test]
+fn vafr_on_the_gpu_equals_the_rust_mapping() {
+    let Some(ctx) = common::gpu_or_skip("vafr_on_the_gpu_equals_the_rust_mapping") else {
+        return;
+    };
+    check_presets_and_gazes("VaFR", 0, 3, |d, preset, g, v, seed| {
+        let (name, params) = vafr_variants(d).swap_remove(v);
+        let m = Vafr::new(d, g, params).unwrap();
+        let gpu = GpuMapping::vafr(&ctx, &m).unwrap();
+        let polar = vafr_polar(&m);
+        check(&polar, &gpu, d, &label(name, preset, g), seed)
+    });
 }
 
 #[test]
@@ -427,34 +448,21 @@ fn kfr_on_the_gpu_equals_the_rust_mapping() {
     let Some(ctx) = common::gpu_or_skip("kfr_on_the_gpu_equals_the_rust_mapping") else {
         return;
     };
-    let mut worst = (0.0f64, 0.0f64);
-    let mut runs = 0;
-    for preset in ["vive-pro-eye", "8k"] {
-        let d = DisplayProfile::preset(preset).unwrap();
-        for (k, g) in gazes(&d).into_iter().enumerate() {
-            for params in [
-                KfrParams::default(),
-                KfrParams {
-                    delta: 2.2,
-                    alpha: 2.5,
-                },
-            ] {
-                let m = Kfr::new(&d, g, params).unwrap();
-                let gpu = GpuMapping::kfr(&ctx, &m).unwrap();
-                let label = format!(
-                    "kfr δ={} α={} {preset} gaze ({:.3}, {:.3})",
-                    params.delta, params.alpha, g.point.x_px, g.point.y_px
-                );
-                let (f, i) = check(&kfr_polar(&m), &gpu, &d, &label, 7 + 100 * k as u64 + runs);
-                worst = (worst.0.max(f), worst.1.max(i));
-                runs += 1;
-            }
-        }
-    }
-    common::shout(&format!(
-        "[fovea-gpu] KFR over {runs} mappings: forward max {:.2e} buffer px, inverse max {:.2e} px (bound {TOLERANCE_PX})",
-        worst.0, worst.1
-    ));
+    let variants = [
+        KfrParams::default(),
+        KfrParams {
+            delta: 2.2,
+            alpha: 2.5,
+        },
+    ];
+    check_presets_and_gazes("KFR", 7, variants.len(), |d, preset, g, v, seed| {
+        let params = variants[v];
+        let m = Kfr::new(d, g, params).unwrap();
+        let gpu = GpuMapping::kfr(&ctx, &m).unwrap();
+        let what = format!("kfr δ={} α={}", params.delta, params.alpha);
+        let polar = kfr_polar(&m);
+        check(&polar, &gpu, d, &label(&what, preset, g), seed)
+    });
 }
 
 #[test]
@@ -462,43 +470,27 @@ fn lafr_on_the_gpu_equals_the_rust_mapping() {
     let Some(ctx) = common::gpu_or_skip("lafr_on_the_gpu_equals_the_rust_mapping") else {
         return;
     };
-    let mut worst = (0.0f64, 0.0f64);
-    let mut runs = 0;
-    for preset in ["vive-pro-eye", "8k"] {
-        let d = DisplayProfile::preset(preset).unwrap();
-        for (k, g) in gazes(&d).into_iter().enumerate() {
-            // The paper's LaFR and the retinal tuning (VaFR Sec. 4.5).
-            for params in [
-                LafrParams::default(),
-                LafrParams {
-                    delta: 2.2,
-                    alpha: 0.78,
-                    beta: 0.9,
-                    ..LafrParams::default()
-                },
-            ] {
-                let m = Lafr::new(&d, g, params).unwrap();
-                let gpu = GpuMapping::lafr(&ctx, &m).unwrap();
-                let label = format!(
-                    "lafr δ={} α={} β={} {preset} gaze ({:.3}, {:.3})",
-                    params.delta, params.alpha, params.beta, g.point.x_px, g.point.y_px
-                );
-                let (f, i) = check(
-                    &lafr_polar(&m),
-                    &gpu,
-                    &d,
-                    &label,
-                    13 + 100 * k as u64 + runs,
-                );
-                worst = (worst.0.max(f), worst.1.max(i));
-                runs += 1;
-            }
-        }
-    }
-    common::shout(&format!(
-        "[fovea-gpu] LaFR over {runs} mappings: forward max {:.2e} buffer px, inverse max {:.2e} px (bound {TOLERANCE_PX})",
-        worst.0, worst.1
-    ));
+    // The paper's LaFR and the retinal tuning (VaFR Sec. 4.5).
+    let variants = [
+        LafrParams::default(),
+        LafrParams {
+            delta: 2.2,
+            alpha: 0.78,
+            beta: 0.9,
+            ..LafrParams::default()
+        },
+    ];
+    check_presets_and_gazes("LaFR", 13, variants.len(), |d, preset, g, v, seed| {
+        let params = variants[v];
+        let m = Lafr::new(d, g, params).unwrap();
+        let gpu = GpuMapping::lafr(&ctx, &m).unwrap();
+        let what = format!(
+            "lafr δ={} α={} β={}",
+            params.delta, params.alpha, params.beta
+        );
+        let polar = lafr_polar(&m);
+        check(&polar, &gpu, d, &label(&what, preset, g), seed)
+    });
 }
 
 #[test]
