@@ -35,7 +35,7 @@ enum Term {
 /// The shadow rays of a batch of samples' direct shading, and what each adds to its sample
 /// when it is unoccluded (module header). Built by [`Self::gather`], cast by another executor
 /// (its [`crate::pipeline::TraceExecutor::occluded`] on [`Self::rays`]), summed by
-/// [`Self::shade`] or [`Self::direct`]. (The CPU casts the same rays as it goes:
+/// [`Self::shade`]. (The CPU casts the same rays as it goes:
 /// [`shade_direct_batch`].)
 #[derive(Clone, Debug, Default)]
 pub struct ShadowRays {
@@ -111,13 +111,6 @@ impl ShadowRays {
             }
         }
         counts.environment += (self.rays.len() - before) as u64;
-    }
-
-    /// The lights' part of each sample's radiance ([`super::direct`]) into `out` (one per
-    /// sample of the batch), given each ray's occlusion (`blocked`, as [`Self::rays`]).
-    pub fn direct(&self, blocked: &[bool], out: &mut [Vec3]) {
-        out.iter_mut().for_each(|o| *o = Vec3::ZERO);
-        self.sum(Term::Light, blocked, out);
     }
 
     /// Each sample's radiance towards the eye into `out` ([`super::shade`] in direct shading
