@@ -329,8 +329,23 @@ fn polar_layout_describes_where_inverse_puts_each_row() {
                 let expected = 360.0 * (j as f64 + 0.5) / layout.period[i as usize];
                 let diff = (angle - expected + 180.0).rem_euclid(360.0) - 180.0;
                 assert!(diff.abs() < 1e-6, "{m} ({i},{j}): {angle} vs {expected}");
-                // The column depends only on the radius.
+                // The column's ring: the layout's rows per turn, the point's radius, and the
+                // inverse is its point.
+                let ring = map.ring(0, s.u).expect("a shaded column has a ring");
+                assert_eq!(ring.centre, g.point);
+                let (l, l_layout) = (ring.period, layout.period[i as usize]);
+                assert!(
+                    (l - l_layout).abs() <= 1e-9 * l_layout,
+                    "{m} period {l} vs {l_layout}"
+                );
                 let r = p.distance(g.point);
+                assert!(
+                    (ring.r_px - r).abs() <= 1e-9 * r,
+                    "{m} radius {} vs {r}",
+                    ring.r_px
+                );
+                assert_eq!(ring.point(s.v), Some(p), "{m} ({i},{j})");
+                // The column depends only on the radius.
                 let q = map
                     .forward(ScreenPoint::new(g.point.x_px + r, g.point.y_px))
                     .unwrap();
@@ -338,8 +353,48 @@ fn polar_layout_describes_where_inverse_puts_each_row() {
             }
         }
     }
-    let full = build(Method::Full, &d, g, &MappingConfig::default()).unwrap();
-    assert!(full.polar_layout().is_none());
+    for m in [Method::Full, Method::Guenter, Method::Inset, Method::Weier] {
+        let map = build(m, &d, g, &MappingConfig::default()).unwrap();
+        assert!(map.polar_layout().is_none(), "{m}");
+        assert!(map.ring(0, 10.5).is_none(), "{m}");
+    }
+}
+
+#[test]
+fn a_ring_has_the_inverse_points_and_none_outside() {
+    let d = DisplayProfile::preset("vive-pro-eye").unwrap();
+    let g = d.gaze(300.0, 1200.0).unwrap();
+    for m in [Method::Vafr, Method::Kfr, Method::Lafr, Method::VisualPolar] {
+        let map = build(m, &d, g, &MappingConfig::default()).unwrap();
+        let b = map.buffers()[0];
+        let (w, h) = (b.width as f64, b.height as f64);
+        // The pole, the buffer's edges, beyond them, and values that are not numbers.
+        for u in [
+            0.0,
+            1e-9,
+            0.5,
+            w * 0.5,
+            w - 0.5,
+            w,
+            w + 1e-9,
+            -1e-9,
+            f64::NAN,
+            f64::INFINITY,
+        ] {
+            for v in [0.0, 0.5, h * 0.5, h, h + 1.0, -0.5, f64::NAN] {
+                let s = fovea_core::mapping::SamplePoint::new(u, v);
+                let via_ring = map.ring(0, u).and_then(|r| r.point(v));
+                assert_eq!(via_ring, map.inverse(s), "{m} u={u} v={v}");
+                if u.is_nan() {
+                    assert!(via_ring.is_none(), "{m} v={v}");
+                }
+            }
+            assert!(map.ring(1, u).is_none(), "{m}: layer 1");
+        }
+        // The pole is the gaze.
+        let pole = map.ring(0, 0.0).and_then(|r| r.point(0.0));
+        assert_eq!(pole, Some(g.point), "{m}");
+    }
 }
 
 /// The defaults with VaFR's Eq. 3 rings (the paper's closed forms).

@@ -15,7 +15,7 @@ use serde::Serialize;
 
 use fovea_core::display::DisplayProfile;
 use fovea_core::mapping::footprint::{SampleFootprint, SpacingLut};
-use fovea_core::mapping::{build, BufferSize, FoveationMapping, Method};
+use fovea_core::mapping::{build, BufferSize, FoveationMapping, Method, Ring};
 use fovea_post::inverse_map::ReconstructFilter;
 use fovea_post::Rgb;
 
@@ -356,6 +356,54 @@ impl TexelRays {
     /// The most rays any texel casts.
     pub fn most(&self) -> u32 {
         self.patterns.len() as u32
+    }
+}
+
+/// The ring of every primary ray of a polar buffer's columns ([`FoveationMapping::ring`]),
+/// read once per chunk: ray `k` of a texel in column `i` lies on the ring of
+/// `u = i + offset_k + jitter`, so its screen point is that ring's
+/// [`point`](fovea_core::mapping::Ring::point) at its `v` — what the mapping's inverse gives,
+/// bit for bit, without solving for the ring's radius again for every ray (VaFR's exact rings
+/// solve a cubic; the log-polar kernels take a logarithm and an exponential).
+#[derive(Clone, Debug)]
+pub struct RayRings {
+    /// Where column `i`'s rings start in `rings`; the total last.
+    start: Vec<u32>,
+    /// The ring of each ray of each column (`None` where the inverse has no point).
+    rings: Vec<Option<Ring>>,
+}
+
+impl RayRings {
+    /// The rings of layer `layer` of `plan`, whose buffer is `width` columns wide; `None` for a
+    /// screen-aligned mapping.
+    pub fn new(plan: &FramePlan, layer: u32, width: u32) -> Option<Self> {
+        let mapping = plan.mapping();
+        mapping.polar_layout()?;
+        let mut start = Vec::with_capacity(width as usize + 1);
+        let mut rings = Vec::new();
+        for i in 0..width {
+            start.push(rings.len() as u32);
+            let (offsets, _) = plan.rays.pattern(plan.rays.count(layer, i));
+            rings.extend(
+                offsets
+                    .iter()
+                    .map(|o| mapping.ring(layer, i as f64 + o[0] + plan.jitter_texels[0])),
+            );
+        }
+        start.push(rings.len() as u32);
+        Some(Self { start, rings })
+    }
+
+    /// The ring of ray `k` of column `column`'s texels.
+    #[inline]
+    pub fn get(&self, column: u32, k: u32) -> Option<Ring> {
+        let c = column as usize;
+        let (a, b) = (*self.start.get(c)?, *self.start.get(c + 1)?);
+        if a + k < b {
+            self.rings[(a + k) as usize]
+        } else {
+            None
+        }
     }
 }
 

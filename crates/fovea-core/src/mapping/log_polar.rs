@@ -10,7 +10,7 @@
 //! is fractional the integer buffer that holds it is `⌈W/δ⌉ × ⌈H/δ⌉`, and a pixel is shaded
 //! when its centre lies inside the `W/δ × H/δ` rectangle.
 
-use super::{from_polar_deg, polar_deg, tangential_denominator, BufferSize, SamplePoint};
+use super::{polar_deg, tangential_denominator, BufferSize, SamplePoint};
 use crate::display::{DisplayProfile, Gaze};
 use crate::error::{check_range, Result};
 use crate::units::ScreenPoint;
@@ -133,15 +133,25 @@ impl LogPolarFrame {
     }
 
     pub fn inverse(&self, k: &dyn RadialKernel, s: SamplePoint) -> Option<ScreenPoint> {
-        if s.layer != 0 || !(s.u >= 0.0 && s.u <= self.w && s.v >= 0.0 && s.v <= self.h) {
+        self.ring(k, s.layer, s.u)?.point(s.v)
+    }
+
+    /// The ring of column coordinate `u`: radius `exp(z(u/w)·ln L)` (the pole at `u = 0`),
+    /// `H/δ` rows per turn.
+    pub fn ring(&self, k: &dyn RadialKernel, layer: u32, u: f64) -> Option<super::Ring> {
+        if layer != 0 || !(u >= 0.0 && u <= self.w) {
             return None;
         }
-        if s.u == 0.0 {
-            return Some(self.gaze);
-        }
-        let z = k.z_of_u(s.u / self.w);
-        let r = (z * self.ln_l).exp();
-        Some(from_polar_deg(r, s.v / self.h * 360.0, self.gaze))
+        let r_px = if u == 0.0 {
+            0.0
+        } else {
+            (k.z_of_u(u / self.w) * self.ln_l).exp()
+        };
+        Some(super::Ring {
+            centre: self.gaze,
+            r_px,
+            period: self.h,
+        })
     }
 
     /// `½·du/de` with `du/de = w·U'(z)·dz/de` and `dz/de = (π/180)/(ln L·sin e·cos e)`.
@@ -195,6 +205,9 @@ macro_rules! delegate_to_log_polar_frame {
         }
         fn forward(&self, p: ScreenPoint) -> Option<SamplePoint> {
             self.frame.forward(&self.kernel, p)
+        }
+        fn ring(&self, layer: u32, u: f64) -> Option<super::Ring> {
+            self.frame.ring(&self.kernel, layer, u)
         }
         fn inverse(&self, s: SamplePoint) -> Option<ScreenPoint> {
             self.frame.inverse(&self.kernel, s)

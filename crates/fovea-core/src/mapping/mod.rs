@@ -193,6 +193,47 @@ pub trait FoveationMapping: Send + Sync {
     fn polar_layout(&self) -> Option<PolarLayout> {
         None
     }
+
+    /// For polar mappings: the ring that column coordinate `u` of `layer` maps to, so that
+    /// `inverse(s)` is `ring(s.layer, s.u)` then [`Ring::point`]`(s.v)`, bit for bit (each
+    /// polar mapping's inverse is that composition). The trace reads every column's ring
+    /// once and its rays' points from it. `None` where `inverse` is `None` for every `v`,
+    /// and for screen-aligned mappings.
+    fn ring(&self, _layer: u32, _u: f64) -> Option<Ring> {
+        None
+    }
+}
+
+/// One column of a polar buffer: the circle of radius `r_px` around `centre`, turned once
+/// over `period` rows ([`FoveationMapping::ring`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ring {
+    /// The pole (the gaze point).
+    pub centre: ScreenPoint,
+    /// Radius, screen pixels.
+    pub r_px: f64,
+    /// Buffer rows per full turn (VaFR: `l(e)`; log-polar: `H/δ`).
+    pub period: f64,
+}
+
+impl Ring {
+    /// The screen point at row coordinate `v`, `360° · v / period` around the ring (VaFR
+    /// Eq. 11); `None` for `v` outside `[0, period]` or not finite. A ring without rows
+    /// (`period ≤ 0`) has only the pole, at `v = 0`.
+    #[inline]
+    pub fn point(&self, v: f64) -> Option<ScreenPoint> {
+        if self.period <= 0.0 {
+            return (v == 0.0).then_some(self.centre);
+        }
+        if !(v >= 0.0 && v <= self.period) {
+            return None;
+        }
+        Some(from_polar_deg(
+            self.r_px,
+            v / self.period * 360.0,
+            self.centre,
+        ))
+    }
 }
 
 /// The angle axis of a polar sample buffer. Column `i` (a ring around `centre`) holds

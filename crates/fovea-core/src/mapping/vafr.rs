@@ -24,10 +24,10 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::vafr_rings::RingProfile;
+use super::vafr_rings::{column_trig, RingProfile};
 use super::{
-    from_polar_deg, polar_deg, tangential_denominator, BufferSize, Coverage, FoveationMapping,
-    Method, SamplePoint, MAX_COVERAGE_DEG,
+    polar_deg, tangential_denominator, BufferSize, Coverage, FoveationMapping, Method, Ring,
+    SamplePoint, MAX_COVERAGE_DEG,
 };
 use crate::acuity::{AcuityModel, TangentialFactor};
 use crate::display::{eccentricity_deg, DisplayProfile, Gaze};
@@ -166,9 +166,10 @@ impl Vafr {
             .collect();
         let height = rows.iter().copied().max().unwrap_or(0);
         let runs: Option<Vec<Vec<(u32, u32)>>> = profile.as_ref().map(|p| {
+            let trig = column_trig();
             rows.par_iter()
                 .enumerate()
-                .map(|(i, &n)| p.shaded_runs(display, &gaze, i as u32, n, periods[i]))
+                .map(|(i, &n)| p.shaded_runs(display, &gaze, i as u32, n, periods[i], &trig))
                 .collect()
         });
         let exact = profile
@@ -356,27 +357,29 @@ impl FoveationMapping for Vafr {
     }
 
     fn inverse(&self, s: SamplePoint) -> Option<ScreenPoint> {
-        if s.layer != 0 || !(s.u >= 0.0 && s.u <= self.u_max) || !s.v.is_finite() {
+        self.ring(s.layer, s.u)?.point(s.v) // Eq. 11
+    }
+
+    fn ring(&self, layer: u32, u: f64) -> Option<Ring> {
+        if layer != 0 || !(u >= 0.0 && u <= self.u_max) {
             return None;
         }
         // The ring's radius and rows per turn (the exact rings solve for the radius once).
-        let (r, l) = match &self.exact {
+        let (r_px, period) = match &self.exact {
             Some(x) => {
-                let r = x.profile.r_of_u(s.u);
+                let r = x.profile.r_of_u(u);
                 (r, x.profile.period_of_r(r))
             }
             None => {
-                let e = self.params.acuity.e_of_u(s.u); // Eq. 10
+                let e = self.params.acuity.e_of_u(u); // Eq. 10
                 (e.to_radians().tan() / self.c_r, self.shading_height(e)) // Eq. 3, 9
             }
         };
-        if l <= 0.0 {
-            return (s.v == 0.0).then_some(self.gaze);
-        }
-        if !(s.v >= 0.0 && s.v <= l) {
-            return None;
-        }
-        Some(from_polar_deg(r, s.v / l * 360.0, self.gaze)) // Eq. 11
+        Some(Ring {
+            centre: self.gaze,
+            r_px,
+            period,
+        })
     }
 
     fn polar_layout(&self) -> Option<super::PolarLayout> {

@@ -43,6 +43,20 @@ const ANGLES_PER_RING: usize = 360;
 /// Polar angles sampled per column when finding its on-screen rows (besides the corners').
 const ANGLES_PER_COLUMN: usize = 1024;
 
+/// The turn between the polar angles a column tries.
+fn column_step() -> f64 {
+    1.0 / ANGLES_PER_COLUMN as f64
+}
+
+/// `(sin, cos)` of the [`ANGLES_PER_COLUMN`] polar angles every column tries in
+/// [`RingProfile::shaded_runs`], computed once per mapping rather than once per column.
+pub(crate) fn column_trig() -> Vec<(f64, f64)> {
+    let step = column_step();
+    (0..ANGLES_PER_COLUMN)
+        .map(|k| (std::f64::consts::TAU * (k as f64 * step)).sin_cos())
+        .collect()
+}
+
 /// Margin, in pixels, around the screen within which a texel counts as on the screen, and the
 /// pixel footprint the reconstruction may read beyond a texel's neighbours.
 const SCREEN_MARGIN_PX: f64 = 2.0;
@@ -246,6 +260,9 @@ impl RingProfile {
     /// corners (every arc holds a corner angle or is wider than the uniform step: the ray's
     /// exit distance from the screen peaks at the corners), each marking the rows within one
     /// angular step of it.
+    ///
+    /// `column_trig` is [`column_trig`]: the angles every column tries, shared by all.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn shaded_runs(
         &self,
         display: &DisplayProfile,
@@ -253,6 +270,7 @@ impl RingProfile {
         i: u32,
         rows: u32,
         period: f64,
+        column_trig: &[(f64, f64)],
     ) -> Vec<(u32, u32)> {
         if rows == 0 || period <= 0.0 {
             return Vec::new();
@@ -265,8 +283,7 @@ impl RingProfile {
         let r_hi = self.r_of_u(i as f64 + 2.0) + m;
         // Rows reached by a footprint of `m` pixels along the arc, plus one texel.
         let dilate = 1.0 + (m * period / (std::f64::consts::TAU * r_lo.max(1.0))).ceil();
-        let crosses = |turn: f64| {
-            let (sn, cs) = (std::f64::consts::TAU * turn).sin_cos();
+        let crosses = |(sn, cs): (f64, f64)| {
             let (mut t0, mut t1) = (r_lo, r_hi);
             for (o, d, lo, hi) in [(g.x_px, cs, x0, x1), (g.y_px, sn, y0, y1)] {
                 if d.abs() < 1e-12 {
@@ -281,7 +298,7 @@ impl RingProfile {
             }
             t0 <= t1
         };
-        let step = 1.0 / ANGLES_PER_COLUMN as f64;
+        let step = column_step();
         let corners = [(x0, y0), (x1, y0), (x0, y1), (x1, y1)]
             .map(|(x, y)| (y - g.y_px).atan2(x - g.x_px) / std::f64::consts::TAU);
         // Row marks as a difference array over the rows (wrapping around the turn).
@@ -306,15 +323,14 @@ impl RingProfile {
                 diff[b as usize] -= 1;
             }
         };
-        for k in 0..ANGLES_PER_COLUMN {
-            let turn = k as f64 * step;
-            if crosses(turn) {
-                mark(turn);
+        for (k, &trig) in column_trig.iter().enumerate() {
+            if crosses(trig) {
+                mark(k as f64 * step);
             }
         }
         for t in corners {
             let turn = t.rem_euclid(1.0);
-            if crosses(turn) {
+            if crosses((std::f64::consts::TAU * turn).sin_cos()) {
                 mark(turn);
             }
         }

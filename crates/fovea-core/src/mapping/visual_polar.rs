@@ -17,8 +17,8 @@
 use serde::{Deserialize, Serialize};
 
 use super::{
-    from_polar_deg, polar_deg, tangential_denominator, BufferSize, Coverage, FoveationMapping,
-    Method, SamplePoint, MAX_COVERAGE_DEG,
+    polar_deg, tangential_denominator, BufferSize, Coverage, FoveationMapping, Method, SamplePoint,
+    MAX_COVERAGE_DEG,
 };
 use crate::display::{eccentricity_deg, DisplayProfile, Gaze};
 use crate::error::{check_range_open_lo, FoveaError, Result};
@@ -329,13 +329,19 @@ impl FoveationMapping for VisualPolar {
         ))
     }
     fn inverse(&self, s: SamplePoint) -> Option<ScreenPoint> {
-        let (w, h) = (self.buffer.width as f64, self.buffer.height as f64);
-        if s.layer != 0 || !(s.u >= 0.0 && s.u <= w && s.v >= 0.0 && s.v <= h) {
+        self.ring(s.layer, s.u)?.point(s.v)
+    }
+    fn ring(&self, layer: u32, u: f64) -> Option<super::Ring> {
+        let w = self.buffer.width as f64;
+        if layer != 0 || !(u >= 0.0 && u <= w) {
             return None;
         }
-        let alpha = self.alpha_of_rho(s.u / w);
-        let r = alpha.to_radians().tan() / self.c_r;
-        Some(from_polar_deg(r, s.v / h * 360.0, self.gaze))
+        let alpha = self.alpha_of_rho(u / w);
+        Some(super::Ring {
+            centre: self.gaze,
+            r_px: alpha.to_radians().tan() / self.c_r,
+            period: self.buffer.height as f64,
+        })
     }
     fn polar_layout(&self) -> Option<super::PolarLayout> {
         Some(super::PolarLayout {

@@ -29,7 +29,7 @@ use crate::bvh::{Hit, Ray};
 use crate::camera::EyeCamera;
 use crate::cull_fill::{fill_culled, shade_or_cull, CullBuffers, SampleCull};
 use crate::error::{RenderError, Result};
-use crate::plan::FramePlan;
+use crate::plan::{FramePlan, RayRings};
 use crate::scene::Light;
 use crate::shade::{
     shade, shade_direct_batch, subsample_key, texel_key, RayCounts, ShadingMode, ShadowRays,
@@ -144,6 +144,8 @@ pub fn trace_chunk(
     // With the same rays in every texel (the default) a ray's texel is a division away; only
     // per-column counts need the search.
     let uniform = plan.rays.per_column.is_empty().then_some(plan.rays.uniform);
+    // A polar buffer's rays read their column's ring (its radius solved once per chunk).
+    let rings = RayRings::new(plan, layer, row_len as u32);
     let ray_of = |r: u32| -> Option<(Ray, f32)> {
         let t = match uniform {
             Some(n) => (r / n) as usize,
@@ -151,17 +153,21 @@ pub fn trace_chunk(
         };
         let n = starts[t + 1] - starts[t];
         let k = order[t] as usize;
-        let o = plan.rays.pattern(n).0[(r - starts[t]) as usize];
+        let ray = r - starts[t];
+        let o = plan.rays.pattern(n).0[ray as usize];
         let (i, j) = ((k % row_len) as u32, j0 + (k / row_len) as u32);
         if !mapping.is_shaded(layer, i, j) || known.is_some_and(|m| *m.get(i, j)) {
             return None;
         }
-        let s = SamplePoint {
-            layer,
-            u: i as f64 + o[0] + jitter[0],
-            v: j as f64 + o[1] + jitter[1],
+        let v = j as f64 + o[1] + jitter[1];
+        let p = match &rings {
+            Some(rings) => rings.get(i, ray)?.point(v)?,
+            None => mapping.inverse(SamplePoint {
+                layer,
+                u: i as f64 + o[0] + jitter[0],
+                v,
+            })?,
         };
-        let p = mapping.inverse(s)?;
         let spread = plan.footprint.spread_rad(mapping, display, gaze, i, p);
         // Each of n rays covers 1/n of the texel: its cone is 1/√n of the texel's.
         let spread = if n == 1 {
