@@ -70,21 +70,23 @@ pub fn fxaa(img: &Image<Rgb>, grid: &Grid, params: &FxaaParams) -> Image<Rgb> {
                 if !grid.valid(i, j) {
                     continue;
                 }
+                // `nb[dj + 1][di + 1]`: the texel one step `(di, dj)` away.
+                let nb = grid.neighbourhood(i, j);
                 let m = l((i, j));
-                let n = l(grid.step(i, j, 0, -1));
-                let s = l(grid.step(i, j, 0, 1));
-                let wv = l(grid.step(i, j, -1, 0));
-                let e = l(grid.step(i, j, 1, 0));
+                let n = l(nb[0][1]);
+                let s = l(nb[2][1]);
+                let wv = l(nb[1][0]);
+                let e = l(nb[1][2]);
                 let hi = m.max(n).max(s).max(wv).max(e);
                 let lo = m.min(n).min(s).min(wv).min(e);
                 let range = hi - lo;
                 if range < params.edge_threshold_min.max(hi * params.edge_threshold) {
                     continue;
                 }
-                let nw = l(grid.step(i, j, -1, -1));
-                let ne = l(grid.step(i, j, 1, -1));
-                let sw = l(grid.step(i, j, -1, 1));
-                let se = l(grid.step(i, j, 1, 1));
+                let nw = l(nb[0][0]);
+                let ne = l(nb[0][2]);
+                let sw = l(nb[2][0]);
+                let se = l(nb[2][2]);
                 // Sub-pixel aliasing estimate.
                 let avg = (2.0 * (n + s + wv + e) + nw + ne + sw + se) / 12.0;
                 let sub = ((avg - m).abs() / range).clamp(0.0, 1.0);
