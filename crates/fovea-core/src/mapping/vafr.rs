@@ -60,8 +60,9 @@ pub enum VafrRings {
     Eq3,
     /// Every ring sized by the worst point of its on-screen arc at that point's true
     /// eccentricity (`vafr_rings.rs`); texels off the screen are not shaded. Equal to
-    /// [`VafrRings::Eq3`] at a centred gaze, but for those texels. The GPU mapping shader
-    /// (`fovea_gpu::GpuMapping::vafr`) evaluates Eq. 3 only.
+    /// [`VafrRings::Eq3`] at a centred gaze, but for those texels. The GPU mapping
+    /// (`fovea_gpu::GpuMapping::vafr`) evaluates both: this one from the uploaded table
+    /// ([`Vafr::ring_table`]).
     #[default]
     Exact,
 }
