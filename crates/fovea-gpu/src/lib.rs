@@ -10,7 +10,8 @@
 //! * [`device`]: opening a device with typed, one-line errors and no panics
 //!   ([`GpuContext`], [`GpuRequest`], [`AdapterSummary`]).
 //! * [`backend`]: `--backend cpu|gpu|auto` ([`BackendChoice`]).
-//! * [`mapping`]: VaFR, KFR and LaFR forward/inverse mappings on the GPU ([`GpuMapping`]).
+//! * [`mapping`]: VaFR (Eq. 3 or exact rings), KFR, LaFR and visual-polar forward/inverse
+//!   mappings on the GPU ([`GpuMapping`]).
 //! * [`reconstruct`]: polar sample buffers back to the screen, bilinear or footprint-filtered
 //!   ([`GpuReconstructor`]).
 //! * [`trace`]: closest hits and occlusion of ray batches through a BVH built by obvhs
@@ -63,6 +64,7 @@ pub const ALL_SHADERS: &[shaders::ShaderSource] = &[
     mapping::vafr::SHADER,
     mapping::kfr::SHADER,
     mapping::lafr::SHADER,
+    mapping::polar_table::SHADER,
     reconstruct::SHADER,
     trace::SHADER,
 ];

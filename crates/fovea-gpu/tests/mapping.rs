@@ -1,8 +1,10 @@
 //! The GPU mappings against the f64 Rust ones they mirror (issue 18's must-show): forward and
-//! inverse of VaFR (default screen coverage, the paper's fixed 60°, an anisotropic and
-//! headset-capped variant) and KFR, on the Vive Pro Eye and 8K presets at several gazes, agree
-//! within 0.01 px at the hard points — zero eccentricity, the acuity segment joins, the buffer
-//! edges, the polar seam (θ = 0/360° and θ = ±180°), the screen corners — and on a random set.
+//! inverse of VaFR with Eq. 3's rings (default screen coverage, the paper's fixed 60°, an
+//! anisotropic and headset-capped variant) and with exact rings (the same three), KFR, LaFR and
+//! visual-polar (exact inverse, a fixed 70° buffer, the paper's fit), on the Vive Pro Eye and 8K
+//! presets at several gazes, agree within 0.01 px at the hard points — zero eccentricity, the
+//! acuity segment joins or table steps, the foveal boundary, the buffer edges, the polar seam
+//! (θ = 0/360° and θ = ±180°), the screen corners — and on a random set.
 //!
 //! Inputs are f32 (what the GPU gets); the reference is evaluated in f64 on the same f32
 //! values. Forward errors are in buffer pixels, the angle axis compared modulo its period
@@ -17,9 +19,10 @@ mod common;
 
 use fovea_core::acuity::{AcuityModel, TangentialFactor};
 use fovea_core::display::{DisplayProfile, Gaze};
+use fovea_core::mapping::visual_polar::{eq3, rho_fovea, FOVEA_DEG};
 use fovea_core::mapping::{
-    Coverage, FoveationMapping, Kfr, KfrParams, Lafr, LafrParams, SamplePoint, Vafr, VafrParams,
-    VafrRings,
+    BufferSize, Coverage, FoveationMapping, Kfr, KfrParams, Lafr, LafrParams, SamplePoint, Vafr,
+    VafrParams, VafrRings, VisualPolar, VisualPolarInverse, VisualPolarParams,
 };
 use fovea_core::units::{CyclesPerDegree, Degrees, ScreenPoint};
 use fovea_gpu::GpuMapping;
@@ -345,6 +348,71 @@ fn vafr_polar(v: &Vafr) -> Polar<'_> {
     }
 }
 
+/// Which joins of a table of `n` steps are hard points: the first 40 (around the pole, where
+/// the profile bends most) and every 37th after.
+fn sampled_joins(n: usize) -> impl Iterator<Item = usize> {
+    (1..n).filter(|&k| k <= 40 || k % 37 == 0)
+}
+
+/// VaFR's exact rings: the table's steps (radius `k·step`, column `u_k`) are the joins.
+fn vafr_exact_polar(v: &Vafr) -> Polar<'_> {
+    let t = v.ring_table().expect("exact rings");
+    let (step, r_max, u_max) = (t.step_px(), t.r_max_px(), v.u_max());
+    let joins: Vec<usize> = sampled_joins(t.u().len())
+        .filter(|&k| (k as f64) * step < r_max)
+        .collect();
+    let mut radii_px: Vec<f64> = joins.iter().map(|&k| k as f64 * step).collect();
+    radii_px.push(r_max);
+    let mut columns: Vec<f64> = joins.iter().map(|&k| t.u()[k]).collect();
+    columns.push(u_max);
+    Polar {
+        mapping: v,
+        gaze: v.gaze(),
+        radii_px,
+        columns,
+        u_max,
+        period: Box::new(move |u| v.period_at_u(u.clamp(0.0, u_max))),
+        unbounded_slope_beyond_px: None,
+    }
+}
+
+/// Visual-polar: the foveal boundary (and, with the paper's fit, where the fit is flat: from
+/// α_F to Eq. 3(ρ_F) and from Eq. 3(1) to 80°) as radii and columns, and the uploaded table's
+/// joins.
+fn visual_polar_polar(m: &VisualPolar) -> Polar<'_> {
+    let b = m.buffers()[0];
+    let (w, h) = (b.width as f64, b.height as f64);
+    let r_of = |alpha: f64| alpha.to_radians().tan() / m.c_r();
+    let mut radii_px = vec![1.0, r_of(FOVEA_DEG)];
+    if m.params().inverse == VisualPolarInverse::PaperFit {
+        radii_px.extend([r_of(eq3(rho_fovea())), r_of(eq3(1.0))]);
+    }
+    let table = fovea_gpu::mapping::visual_polar::table(m).unwrap();
+    radii_px.extend(
+        sampled_joins(table.segments.len())
+            .map(|k| table.segments[k].r[0] as f64 + table.segments[k].r[1] as f64),
+    );
+    let r_max = r_of(m.max_eccentricity_deg());
+    radii_px.retain(|&r| r < r_max);
+    radii_px.sort_by(f64::total_cmp);
+    let g = m.gaze();
+    let mut columns: Vec<f64> = radii_px
+        .iter()
+        .map(|&r| m.forward(ScreenPoint::new(g.x_px + r, g.y_px)).unwrap().u)
+        .collect();
+    columns.push(w);
+    radii_px.push(r_max);
+    Polar {
+        mapping: m,
+        gaze: g,
+        radii_px,
+        columns,
+        u_max: w,
+        period: Box::new(move |_| h),
+        unbounded_slope_beyond_px: None,
+    }
+}
+
 fn kfr_polar(k: &Kfr) -> Polar<'_> {
     let g = k.geometry();
     Polar {
@@ -443,6 +511,89 @@ fn vafr_on_the_gpu_equals_the_rust_mapping() {
     });
 }
 
+/// VaFR with exact rings (the default): the screen-covering default, the paper's fixed 60°,
+/// and headset-capped pivots with the anisotropic Δ.
+fn vafr_exact_variants(d: &DisplayProfile) -> Vec<(&'static str, VafrParams)> {
+    vec![
+        ("vafr-exact", VafrParams::default()),
+        (
+            "vafr-exact-60deg",
+            VafrParams {
+                max_eccentricity: Coverage::Fixed(Degrees(60.0)),
+                ..VafrParams::default()
+            },
+        ),
+        (
+            "vafr-exact-capped-anisotropic",
+            VafrParams {
+                acuity: AcuityModel::vafr_default()
+                    .headset_capped(CyclesPerDegree(d.nyquist_cpd()))
+                    .unwrap(),
+                tangential: TangentialFactor::radial_twice_at_30(),
+                ..VafrParams::default()
+            },
+        ),
+    ]
+}
+
+#[test]
+fn vafr_exact_rings_on_the_gpu_equal_the_rust_mapping() {
+    let Some(ctx) = common::gpu_or_skip("vafr_exact_rings_on_the_gpu_equal_the_rust_mapping")
+    else {
+        return;
+    };
+    check_presets_and_gazes("VaFR exact rings", 19, 3, |d, preset, g, v, seed| {
+        let (name, params) = vafr_exact_variants(d).swap_remove(v);
+        let m = Vafr::new(d, g, params).unwrap();
+        assert_eq!(m.rings(), VafrRings::Exact);
+        let gpu = GpuMapping::vafr(&ctx, &m).unwrap();
+        let polar = vafr_exact_polar(&m);
+        check(&polar, &gpu, d, &label(name, preset, g), seed)
+    });
+}
+
+#[test]
+fn visual_polar_on_the_gpu_equals_the_rust_mapping() {
+    let Some(ctx) = common::gpu_or_skip("visual_polar_on_the_gpu_equals_the_rust_mapping") else {
+        return;
+    };
+    // The exact inverse covering the screen (Liu's buffer of the display's size), the exact
+    // inverse at a fixed 70° in a 900×1800 buffer, the paper's Eq. 3 fit (80°).
+    let variants = [
+        ("visual-polar", VisualPolarParams::default()),
+        (
+            "visual-polar-70deg-900x1800",
+            VisualPolarParams {
+                buffer: Some(BufferSize {
+                    width: 900,
+                    height: 1800,
+                }),
+                max_eccentricity: Coverage::Fixed(Degrees(70.0)),
+                inverse: VisualPolarInverse::Exact,
+            },
+        ),
+        (
+            "visual-polar-paper-fit",
+            VisualPolarParams {
+                inverse: VisualPolarInverse::PaperFit,
+                ..VisualPolarParams::default()
+            },
+        ),
+    ];
+    check_presets_and_gazes(
+        "visual-polar",
+        23,
+        variants.len(),
+        |d, preset, g, v, seed| {
+            let (name, params) = variants[v];
+            let m = VisualPolar::new(d, g, params).unwrap();
+            let gpu = GpuMapping::visual_polar(&ctx, &m).unwrap();
+            let polar = visual_polar_polar(&m);
+            check(&polar, &gpu, d, &label(name, preset, g), seed)
+        },
+    );
+}
+
 #[test]
 fn kfr_on_the_gpu_equals_the_rust_mapping() {
     let Some(ctx) = common::gpu_or_skip("kfr_on_the_gpu_equals_the_rust_mapping") else {
@@ -516,4 +667,23 @@ fn non_finite_and_empty_inputs_have_no_sample() {
         .inverse(&[[0.0, 0.0], [f32::NAN, 1.0], [-1.0, 0.0]])
         .unwrap();
     assert_eq!(back, vec![Some([720.0, 800.0]), None, None]);
+    // The table mappings likewise: the gaze and back, NaN, left of column 0; at u = 0 the exact
+    // rings have only v = 0 (the pole), visual-polar every row of the first column.
+    let exact = Vafr::new(&d, d.centre_gaze(), VafrParams::default()).unwrap();
+    let vp = VisualPolar::new(&d, d.centre_gaze(), VisualPolarParams::default()).unwrap();
+    for (gpu, v_at_pole) in [
+        (GpuMapping::vafr(&ctx, &exact).unwrap(), None),
+        (
+            GpuMapping::visual_polar(&ctx, &vp).unwrap(),
+            Some([720.0, 800.0]),
+        ),
+    ] {
+        assert!(gpu.forward(&[]).unwrap().is_empty());
+        let got = gpu.forward(&[[f32::NAN, 3.0], [720.0, 800.0]]).unwrap();
+        assert_eq!(got, vec![None, Some([0.0, 0.0])]);
+        let back = gpu
+            .inverse(&[[0.0, 0.0], [f32::INFINITY, 1.0], [-1.0, 0.0], [0.0, 5.0]])
+            .unwrap();
+        assert_eq!(back, vec![Some([720.0, 800.0]), None, None, v_at_pole]);
+    }
 }

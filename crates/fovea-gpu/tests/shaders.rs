@@ -92,6 +92,25 @@ fn uniform_blocks_match_their_rust_structs() {
 }
 
 #[test]
+fn the_polar_table_segment_matches_its_rust_struct() {
+    // The segment table is read as an array of `TableSegment`: a size mismatch would shift
+    // every segment after the first.
+    let shader = fovea_gpu::mapping::polar_table::SHADER;
+    let (name, rust_size) = fovea_gpu::mapping::polar_table::SEGMENT_STRUCT;
+    let (module, _) = validate(&shader);
+    let ty = module
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some(name))
+        .unwrap_or_else(|| panic!("{}: no struct {name}", shader.file))
+        .1;
+    let naga::TypeInner::Struct { span, .. } = &ty.inner else {
+        panic!("{}: {name} is not a struct", shader.file)
+    };
+    assert_eq!(*span as usize, rust_size, "{}: WGSL {name}", shader.file);
+}
+
+#[test]
 fn every_wgsl_file_is_compiled_by_some_module() {
     // A shader file on disk that no module includes would escape validation: each file is
     // a module's own or appended to one (`direct_light.wgsl` to the trace module), its whole

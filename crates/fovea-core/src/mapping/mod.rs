@@ -41,6 +41,7 @@ pub use kfr::{Kfr, KfrParams};
 pub use lafr::{Lafr, LafrKernelConstants, LafrParams};
 pub use log_polar::LogPolarGeometry;
 pub use vafr::{Vafr, VafrParams, VafrRings};
+pub use vafr_rings::RingTable;
 pub use visual_polar::{VisualPolar, VisualPolarInverse, VisualPolarParams};
 pub use weier::{RadialDensity, WeierParams, WeierSparse};
 

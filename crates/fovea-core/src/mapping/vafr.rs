@@ -24,7 +24,7 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::vafr_rings::{column_trig, RingProfile};
+use super::vafr_rings::{column_trig, RingProfile, RingTable};
 use super::{
     polar_deg, tangential_denominator, BufferSize, Coverage, FoveationMapping, Method, Ring,
     SamplePoint, MAX_COVERAGE_DEG,
@@ -60,8 +60,9 @@ pub enum VafrRings {
     Eq3,
     /// Every ring sized by the worst point of its on-screen arc at that point's true
     /// eccentricity (`vafr_rings.rs`); texels off the screen are not shaded. Equal to
-    /// [`VafrRings::Eq3`] at a centred gaze, but for those texels. The GPU mapping shader
-    /// (`fovea_gpu::GpuMapping::vafr`) evaluates Eq. 3 only.
+    /// [`VafrRings::Eq3`] at a centred gaze, but for those texels. The GPU mapping
+    /// (`fovea_gpu::GpuMapping::vafr`) evaluates both: this one from the uploaded table
+    /// ([`Vafr::ring_table`]).
     #[default]
     Exact,
 }
@@ -237,9 +238,16 @@ impl Vafr {
         self.params.rings
     }
 
-    /// Rows per turn of column coordinate `u` (Eq. 9/19's `l(e)·Δ(e)`; with
-    /// [`VafrRings::Exact`] the ring table's).
-    fn period_at_u(&self, u: f64) -> f64 {
+    /// The exact rings' table ([`RingTable`]: `u`, `du/dr` and rows per turn every
+    /// `step_px` of radius), `None` with [`VafrRings::Eq3`].
+    pub fn ring_table(&self) -> Option<RingTable<'_>> {
+        self.exact.as_ref().map(|x| RingTable::new(&x.profile))
+    }
+
+    /// Rows per turn of column coordinate `u ∈ [0, u_max]`, the period of the angle axis there
+    /// (Eq. 9/19's `l(e)·Δ(e)` at Eq. 10's `e(u)`; with [`VafrRings::Exact`] the ring table's):
+    /// [`FoveationMapping::inverse`] has samples for `v ∈ [0, period_at_u(u)]`.
+    pub fn period_at_u(&self, u: f64) -> f64 {
         period_at(self.exact.as_ref().map(|x| &x.profile), &self.params, u)
     }
 

@@ -76,6 +76,51 @@ pub(crate) struct RingProfile {
     r_max: f64,
 }
 
+/// A read-only view of the exact rings' table (this module's ring profile), for executors
+/// that evaluate the mapping themselves (the GPU's mapping shader uploads it): entry `k`
+/// describes the ring of radius `r_k = k·step_px` pixels.
+///
+/// The mapping reads it as follows (`Vafr`'s forward and inverse do exactly this): with
+/// `x = r/step_px`, `k = ⌊x⌋`, `t = x − k`, the column is the cubic Hermite through
+/// `(u[k], du_dr[k]·step_px)` and `(u[k+1], du_dr[k+1]·step_px)` at `t`, and the rows per turn
+/// `period[k] + (period[k+1] − period[k])·t`; past the last entry both stay at its value. The
+/// inverse solves the same cubic for `t` in the step whose `u[k] ≤ u < u[k+1]`.
+#[derive(Clone, Copy, Debug)]
+pub struct RingTable<'a> {
+    profile: &'a RingProfile,
+}
+
+impl<'a> RingTable<'a> {
+    pub(crate) fn new(profile: &'a RingProfile) -> Self {
+        Self { profile }
+    }
+
+    /// Radius step between entries, pixels (at most 1).
+    pub fn step_px(&self) -> f64 {
+        self.profile.step
+    }
+
+    /// The column coordinate `u(r_k)` of every entry, buffer pixels (`u[0] = 0`, increasing).
+    pub fn u(&self) -> &'a [f64] {
+        &self.profile.u
+    }
+
+    /// `du/dr` at every entry (its ring's worst point), columns per pixel.
+    pub fn du_dr(&self) -> &'a [f64] {
+        &self.profile.dudr
+    }
+
+    /// Rows per turn at every entry (`Δ` included).
+    pub fn period(&self) -> &'a [f64] {
+        &self.profile.period
+    }
+
+    /// The radius the buffer reaches, pixels (inside the table's last step).
+    pub fn r_max_px(&self) -> f64 {
+        self.profile.r_max
+    }
+}
+
 impl RingProfile {
     /// The profile out to `r_max` pixels from `gaze` on `display`.
     pub(crate) fn new(

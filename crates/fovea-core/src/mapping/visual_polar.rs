@@ -236,6 +236,21 @@ impl VisualPolar {
         })
     }
 
+    /// The parameters.
+    pub fn params(&self) -> &VisualPolarParams {
+        &self.params
+    }
+
+    /// The pole of the mapping: the gaze point, screen pixels.
+    pub fn gaze(&self) -> ScreenPoint {
+        self.gaze
+    }
+
+    /// The display constant `c_r` of VaFR Eq. 3 (`α = atan(c_r · r)`), per pixel.
+    pub fn c_r(&self) -> f64 {
+        self.c_r
+    }
+
     /// The eccentricity `α_M` the buffer reaches, degrees.
     pub fn max_eccentricity_deg(&self) -> f64 {
         self.alpha_max

@@ -3,9 +3,14 @@
 //! the shaders can be compared with the f64 Rust mappings they mirror (`tests/mapping.rs`) and
 //! later passes (reconstruction, ray generation) can call the same WGSL functions.
 //!
-//! * [`vafr`]: VaFR (Zhang et al., Eq. 3–12, 19).
+//! * [`vafr`]: VaFR (Zhang et al., Eq. 3–12, 19) with the paper's Eq. 3 rings.
+//! * [`vafr_rings`]: VaFR with exact rings (each ring sized at its worst on-screen point), the
+//!   default, as a [`polar_table`].
 //! * [`kfr`]: KFR / LMFR (VaFR Eq. 1, 14).
 //! * [`lafr`]: LaFR (VaFR Eq. 15 on KFR's frame).
+//! * [`visual_polar`]: visual-polar (Liu et al., Eq. 1–3), as a [`polar_table`].
+//! * [`polar_table`]: polar mappings given by a tabulated radial profile (the shader both of
+//!   the above use).
 //!
 //! Points travel as f32 (`[x, y]` screen pixels or `[u, v]` buffer pixels); the answer is
 //! `None` where the Rust mapping returns `None`. Non-finite inputs are answered on the CPU
@@ -13,12 +18,15 @@
 
 pub mod kfr;
 pub mod lafr;
+pub mod polar_table;
 pub mod vafr;
+pub mod vafr_rings;
+pub mod visual_polar;
 
 use crate::device::GpuContext;
 use crate::error::Result;
 use crate::shaders::ShaderSource;
-use crate::transfer::{batch_len, run_1d, upload};
+use crate::transfer::{batch_len, run_1d_at, upload};
 
 /// Bytes per input point (`vec2<f32>`).
 const IN_BYTES: u64 = 8;
@@ -39,27 +47,63 @@ pub struct GpuMapping {
     ctx: GpuContext,
     name: &'static str,
     uniform: wgpu::Buffer,
+    /// The segment table of a [`polar_table`] mapping (binding
+    /// [`polar_table::TABLE_BINDING`]), `None` for the closed-form ones.
+    table: Option<wgpu::Buffer>,
     forward: wgpu::ComputePipeline,
     inverse: wgpu::ComputePipeline,
 }
 
 impl GpuMapping {
-    /// The VaFR mapping `vafr` on `ctx`.
+    /// The VaFR mapping `vafr` on `ctx`, either rings: Eq. 3's ([`vafr`]) or the exact ones,
+    /// the default ([`vafr_rings`], the reference's ring table uploaded).
     pub fn vafr(ctx: &GpuContext, vafr: &fovea_core::mapping::Vafr) -> Result<Self> {
-        let block = vafr::VafrUniform::new(vafr)?;
-        Self::new(ctx, "vafr", &vafr::SHADER, bytemuck::bytes_of(&block))
+        match vafr.rings() {
+            fovea_core::mapping::VafrRings::Eq3 => {
+                let block = vafr::VafrUniform::new(vafr)?;
+                Self::new(ctx, "vafr", &vafr::SHADER, bytemuck::bytes_of(&block), None)
+            }
+            fovea_core::mapping::VafrRings::Exact => {
+                Self::table(ctx, "vafr (exact rings)", &vafr_rings::table(vafr)?)
+            }
+        }
     }
 
     /// The KFR / LMFR mapping `kfr` on `ctx`.
     pub fn kfr(ctx: &GpuContext, kfr: &fovea_core::mapping::Kfr) -> Result<Self> {
         let block = kfr::KfrUniform::new(kfr);
-        Self::new(ctx, "kfr", &kfr::SHADER, bytemuck::bytes_of(&block))
+        Self::new(ctx, "kfr", &kfr::SHADER, bytemuck::bytes_of(&block), None)
     }
 
     /// The LaFR mapping `lafr` on `ctx`.
     pub fn lafr(ctx: &GpuContext, lafr: &fovea_core::mapping::Lafr) -> Result<Self> {
         let block = lafr::LafrUniform::new(lafr);
-        Self::new(ctx, "lafr", &lafr::SHADER, bytemuck::bytes_of(&block))
+        Self::new(ctx, "lafr", &lafr::SHADER, bytemuck::bytes_of(&block), None)
+    }
+
+    /// The visual-polar mapping `vp` on `ctx` (either inverse: the exact CDF or the paper's
+    /// Eq. 3 fit), its radial profile uploaded as a table ([`visual_polar`]).
+    pub fn visual_polar(ctx: &GpuContext, vp: &fovea_core::mapping::VisualPolar) -> Result<Self> {
+        Self::table(ctx, "visual-polar", &visual_polar::table(vp)?)
+    }
+
+    fn table(
+        ctx: &GpuContext,
+        name: &'static str,
+        table: &polar_table::PolarTable,
+    ) -> Result<Self> {
+        let bytes: &[u8] = bytemuck::cast_slice(&table.segments);
+        ctx.check_storage_binding(
+            &format!("the {name} mapping's segment table"),
+            bytes.len() as u64,
+        )?;
+        Self::new(
+            ctx,
+            name,
+            &polar_table::SHADER,
+            bytemuck::bytes_of(&table.uniform),
+            Some(bytes),
+        )
     }
 
     fn new(
@@ -67,9 +111,10 @@ impl GpuMapping {
         name: &'static str,
         shader: &ShaderSource,
         uniform_bytes: &[u8],
+        table_bytes: Option<&[u8]>,
     ) -> Result<Self> {
         let device = ctx.device();
-        let (uniform, forward, inverse) =
+        let (uniform, table, forward, inverse) =
             ctx.scoped(&format!("building the {name} pipelines"), || {
                 let uniform = upload(
                     ctx,
@@ -77,9 +122,11 @@ impl GpuMapping {
                     uniform_bytes,
                     wgpu::BufferUsages::UNIFORM,
                 );
+                let table = table_bytes
+                    .map(|bytes| upload(ctx, "mapping table", bytes, wgpu::BufferUsages::STORAGE));
                 // `forward`, `inverse`: the order of the module's entry points.
                 let mut p = shader.pipelines(device).into_iter();
-                (uniform, p.next(), p.next())
+                (uniform, table, p.next(), p.next())
             })?;
         let (Some(forward), Some(inverse)) = (forward, inverse) else {
             return Err(crate::GpuError::Input(format!(
@@ -90,6 +137,7 @@ impl GpuMapping {
             ctx: ctx.clone(),
             name,
             uniform,
+            table,
             forward,
             inverse,
         })
@@ -156,18 +204,15 @@ impl GpuMapping {
                 wgpu::BufferUsages::STORAGE,
             )
         })?;
-        let (raw, _) = run_1d(
-            &self.ctx,
-            &what,
-            pipeline,
-            &[
-                self.uniform.as_entire_binding(),
-                input_buf.as_entire_binding(),
-            ],
-            n,
-            OUT_BYTES,
-            false,
-        )?;
+        // Parameters at 0, points in at 1, out at 2, the table (if any) at 3.
+        let mut inputs = vec![
+            (0, self.uniform.as_entire_binding()),
+            (1, input_buf.as_entire_binding()),
+        ];
+        if let Some(table) = &self.table {
+            inputs.push((polar_table::TABLE_BINDING, table.as_entire_binding()));
+        }
+        let (raw, _) = run_1d_at(&self.ctx, &what, pipeline, &inputs, 2, n, OUT_BYTES, false)?;
         let values: &[[f32; 4]] = bytemuck::cast_slice(&raw);
         Ok(values
             .iter()
