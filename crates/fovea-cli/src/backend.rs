@@ -150,7 +150,11 @@ impl Backend {
             "gpu_trace": *self.trace_times.lock().unwrap_or_else(|e| e.into_inner()),
             "gpu_shadow": *self.shadow_times.lock().unwrap_or_else(|e| e.into_inner()),
             "gpu_direct_light": *self.direct_times.lock().unwrap_or_else(|e| e.into_inner()),
-            "rays": {"primary": trace, "shadow": frame.shadow_backend},
+            "rays": {
+                "generation": frame.ray_generation_backend,
+                "primary": trace,
+                "shadow": frame.shadow_backend,
+            },
             "direct_light": frame.direct_light_backend,
             "cpu_emulated": self.cpu_emulated,
             "gpu_bvh": self.gpu_bvh,
@@ -399,6 +403,48 @@ impl TraceExecutor for GpuTraceExecutor {
             .map_err(|e| e.to_string())?;
         Self::add(&self.shadow_times, t);
         Ok(blocked)
+    }
+
+    fn generates_rays(&self) -> bool {
+        true
+    }
+
+    fn closest_hits_polar(
+        &mut self,
+        camera: &fovea_render::camera::EyeCamera,
+        centre: fovea_core::units::ScreenPoint,
+        rays: &[fovea_render::pipeline::PolarRay],
+    ) -> std::result::Result<Vec<(glam::Vec3, Option<fovea_render::bvh::Hit>)>, String> {
+        let cam = fovea_gpu::RayGenCamera::new(
+            camera.position.into(),
+            [camera.forward.into(), camera.right.into(), camera.up.into()],
+            camera.focal_px(),
+            camera.principal_point_px(),
+            [centre.x_px, centre.y_px],
+        );
+        let polar: Vec<fovea_gpu::GpuPolarRay> = rays
+            .iter()
+            .map(|r| fovea_gpu::GpuPolarRay {
+                r_px: r.r_px as f32,
+                turn: r.turn as f32,
+            })
+            .collect();
+        let (out, t) = self
+            .gpu
+            .closest_hits_polar_timed(&cam, &polar)
+            .map_err(|e| e.to_string())?;
+        Self::add(&self.times, t);
+        Ok(out
+            .into_iter()
+            .map(|(dir, h)| {
+                let hit = h.map(|h| fovea_render::bvh::Hit {
+                    t: h.t,
+                    tri: h.tri,
+                    bary: glam::Vec2::from(h.bary),
+                });
+                (glam::Vec3::from(dir), hit)
+            })
+            .collect())
     }
 
     fn shades_direct_light(&self) -> bool {

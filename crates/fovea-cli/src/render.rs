@@ -647,6 +647,7 @@ fn backend_line(
     s: &fovea_render::pipeline::FrameStats,
 ) -> String {
     let on_gpu: Vec<String> = [
+        ("ray generation", &s.ray_generation_backend),
         ("primary rays", &s.trace_backend),
         ("shadow rays", &s.shadow_backend),
         ("direct light", &s.direct_light_backend),

@@ -101,6 +101,8 @@ fn gpu_backend_casts_a_screen_aligned_methods_rays() {
     }
     let s = stats(dir.path(), "g");
     assert_eq!(s["frame"]["trace_backend"], "gpu");
+    // A screen-aligned buffer's rays come from the CPU's inverse mapping.
+    assert_eq!(s["frame"]["ray_generation_backend"], "cpu");
     assert_eq!(s["frame"]["shadow_backend"], "gpu");
     assert_eq!(s["frame"]["direct_light_backend"], "gpu");
     assert_eq!(s["frame"]["reconstruct_backend"], "cpu");
@@ -269,6 +271,9 @@ fn gpu_backend_traces_and_reconstructs_on_the_gpu() {
     assert_eq!(s["frame"]["trace_backend"], "gpu");
     assert_eq!(s["backend"]["stages"]["trace"], "gpu");
     assert_eq!(s["backend"]["stages"]["shade"], "cpu");
+    // A polar buffer's rays are generated there too.
+    assert_eq!(s["frame"]["ray_generation_backend"], "gpu");
+    assert_eq!(s["backend"]["rays"]["generation"], "gpu");
     assert!(s["backend"]["gpu_bvh"]["nodes"].as_u64().unwrap() > 1);
     assert!(s["backend"]["adapter"].is_string());
     assert!(s["backend"]["gpu_reconstruct"]["bands"].as_u64().unwrap() >= 1);

@@ -18,6 +18,8 @@
 //!   ([`GpuTracer`]).
 //! * [`direct_light`]: the renderer's direct lighting of surface samples, shadow rays
 //!   through the same BVH ([`GpuTracer::direct_light_timed`]).
+//! * [`ray_generation`]: a polar buffer's primary rays generated from their polar
+//!   coordinates and traced ([`GpuTracer::closest_hits_polar_timed`]).
 //! * [`shaders`]: the WGSL sources, validated with naga in a plain `cargo test`.
 //!
 //! ```no_run
@@ -45,6 +47,7 @@ pub mod device;
 pub mod direct_light;
 pub mod error;
 pub mod mapping;
+pub mod ray_generation;
 pub mod reconstruct;
 pub mod shaders;
 mod timestamps;
@@ -56,6 +59,7 @@ pub use device::{AdapterSummary, DeviceKind, GpuContext, GpuRequest};
 pub use direct_light::{DirectLight, GpuLight, GpuSurface};
 pub use error::{GpuError, Result};
 pub use mapping::{Direction, GpuMapping};
+pub use ray_generation::{GpuPolarRay, RayGenCamera};
 pub use reconstruct::{GpuReconstructor, ReconstructTimes};
 pub use trace::{BvhStats, DirectLightModel, GpuHit, GpuRay, GpuTracer, TraceTimes};
 

@@ -23,16 +23,24 @@ use crate::error::{GpuError, Result};
 use crate::shaders::ShaderSource;
 use crate::transfer::{batch_len, run_1d, upload};
 
-/// The module: `closest_hit` and `any_hit`, and `direct_light` (`shaders/direct_light.wgsl`,
-/// appended: it walks the same BVH; see [`crate::direct_light`]), [`TraceUniform`] at binding 0.
+/// The module: `closest_hit` and `any_hit`, `direct_light` (`shaders/direct_light.wgsl`,
+/// appended: it walks the same BVH; see [`crate::direct_light`]) and `closest_hit_polar`
+/// (`shaders/ray_generation.wgsl`, appended; see [`crate::ray_generation`]), [`TraceUniform`]
+/// at binding 0.
 pub const SHADER: ShaderSource = ShaderSource {
     file: "trace.wgsl",
     source: concat!(
         include_str!("../shaders/common.wgsl"),
         include_str!("../shaders/trace.wgsl"),
-        include_str!("../shaders/direct_light.wgsl")
+        include_str!("../shaders/direct_light.wgsl"),
+        include_str!("../shaders/ray_generation.wgsl")
     ),
-    entry_points: &["closest_hit", "any_hit", "direct_light"],
+    entry_points: &[
+        "closest_hit",
+        "any_hit",
+        "direct_light",
+        "closest_hit_polar",
+    ],
     uniform: ("TraceParams", std::mem::size_of::<TraceUniform>()),
 };
 
@@ -138,17 +146,17 @@ struct NodeGpu {
 /// The hit as the shader writes it (`Hit` in `trace.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-struct HitGpu {
-    t: f32,
-    prim: u32,
-    u: f32,
-    v: f32,
+pub(crate) struct HitGpu {
+    pub(crate) t: f32,
+    pub(crate) prim: u32,
+    pub(crate) u: f32,
+    pub(crate) v: f32,
 }
 
 /// The largest `t_max` the shader sees (below its `FAR` marker of 3e38).
 pub(crate) const MAX_DISTANCE: f32 = 1.0e38;
 /// `Hit::prim` of a miss.
-const MISS: u32 = u32::MAX;
+pub(crate) const MISS: u32 = u32::MAX;
 const RAY_BYTES: u64 = std::mem::size_of::<GpuRay>() as u64;
 const HIT_BYTES: u64 = std::mem::size_of::<HitGpu>() as u64;
 
@@ -193,6 +201,7 @@ pub(crate) struct SceneBuffers {
     closest: wgpu::ComputePipeline,
     any: wgpu::ComputePipeline,
     pub(crate) direct: wgpu::ComputePipeline,
+    pub(crate) polar: wgpu::ComputePipeline,
 }
 
 impl GpuTracer {
@@ -285,13 +294,18 @@ impl GpuTracer {
                 )
             },
         )?;
-        // `closest_hit`, `any_hit`, `direct_light`: the order of the module's entry points.
+        // `closest_hit`, `any_hit`, `direct_light`, `closest_hit_polar`: the order of the
+        // module's entry points.
         let mut pipelines = pipelines.into_iter();
-        let (Some(closest), Some(any), Some(direct)) =
-            (pipelines.next(), pipelines.next(), pipelines.next())
-        else {
+        let (Some(closest), Some(any), Some(direct), Some(polar)) = (
+            pipelines.next(),
+            pipelines.next(),
+            pipelines.next(),
+            pipelines.next(),
+        ) else {
             return Err(GpuError::Input(
-                "the trace module lacks its closest_hit, any_hit and direct_light entry points"
+                "the trace module lacks one of its four entry points (closest_hit, any_hit, \
+                 direct_light, closest_hit_polar)"
                     .into(),
             ));
         };
@@ -302,6 +316,7 @@ impl GpuTracer {
             closest,
             any,
             direct,
+            polar,
         };
         Ok(Self {
             ctx: ctx.clone(),

@@ -111,9 +111,37 @@ fn the_polar_table_segment_matches_its_rust_struct() {
 }
 
 #[test]
+fn the_ray_generation_records_match_their_rust_structs() {
+    // The camera block and the per-ray records of `ray_generation.wgsl` (appended to the trace
+    // module): a size mismatch would misread every field or every ray after the first.
+    let shader = fovea_gpu::trace::SHADER;
+    let (module, _) = validate(&shader);
+    for (name, rust_size) in [
+        (
+            "RayGenCamera",
+            std::mem::size_of::<fovea_gpu::RayGenCamera>(),
+        ),
+        ("PolarRay", std::mem::size_of::<fovea_gpu::GpuPolarRay>()),
+        fovea_gpu::ray_generation::POLAR_HIT_STRUCT,
+    ] {
+        let ty = module
+            .types
+            .iter()
+            .find(|(_, t)| t.name.as_deref() == Some(name))
+            .unwrap_or_else(|| panic!("{}: no struct {name}", shader.file))
+            .1;
+        let naga::TypeInner::Struct { span, .. } = &ty.inner else {
+            panic!("{}: {name} is not a struct", shader.file)
+        };
+        assert_eq!(*span as usize, rust_size, "{}: WGSL {name}", shader.file);
+    }
+}
+
+#[test]
 fn every_wgsl_file_is_compiled_by_some_module() {
     // A shader file on disk that no module includes would escape validation: each file is
-    // a module's own or appended to one (`direct_light.wgsl` to the trace module), its whole
+    // a module's own or appended to one (`direct_light.wgsl` and `ray_generation.wgsl` to the
+    // trace module), its whole
     // text in the module's source.
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
     let mut seen = 0;
@@ -130,8 +158,9 @@ fn every_wgsl_file_is_compiled_by_some_module() {
             "shaders/{name} is in no module of fovea_gpu::ALL_SHADERS"
         );
     }
-    // Every module's own file, common.wgsl, and the appended direct_light.wgsl.
-    assert_eq!(seen, ALL.len() + 2);
+    // Every module's own file, common.wgsl, and the appended direct_light.wgsl and
+    // ray_generation.wgsl.
+    assert_eq!(seen, ALL.len() + 3);
 }
 
 #[test]

@@ -112,6 +112,11 @@ impl EyeCamera {
     pub fn focal_px(&self) -> (f32, f32) {
         (self.fx, self.fy)
     }
+
+    /// The principal point `(c_x, c_y)`, screen pixels: where the view axis meets the screen.
+    pub fn principal_point_px(&self) -> (f32, f32) {
+        (self.cx, self.cy)
+    }
 }
 
 /// Which eye.

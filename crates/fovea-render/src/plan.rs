@@ -16,6 +16,7 @@ use serde::Serialize;
 use fovea_core::display::DisplayProfile;
 use fovea_core::mapping::footprint::{SampleFootprint, SpacingLut};
 use fovea_core::mapping::{build, BufferSize, FoveationMapping, Method, Ring};
+use fovea_core::units::ScreenPoint;
 use fovea_post::inverse_map::ReconstructFilter;
 use fovea_post::Rgb;
 
@@ -367,6 +368,8 @@ impl TexelRays {
 /// solve a cubic; the log-polar kernels take a logarithm and an exponential).
 #[derive(Clone, Debug)]
 pub struct RayRings {
+    /// The rings' centre (the mapping's pole).
+    centre: ScreenPoint,
     /// Where column `i`'s rings start in `rings`; the total last.
     start: Vec<u32>,
     /// The ring of each ray of each column (`None` where the inverse has no point).
@@ -378,7 +381,7 @@ impl RayRings {
     /// screen-aligned mapping.
     pub fn new(plan: &FramePlan, layer: u32, width: u32) -> Option<Self> {
         let mapping = plan.mapping();
-        mapping.polar_layout()?;
+        let centre = mapping.polar_layout()?.centre;
         let mut start = Vec::with_capacity(width as usize + 1);
         let mut rings = Vec::new();
         for i in 0..width {
@@ -391,7 +394,16 @@ impl RayRings {
             );
         }
         start.push(rings.len() as u32);
-        Some(Self { start, rings })
+        Some(Self {
+            centre,
+            start,
+            rings,
+        })
+    }
+
+    /// The rings' centre (the mapping's pole, the gaze).
+    pub fn centre(&self) -> ScreenPoint {
+        self.centre
     }
 
     /// The ring of ray `k` of column `column`'s texels.

@@ -137,17 +137,23 @@ impl SampleFootprint {
         column: u32,
         p: ScreenPoint,
     ) -> f32 {
+        self.column_spread_rad(column).unwrap_or_else(|| {
+            spread_with_floor_rad(mapping, display, gaze, p, self.floor_rad as f64)
+        })
+    }
+
+    /// The cone angle every sample of column `column` shares, where the table has it (or the
+    /// pixel's at full resolution); `None`: ask [`Self::spread_rad`] with the sample's point.
+    #[inline]
+    pub fn column_spread_rad(&self, column: u32) -> Option<f32> {
         if self.full {
-            return self.pixel_rad;
+            return Some(self.pixel_rad);
         }
-        match self
-            .column_rad
+        self.column_rad
             .as_ref()
             .and_then(|c| c.get(column as usize))
-        {
-            Some(&s) if s.is_finite() => s,
-            _ => spread_with_floor_rad(mapping, display, gaze, p, self.floor_rad as f64),
-        }
+            .copied()
+            .filter(|s| s.is_finite())
     }
 }
 

@@ -235,6 +235,21 @@ impl Ring {
             self.centre,
         ))
     }
+
+    /// The polar coordinates of [`point`](Self::point)`(v)` around the centre: its radius,
+    /// pixels, and its angle in turns (`v / period`; the pole, a ring without rows, is
+    /// `(0, 0)`). `None` where `point` is `None`. What another executor needs to place the
+    /// point itself (the GPU's ray generation).
+    #[inline]
+    pub fn polar(&self, v: f64) -> Option<(f64, f64)> {
+        if self.period <= 0.0 {
+            return (v == 0.0).then_some((0.0, 0.0));
+        }
+        if !(v >= 0.0 && v <= self.period) {
+            return None;
+        }
+        Some((self.r_px, v / self.period))
+    }
 }
 
 /// The angle axis of a polar sample buffer. Column `i` (a ring around `centre`) holds

@@ -45,7 +45,7 @@ pub use context::FrameContext;
 pub use fovea_core::mapping::footprint::sample_spread_rad;
 pub use reconstruct::ReconstructExecutor;
 pub use timing::{Stage, StageMs, StageTimes, Stopwatch};
-pub use trace_shade::TraceExecutor;
+pub use trace_shade::{PolarRay, TraceExecutor};
 
 pub use crate::plan::memory_estimate;
 
@@ -115,6 +115,11 @@ pub struct FrameStats {
     /// The backend that cast the primary rays: `cpu`, or the name of the
     /// [`trace_shade::TraceExecutor`] in the frame's context (`gpu`).
     pub trace_backend: String,
+    /// The backend that generated the primary rays (their screen points through the inverse
+    /// mapping, and the camera's rays): `cpu`, or the [`trace_shade::TraceExecutor`]'s name
+    /// where it generates a polar buffer's rays itself
+    /// ([`trace_shade::TraceExecutor::generates_rays`]).
+    pub ray_generation_backend: String,
     /// The backend that cast the shade stage's shadow rays (lights and environment): `cpu`,
     /// or the [`trace_shade::TraceExecutor`]'s name where it cast them (direct shading, one
     /// ray per texel, no DOF culling).
@@ -346,6 +351,7 @@ pub fn render_planned<'c>(
     stats.inset_smoothing = inset_smoothing.map(|s| s.name().to_string());
     stats.reconstruct_backend = reconstruct_backend;
     stats.trace_backend = casters.primary;
+    stats.ray_generation_backend = casters.ray_generation;
     stats.shadow_backend = casters.shadow;
     stats.direct_light_backend = casters.direct_light;
     Ok(ctx.store(Frame {
@@ -400,6 +406,7 @@ fn frame_stats(
         covers_screen: plan.covers_screen,
         reconstruct_backend: reconstruct::CPU.to_string(),
         trace_backend: trace_shade::CPU.to_string(),
+        ray_generation_backend: trace_shade::CPU.to_string(),
         shadow_backend: trace_shade::CPU.to_string(),
         direct_light_backend: trace_shade::CPU.to_string(),
     }

@@ -19,6 +19,7 @@
 use rayon::prelude::*;
 
 use fovea_core::mapping::SamplePoint;
+use fovea_core::units::ScreenPoint;
 use fovea_core::Image;
 use fovea_post::inverse_map::SampleBuffers;
 use fovea_post::Rgb;
@@ -69,6 +70,34 @@ pub trait TraceExecutor: Send {
         let _ = (hits, lights);
         Err(format!("{} does not compute direct light", self.backend()))
     }
+    /// Whether it generates a polar buffer's primary rays itself
+    /// ([`Self::closest_hits_polar`]); if not, they come to [`Self::closest_hits`].
+    fn generates_rays(&self) -> bool {
+        false
+    }
+    /// Generates the primary ray of each of `rays` — the screen point `r_px` from `centre`
+    /// at `turn` turns (+x towards +y), through `camera` — and returns its unit direction
+    /// and its closest hit. Called only when [`Self::generates_rays`]. An error is one line
+    /// saying what to do.
+    fn closest_hits_polar(
+        &mut self,
+        camera: &EyeCamera,
+        centre: ScreenPoint,
+        rays: &[PolarRay],
+    ) -> std::result::Result<Vec<(Vec3, Option<Hit>)>, String> {
+        let _ = (camera, centre, rays);
+        Err(format!("{} does not generate rays", self.backend()))
+    }
+}
+
+/// A primary ray of a polar buffer as another executor generates it: its screen point, in
+/// polar coordinates around the mapping's centre ([`fovea_core::mapping::Ring::polar`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PolarRay {
+    /// Distance from the centre, screen pixels.
+    pub r_px: f64,
+    /// Angle, turns (`[0, 1]`, from +x towards +y).
+    pub turn: f64,
 }
 
 /// The name of the CPU trace in [`FrameStats::trace_backend`](super::FrameStats::trace_backend).
@@ -146,7 +175,9 @@ pub fn trace_chunk(
     let uniform = plan.rays.per_column.is_empty().then_some(plan.rays.uniform);
     // A polar buffer's rays read their column's ring (its radius solved once per chunk).
     let rings = RayRings::new(plan, layer, row_len as u32);
-    let ray_of = |r: u32| -> Option<(Ray, f32)> {
+    // Ray `r` of the chunk: its texel `(i, j)`, its index in the texel and its offset in the
+    // texel; `None` where the texel is not traced.
+    let slot = |r: u32| -> Option<(u32, u32, u32, [f64; 2])> {
         let t = match uniform {
             Some(n) => (r / n) as usize,
             None => starts.partition_point(|&s| s <= r) - 1,
@@ -159,6 +190,25 @@ pub fn trace_chunk(
         if !mapping.is_shaded(layer, i, j) || known.is_some_and(|m| *m.get(i, j)) {
             return None;
         }
+        Some((i, j, ray, o))
+    };
+    // The cone of a ray of column `i` whose point is `p` (asked only where the column has no
+    // cone of its own).
+    let spread_of = |i: u32, p: &dyn Fn() -> Option<ScreenPoint>| -> Option<f32> {
+        let spread = match plan.footprint.column_spread_rad(i) {
+            Some(s) => s,
+            None => plan.footprint.spread_rad(mapping, display, gaze, i, p()?),
+        };
+        // Each of n rays covers 1/n of the texel: its cone is 1/√n of the texel's.
+        let n = plan.rays.count(layer, i);
+        Some(if n == 1 {
+            spread
+        } else {
+            spread / (n as f32).sqrt()
+        })
+    };
+    let ray_of = |r: u32| -> Option<(Ray, f32)> {
+        let (i, j, ray, o) = slot(r)?;
         let v = j as f64 + o[1] + jitter[1];
         let p = match &rings {
             Some(rings) => rings.get(i, ray)?.point(v)?,
@@ -168,14 +218,54 @@ pub fn trace_chunk(
                 v,
             })?,
         };
-        let spread = plan.footprint.spread_rad(mapping, display, gaze, i, p);
-        // Each of n rays covers 1/n of the texel: its cone is 1/√n of the texel's.
-        let spread = if n == 1 {
-            spread
-        } else {
-            spread / (n as f32).sqrt()
-        };
-        Some((camera.ray(p), spread))
+        Some((camera.ray(p), spread_of(i, &|| Some(p))?))
+    };
+    // A polar buffer on an executor that generates rays: each ray goes as its polar
+    // coordinates, and comes back with the direction it was cast along.
+    let tracer = match (tracer, &rings) {
+        (Some(tracer), Some(rings)) if tracer.generates_rays() => {
+            let polar: Vec<Option<(PolarRay, f32)>> = (0..total)
+                .into_par_iter()
+                .map(|r| {
+                    let (i, j, ray, o) = slot(r)?;
+                    let ring = rings.get(i, ray)?;
+                    let v = j as f64 + o[1] + jitter[1];
+                    let (r_px, turn) = ring.polar(v)?;
+                    Some((PolarRay { r_px, turn }, spread_of(i, &|| ring.point(v))?))
+                })
+                .collect();
+            let batch: Vec<PolarRay> = polar.iter().flatten().map(|&(r, _)| r).collect();
+            let got = tracer.closest_hits_polar(camera, rings.centre(), &batch);
+            let answers = checked(tracer, "trace", ("hits", "rays"), batch.len(), got)?;
+            let mut answers = answers.into_iter();
+            let traced: Vec<Option<(f32, Vec3, Option<Hit>)>> = polar
+                .into_iter()
+                .map(|p| {
+                    let (_, spread) = p?;
+                    let (dir, hit) = answers.next()?;
+                    Some((spread, dir, hit))
+                })
+                .collect();
+            traced
+                .into_par_iter()
+                .map(|r| {
+                    r.map(|(spread, dir, hit)| {
+                        let ray = Ray {
+                            origin: camera.position,
+                            dir,
+                            t_min: 0.0,
+                            t_max: f32::INFINITY,
+                        };
+                        match hit {
+                            Some(hit) => surface(world, &ray, &hit, spread),
+                            None => GSample::miss(dir),
+                        }
+                    })
+                })
+                .collect_into_vec(gbuf);
+            return Ok(());
+        }
+        (tracer, _) => tracer,
     };
     let Some(tracer) = tracer else {
         // On the CPU: batches of neighbouring texels' rays, each cast as one
@@ -563,7 +653,15 @@ pub fn trace_and_shade(
     let backend = tracer
         .as_ref()
         .map_or(CPU.to_string(), |t| t.backend().to_string());
+    // A polar buffer's rays are generated where they are cast when the executor can.
+    let generated = tracer.as_ref().is_some_and(|t| t.generates_rays())
+        && plan.mapping().polar_layout().is_some();
     let mut casters = Casters {
+        ray_generation: if generated {
+            backend.clone()
+        } else {
+            CPU.to_string()
+        },
         primary: backend.clone(),
         shadow: CPU.to_string(),
         direct_light: CPU.to_string(),
@@ -656,6 +754,8 @@ pub fn trace_and_shade(
 pub struct Casters {
     /// The primary rays'.
     pub primary: String,
+    /// The primary rays' generation (their screen points and directions).
+    pub ray_generation: String,
     /// The shade stage's shadow rays' (lights and environment).
     pub shadow: String,
     /// The lights' part of direct shading (BRDF, falloff, their shadow rays).
