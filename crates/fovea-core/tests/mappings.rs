@@ -389,9 +389,12 @@ fn a_ring_has_the_inverse_points_and_none_outside() {
                 let polar = map.ring(0, u).and_then(|r| r.polar(v));
                 assert_eq!(polar.is_some(), via_ring.is_some(), "{m} u={u} v={v}");
                 if let (Some((r, turn)), Some(p)) = (polar, via_ring) {
-                    let (c, sn) = (turn * std::f64::consts::TAU).sin_cos();
+                    let (sn, c) = (turn * std::f64::consts::TAU).sin_cos();
                     let q = ScreenPoint::new(g.point.x_px + r * c, g.point.y_px + r * sn);
-                    assert!(q.distance(p) < 1e-9 * (1.0 + r), "{m} u={u} v={v}");
+                    assert!(
+                        q.distance(p) < 1e-9 * (1.0 + r),
+                        "{m} u={u} v={v}: {q:?} {p:?}"
+                    );
                 }
                 if u.is_nan() {
                     assert!(via_ring.is_none(), "{m} v={v}");
