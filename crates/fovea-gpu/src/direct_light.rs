@@ -14,8 +14,10 @@ use fovea_render::shade::constants as model;
 use fovea_render::trace::GSample;
 
 use crate::error::{GpuError, Result};
-use crate::trace::{DirectLightModel, GpuTracer, TraceTimes, TraceUniform, MAX_DISTANCE};
-use crate::transfer::{batch_len, run_1d_at, upload};
+use crate::trace::{
+    DirectLightModel, GpuTracer, ScenePass, TraceTimes, TraceUniform, MAX_DISTANCE,
+};
+use crate::transfer::batch_len;
 
 impl DirectLightModel {
     /// The renderer's model (`fovea_render::shade::constants`).
@@ -232,49 +234,22 @@ impl GpuTracer {
             );
             ctx.check_storage_binding(&what, chunk.len() as u64 * SURFACE_BYTES)?;
             let block = TraceUniform::new(chunk.len(), lights.len(), *model);
-            let (uniform, surf, light_buf) = ctx.scoped(&what, || {
-                (
-                    upload(
-                        ctx,
-                        "direct light parameters",
-                        bytemuck::bytes_of(&block),
-                        wgpu::BufferUsages::UNIFORM,
-                    ),
-                    upload(
-                        ctx,
-                        "surface samples",
-                        bytemuck::cast_slice(chunk),
-                        wgpu::BufferUsages::STORAGE,
-                    ),
-                    upload(
-                        ctx,
-                        "lights",
-                        bytemuck::cast_slice(&lights),
-                        wgpu::BufferUsages::STORAGE,
-                    ),
-                )
-            })?;
-            let (raw, ms) = run_1d_at(
-                ctx,
-                &what,
+            let storage = wgpu::BufferUsages::STORAGE;
+            let (raw, ms) = self.run_scene_pass(
+                scene,
                 &scene.direct,
-                &[
-                    (0, uniform.as_entire_binding()),
-                    (1, scene.nodes.as_entire_binding()),
-                    (2, scene.tris.as_entire_binding()),
-                    (3, scene.prim_ids.as_entire_binding()),
-                    (6, surf.as_entire_binding()),
-                    (7, light_buf.as_entire_binding()),
-                ],
-                8,
-                chunk.len() as u64,
-                OUT_BYTES,
-                true,
+                ScenePass {
+                    what: &what,
+                    block,
+                    inputs: &[
+                        (6, bytemuck::cast_slice(chunk), storage),
+                        (7, bytemuck::cast_slice(&lights), storage),
+                    ],
+                    items: chunk.len(),
+                    out_bytes: OUT_BYTES,
+                },
             )?;
-            times.batches += 1;
-            if let Some(ms) = ms {
-                times.gpu_pass_ms = Some(times.gpu_pass_ms.unwrap_or(0.0) + ms);
-            }
+            times.add_batch(ms);
             out.extend(
                 bytemuck::cast_slice::<u8, [f32; 4]>(&raw)
                     .iter()

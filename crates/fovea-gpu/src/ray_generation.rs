@@ -11,8 +11,10 @@
 use bytemuck::{Pod, Zeroable};
 
 use crate::error::{GpuError, Result};
-use crate::trace::{DirectLightModel, GpuHit, GpuTracer, HitGpu, TraceTimes, TraceUniform, MISS};
-use crate::transfer::{batch_len, run_1d_at, upload};
+use crate::trace::{
+    DirectLightModel, GpuHit, GpuTracer, HitGpu, ScenePass, TraceTimes, TraceUniform, MISS,
+};
+use crate::transfer::batch_len;
 
 /// The camera block of `ray_generation.wgsl` (`RayGenCamera`).
 #[repr(C)]
@@ -141,55 +143,25 @@ impl GpuTracer {
         let ctx = &self.ctx;
         let batch = batch_len(ctx, IN_BYTES.max(OUT_BYTES));
         let mut out = Vec::with_capacity(rays.len());
-        let uniform_cam = ctx.scoped("uploading the ray-generation camera", || {
-            upload(
-                ctx,
-                "ray-generation camera",
-                bytemuck::bytes_of(camera),
-                wgpu::BufferUsages::UNIFORM,
-            )
-        })?;
         for chunk in rays.chunks(batch) {
             let what = format!("generating and tracing {} primary rays", chunk.len());
             ctx.check_storage_binding(&what, chunk.len() as u64 * OUT_BYTES)?;
             let block = TraceUniform::new(chunk.len(), 0, DirectLightModel::zeroed());
-            let (uniform, input) = ctx.scoped(&what, || {
-                (
-                    upload(
-                        ctx,
-                        "trace parameters",
-                        bytemuck::bytes_of(&block),
-                        wgpu::BufferUsages::UNIFORM,
-                    ),
-                    upload(
-                        ctx,
-                        "polar rays",
-                        bytemuck::cast_slice(chunk),
-                        wgpu::BufferUsages::STORAGE,
-                    ),
-                )
-            })?;
-            let (raw, ms) = run_1d_at(
-                ctx,
-                &what,
+            let (raw, ms) = self.run_scene_pass(
+                scene,
                 &scene.polar,
-                &[
-                    (0, uniform.as_entire_binding()),
-                    (1, scene.nodes.as_entire_binding()),
-                    (2, scene.tris.as_entire_binding()),
-                    (3, scene.prim_ids.as_entire_binding()),
-                    (6, uniform_cam.as_entire_binding()),
-                    (7, input.as_entire_binding()),
-                ],
-                8,
-                chunk.len() as u64,
-                OUT_BYTES,
-                true,
+                ScenePass {
+                    what: &what,
+                    block,
+                    inputs: &[
+                        (6, bytemuck::bytes_of(camera), wgpu::BufferUsages::UNIFORM),
+                        (7, bytemuck::cast_slice(chunk), wgpu::BufferUsages::STORAGE),
+                    ],
+                    items: chunk.len(),
+                    out_bytes: OUT_BYTES,
+                },
             )?;
-            times.batches += 1;
-            if let Some(ms) = ms {
-                times.gpu_pass_ms = Some(times.gpu_pass_ms.unwrap_or(0.0) + ms);
-            }
+            times.add_batch(ms);
             out.extend(
                 bytemuck::cast_slice::<u8, PolarHitGpu>(&raw)
                     .iter()

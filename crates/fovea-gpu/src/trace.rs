@@ -21,7 +21,7 @@ use obvhs::BvhBuildParams;
 use crate::device::GpuContext;
 use crate::error::{GpuError, Result};
 use crate::shaders::ShaderSource;
-use crate::transfer::{batch_len, run_1d, upload};
+use crate::transfer::{batch_len, run_1d, run_1d_at, upload};
 
 /// The module: `closest_hit` and `any_hit`, `direct_light` (`shaders/direct_light.wgsl`,
 /// appended: it walks the same BVH; see [`crate::direct_light`]) and `closest_hit_polar`
@@ -159,6 +159,27 @@ pub(crate) const MAX_DISTANCE: f32 = 1.0e38;
 pub(crate) const MISS: u32 = u32::MAX;
 const RAY_BYTES: u64 = std::mem::size_of::<GpuRay>() as u64;
 const HIT_BYTES: u64 = std::mem::size_of::<HitGpu>() as u64;
+
+impl TraceTimes {
+    /// Counts one more batch, its pass's milliseconds (when timed) added to the sum.
+    pub(crate) fn add_batch(&mut self, pass_ms: Option<f64>) {
+        self.batches += 1;
+        if let Some(ms) = pass_ms {
+            self.gpu_pass_ms = Some(self.gpu_pass_ms.unwrap_or(0.0) + ms);
+        }
+    }
+}
+
+/// One batch of a trace-module entry point that reads the scene: its parameter block (binding
+/// 0), its own inputs (`(binding, bytes, usage)`, at bindings 6 and up) and its output per item
+/// (at binding 8), for [`GpuTracer::run_scene_pass`].
+pub(crate) struct ScenePass<'a> {
+    pub(crate) what: &'a str,
+    pub(crate) block: TraceUniform,
+    pub(crate) inputs: &'a [(u32, &'a [u8], wgpu::BufferUsages)],
+    pub(crate) items: usize,
+    pub(crate) out_bytes: u64,
+}
 
 /// What was built and uploaded.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -371,6 +392,49 @@ impl GpuTracer {
         Ok((raw.iter().map(|h| h.prim != MISS).collect(), times))
     }
 
+    /// Runs `pass` through `pipeline` (an entry point of the trace module) with the scene's
+    /// nodes, triangles and ids at bindings 1–3: the output's bytes and the pass's
+    /// milliseconds from timestamps.
+    pub(crate) fn run_scene_pass(
+        &self,
+        scene: &SceneBuffers,
+        pipeline: &wgpu::ComputePipeline,
+        pass: ScenePass<'_>,
+    ) -> Result<(Vec<u8>, Option<f64>)> {
+        let ctx = &self.ctx;
+        let (uniform, inputs) = ctx.scoped(pass.what, || {
+            let uniform = upload(
+                ctx,
+                "trace parameters",
+                bytemuck::bytes_of(&pass.block),
+                wgpu::BufferUsages::UNIFORM,
+            );
+            let inputs: Vec<(u32, wgpu::Buffer)> = pass
+                .inputs
+                .iter()
+                .map(|&(binding, bytes, usage)| (binding, upload(ctx, pass.what, bytes, usage)))
+                .collect();
+            (uniform, inputs)
+        })?;
+        let mut bindings = vec![
+            (0, uniform.as_entire_binding()),
+            (1, scene.nodes.as_entire_binding()),
+            (2, scene.tris.as_entire_binding()),
+            (3, scene.prim_ids.as_entire_binding()),
+        ];
+        bindings.extend(inputs.iter().map(|(b, buf)| (*b, buf.as_entire_binding())));
+        run_1d_at(
+            ctx,
+            pass.what,
+            pipeline,
+            &bindings,
+            8,
+            pass.items as u64,
+            pass.out_bytes,
+            true,
+        )
+    }
+
     /// [`run`](Self::run) with its batches timed, and its wall time.
     fn run_timed(&self, rays: &[GpuRay], any_hit: bool) -> Result<(Vec<HitGpu>, TraceTimes)> {
         let t = std::time::Instant::now();
@@ -418,10 +482,7 @@ impl GpuTracer {
                 })
                 .collect();
             let (hits, ms) = self.run_batch(scene, &input, any_hit)?;
-            times.batches += 1;
-            if let Some(ms) = ms {
-                times.gpu_pass_ms = Some(times.gpu_pass_ms.unwrap_or(0.0) + ms);
-            }
+            times.add_batch(ms);
             out.extend(
                 hits.into_iter()
                     .zip(valid)

@@ -97,7 +97,17 @@ fn the_polar_table_segment_matches_its_rust_struct() {
     // every segment after the first.
     let shader = fovea_gpu::mapping::polar_table::SHADER;
     let (name, rust_size) = fovea_gpu::mapping::polar_table::SEGMENT_STRUCT;
-    let (module, _) = validate(&shader);
+    assert_eq!(
+        struct_span(&shader, name),
+        rust_size,
+        "{}: WGSL {name}",
+        shader.file
+    );
+}
+
+/// The size in bytes of WGSL struct `name` of `shader`'s module, as naga lays it out.
+fn struct_span(shader: &ShaderSource, name: &str) -> usize {
+    let (module, _) = validate(shader);
     let ty = module
         .types
         .iter()
@@ -107,7 +117,7 @@ fn the_polar_table_segment_matches_its_rust_struct() {
     let naga::TypeInner::Struct { span, .. } = &ty.inner else {
         panic!("{}: {name} is not a struct", shader.file)
     };
-    assert_eq!(*span as usize, rust_size, "{}: WGSL {name}", shader.file);
+    *span as usize
 }
 
 #[test]
@@ -115,7 +125,6 @@ fn the_ray_generation_records_match_their_rust_structs() {
     // The camera block and the per-ray records of `ray_generation.wgsl` (appended to the trace
     // module): a size mismatch would misread every field or every ray after the first.
     let shader = fovea_gpu::trace::SHADER;
-    let (module, _) = validate(&shader);
     for (name, rust_size) in [
         (
             "RayGenCamera",
@@ -124,16 +133,12 @@ fn the_ray_generation_records_match_their_rust_structs() {
         ("PolarRay", std::mem::size_of::<fovea_gpu::GpuPolarRay>()),
         fovea_gpu::ray_generation::POLAR_HIT_STRUCT,
     ] {
-        let ty = module
-            .types
-            .iter()
-            .find(|(_, t)| t.name.as_deref() == Some(name))
-            .unwrap_or_else(|| panic!("{}: no struct {name}", shader.file))
-            .1;
-        let naga::TypeInner::Struct { span, .. } = &ty.inner else {
-            panic!("{}: {name} is not a struct", shader.file)
-        };
-        assert_eq!(*span as usize, rust_size, "{}: WGSL {name}", shader.file);
+        assert_eq!(
+            struct_span(&shader, name),
+            rust_size,
+            "{}: WGSL {name}",
+            shader.file
+        );
     }
 }
 
