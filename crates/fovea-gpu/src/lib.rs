@@ -18,6 +18,9 @@
 //!   ([`GpuTracer`]).
 //! * [`direct_light`]: the renderer's direct lighting of surface samples, shadow rays
 //!   through the same BVH ([`GpuTracer::direct_light_timed`]).
+//! * [`dof`]: the signed CoC map from depth with the eye model and the scatter-as-gather
+//!   depth-of-field filter ([`GpuDof`]).
+//! * [`tonemap`]: exposure, tone curve and 8-bit sRGB encoding ([`GpuToneMap`]).
 //! * [`shaders`]: the WGSL sources, validated with naga in a plain `cargo test`.
 //!
 //! ```no_run
@@ -43,20 +46,24 @@
 pub mod backend;
 pub mod device;
 pub mod direct_light;
+pub mod dof;
 pub mod error;
 pub mod mapping;
 pub mod reconstruct;
 pub mod shaders;
 mod timestamps;
+pub mod tonemap;
 pub mod trace;
 mod transfer;
 
 pub use backend::{BackendChoice, Resolved};
 pub use device::{AdapterSummary, DeviceKind, GpuContext, GpuRequest};
 pub use direct_light::{DirectLight, GpuLight, GpuSurface};
+pub use dof::{DofTimes, GpuDof};
 pub use error::{GpuError, Result};
 pub use mapping::{Direction, GpuMapping};
 pub use reconstruct::{GpuReconstructor, ReconstructTimes};
+pub use tonemap::GpuToneMap;
 pub use trace::{BvhStats, DirectLightModel, GpuHit, GpuRay, GpuTracer, TraceTimes};
 
 /// Every WGSL module of the crate, as the device compiles it.
@@ -67,4 +74,7 @@ pub const ALL_SHADERS: &[shaders::ShaderSource] = &[
     mapping::polar_table::SHADER,
     reconstruct::SHADER,
     trace::SHADER,
+    dof::COC_SHADER,
+    dof::GATHER_SHADER,
+    tonemap::SHADER,
 ];
