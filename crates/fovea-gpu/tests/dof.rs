@@ -49,10 +49,11 @@ fn compare(name: &str, gpu: &Image<Rgb>, cpu: &Image<Rgb>) -> (f32, usize) {
     for (i, (g, c)) in gpu.data().iter().zip(cpu.data()).enumerate() {
         for k in 0..3 {
             let d = (g[k] - c[k]).abs();
-            if !(g[k] == c[k]) {
+            if g[k] != c[k] {
                 differ += 1;
             }
-            if !(d <= worst) {
+            // A NaN difference is the worst of all (and fails the bound).
+            if d.is_nan() || d > worst {
                 worst = d;
                 at = i;
             }

@@ -42,7 +42,7 @@ fn tone_curve_bytes_equal_the_cpu() {
         3e38,
         1e-40,
     ]);
-    while values.len() % 3 != 0 {
+    while !values.len().is_multiple_of(3) {
         values.push(0.5);
     }
     let px: Vec<[f32; 3]> = values.chunks(3).map(|c| [c[0], c[1], c[2]]).collect();

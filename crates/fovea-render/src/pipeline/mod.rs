@@ -333,11 +333,11 @@ pub fn render_planned<'c>(
     let t = Stopwatch::start();
     let mut dof_backend = reconstruct::CPU.to_string();
     let coc = match screen_post::depth_of_field(plan, camera, &color, &depth, ctx.dof_executor())? {
-        Some((blurred, coc, backend)) => {
-            ctx.keep_spare(std::mem::replace(&mut color, blurred));
+        Some(out) => {
+            ctx.keep_spare(std::mem::replace(&mut color, out.color));
             times.add(Stage::Dof, &t);
-            dof_backend = backend;
-            Some(coc)
+            dof_backend = out.backend;
+            Some(out.coc_px)
         }
         None => None,
     };

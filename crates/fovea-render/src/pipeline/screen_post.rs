@@ -60,16 +60,25 @@ pub fn contrast(plan: &FramePlan, color: &Image<Rgb>) -> Result<Option<Image<Rgb
     Ok(Some(enhance(color, c, &ecc, &|e| lut.at(e as f64))?))
 }
 
+/// What [`depth_of_field`] produced.
+pub struct DofOutput {
+    /// The blurred image.
+    pub color: Image<Rgb>,
+    /// The signed CoC map, pixels.
+    pub coc_px: Image<f32>,
+    /// The backend that ran it: `cpu` or the executor's name.
+    pub backend: String,
+}
+
 /// Depth of field of `color` with its `depth`, when the plan has DOF and a focus: the blurred
-/// image, the signed CoC map (pixels) and the backend that ran it (`cpu` or the executor's
-/// name), or `None`. `executor` runs it where it supports the plan's filter and CoC model.
+/// image, the signed CoC map (pixels) and the backend that ran it, or `None`. `executor` runs it where it supports the plan's filter and CoC model.
 pub fn depth_of_field(
     plan: &FramePlan,
     camera: &EyeCamera,
     color: &Image<Rgb>,
     depth: &Image<f32>,
     executor: Option<&mut (dyn DofExecutor + 'static)>,
-) -> Result<Option<(Image<Rgb>, Image<f32>, String)>> {
+) -> Result<Option<DofOutput>> {
     let (Some(d), Some(focus_m)) = (&plan.settings.dof, plan.focus_m()) else {
         return Ok(None);
     };
@@ -83,7 +92,11 @@ pub fn depth_of_field(
                     backend: ex.backend().to_string(),
                     message,
                 })?;
-            return Ok(Some((blurred, coc, ex.backend().to_string())));
+            return Ok(Some(DofOutput {
+                color: blurred,
+                coc_px: coc,
+                backend: ex.backend().to_string(),
+            }));
         }
     }
     let p = plan.eye.gaze.point;
@@ -95,5 +108,9 @@ pub fn depth_of_field(
         focus_m,
         [p.x_px as f32, p.y_px as f32],
     )?;
-    Ok(Some((r.color, r.coc_px, CPU.to_string())))
+    Ok(Some(DofOutput {
+        color: r.color,
+        coc_px: r.coc_px,
+        backend: CPU.to_string(),
+    }))
 }
