@@ -424,6 +424,40 @@ mod tests {
     }
 
     #[test]
+    fn exported_constants_reproduce_the_map() {
+        // What another executor evaluates from `coc_constants` is the CPU's CoC.
+        for model in [CocModel::ThinLens, CocModel::Stabilised] {
+            for focus in [0.4, 1.0, 3.0, f64::INFINITY] {
+                let p = params(model);
+                let k = coc_constants(&p, Metres(focus)).unwrap();
+                let eval = |d: f64| -> f64 {
+                    let c = match k.form {
+                        CocForm::ThinLens {
+                            px_per_dioptre,
+                            inv_focus_per_m,
+                        } => px_per_dioptre * (inv_focus_per_m - 1.0 / d),
+                        CocForm::Linear { px_per_m, focus_m } => (d - focus_m) * px_per_m,
+                        CocForm::Zero => 0.0,
+                        CocForm::Other => panic!("{model:?} has a closed form"),
+                    };
+                    c.clamp(-k.max_coc_px, k.max_coc_px)
+                };
+                for d in [0.05, 0.3, 0.9, 2.0, 7.5, 100.0] {
+                    let want = coc_px(&p, Metres(focus), d).unwrap();
+                    // Depths are f32 images: the CPU rounds them first.
+                    let got = eval(d as f32 as f64) as f32 as f64;
+                    assert_eq!(got, want, "{model:?} focus {focus} depth {d}");
+                }
+                let no_hit = coc_px(&p, Metres(focus), f64::INFINITY).unwrap();
+                assert_eq!(k.no_hit_coc_px as f64, no_hit, "{model:?} focus {focus}");
+            }
+        }
+        let t = params(CocModel::TrackingAware { uncertainty_m: 0.2 });
+        assert_eq!(coc_constants(&t, Metres(1.0)).unwrap().form, CocForm::Other);
+        assert!(coc_constants(&t, Metres(f64::NAN)).is_err());
+    }
+
+    #[test]
     fn map_matches_pointwise() {
         let p = params(CocModel::ThinLens);
         let depth = Image::from_vec(3, 1, vec![0.5f32, f32::NAN, 3.0]).unwrap();
