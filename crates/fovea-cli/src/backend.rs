@@ -4,8 +4,10 @@
 //! — and computes the lights' part of direct shading (the BRDF, the lights' falloff, their
 //! shadow rays: `GpuTracer::direct_light_timed`), while the surfaces and the environment's
 //! estimator stay on the CPU; and it runs the reconstruct stage's lookup of polar
-//! buffers (VaFR, KFR, LaFR, visual-polar, liu-hybrid; `fovea_gpu::GpuReconstructor`). Every
-//! other stage runs on the CPU.
+//! buffers (VaFR, KFR, LaFR, visual-polar, liu-hybrid; `fovea_gpu::GpuReconstructor`), and
+//! the screen post's depth of field with the `gather` filter (the eye's CoC map and the
+//! scatter-as-gather filter, thin-lens or stabilised CoC; `fovea_gpu::GpuDof`). Every other
+//! stage runs on the CPU.
 //!
 //! * `cpu`: no GPU is looked for.
 //! * `gpu`: the best adapter there is (lavapipe included); none is a one-line error, so a run
@@ -22,7 +24,7 @@ use anyhow::Result;
 use serde::Serialize;
 
 use fovea_core::mapping::FoveationMapping;
-use fovea_render::pipeline::{FrameContext, ReconstructExecutor, TraceExecutor};
+use fovea_render::pipeline::{DofExecutor, FrameContext, ReconstructExecutor, TraceExecutor};
 use fovea_render::world::World;
 
 use crate::choices::BackendArg;
@@ -57,6 +59,19 @@ pub struct GpuTraceMs {
     pub total_ms: f64,
 }
 
+/// The GPU depth of field's own times of the last frame (ms), as JSON.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct GpuDofMs {
+    /// Buffers, upload, recording, submission.
+    pub upload_ms: f64,
+    /// Submission to the images filled (GPU work, readback).
+    pub run_and_readback_ms: f64,
+    /// The CoC and gather passes alone, from timestamps (when the device has them).
+    pub gpu_pass_ms: Option<f64>,
+    /// All of it, wall ms.
+    pub total_ms: f64,
+}
+
 /// What `--backend` resolved to for one frame.
 pub struct Backend {
     /// What was asked for.
@@ -69,10 +84,14 @@ pub struct Backend {
     pub executor: Option<Box<dyn ReconstructExecutor>>,
     /// The trace executor to plug into the frame's context.
     pub tracer: Option<Box<dyn TraceExecutor>>,
+    /// The depth-of-field executor to plug into the frame's context.
+    pub dof: Option<Box<dyn DofExecutor>>,
     /// The GPU's BVH, when it traces.
     pub gpu_bvh: Option<serde_json::Value>,
     /// Filled by the executor after each frame.
     pub times: Arc<Mutex<Option<GpuReconstructMs>>>,
+    /// Filled by the depth-of-field executor after each frame it ran.
+    pub dof_times: Arc<Mutex<Option<GpuDofMs>>>,
     /// Filled by the trace executor after each frame: its primary rays.
     pub trace_times: Arc<Mutex<Option<GpuTraceMs>>>,
     /// Filled by the trace executor after each frame: the shade stage's shadow rays.
@@ -96,8 +115,10 @@ impl Backend {
             adapter: None,
             executor: None,
             tracer: None,
+            dof: None,
             gpu_bvh: None,
             times: Arc::default(),
+            dof_times: Arc::default(),
             trace_times: Arc::default(),
             shadow_times: Arc::default(),
             direct_times: Arc::default(),
@@ -119,6 +140,9 @@ impl Backend {
         if let Some(executor) = self.executor.take() {
             ctx.set_reconstructor(executor);
         }
+        if let Some(dof) = self.dof.take() {
+            ctx.set_dof_executor(dof);
+        }
     }
 
     /// The JSON of the frame's stats: what was asked, what ran, which stage ran where.
@@ -136,6 +160,7 @@ impl Backend {
                 let on = match k {
                     Stage::Reconstruct => reconstruct,
                     Stage::Trace => trace,
+                    Stage::Dof => frame.dof_backend.as_str(),
                     _ => "cpu",
                 };
                 (k.name().to_string(), serde_json::Value::from(on))
@@ -147,6 +172,7 @@ impl Backend {
             "adapter": self.adapter,
             "stages": per_stage,
             "gpu_reconstruct": *self.times.lock().unwrap_or_else(|e| e.into_inner()),
+            "gpu_dof": *self.dof_times.lock().unwrap_or_else(|e| e.into_inner()),
             "gpu_trace": *self.trace_times.lock().unwrap_or_else(|e| e.into_inner()),
             "gpu_shadow": *self.shadow_times.lock().unwrap_or_else(|e| e.into_inner()),
             "gpu_direct_light": *self.direct_times.lock().unwrap_or_else(|e| e.into_inner()),
@@ -156,6 +182,7 @@ impl Backend {
                 "shadow": frame.shadow_backend,
             },
             "direct_light": frame.direct_light_backend,
+            "dof": frame.dof_backend,
             "cpu_emulated": self.cpu_emulated,
             "gpu_bvh": self.gpu_bvh,
         })
@@ -261,7 +288,7 @@ fn gpu(requested: BackendArg, _world: &World, _frame_bytes: u64) -> Result<Backe
 
 #[cfg(feature = "gpu")]
 fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend> {
-    use fovea_gpu::{BackendChoice, GpuReconstructor, GpuRequest, GpuTracer, Resolved};
+    use fovea_gpu::{BackendChoice, GpuDof, GpuReconstructor, GpuRequest, GpuTracer, Resolved};
     let choice = match requested {
         BackendArg::Gpu => BackendChoice::Gpu,
         _ => BackendChoice::Auto,
@@ -293,9 +320,14 @@ fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend
     let trace_times = Arc::new(Mutex::new(None));
     let shadow_times = Arc::new(Mutex::new(None));
     let direct_times = Arc::new(Mutex::new(None));
+    let dof_times = Arc::new(Mutex::new(None));
     let executor = GpuExecutor {
         gpu: GpuReconstructor::new(&ctx)?,
         times: times.clone(),
+    };
+    let dof = GpuDofExecutor {
+        gpu: GpuDof::new(&ctx)?,
+        times: dof_times.clone(),
     };
     Ok(Backend {
         requested,
@@ -309,8 +341,10 @@ fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend
             shadow_times: shadow_times.clone(),
             direct_times: direct_times.clone(),
         })),
+        dof: Some(Box::new(dof)),
         gpu_bvh: Some(gpu_bvh),
         times,
+        dof_times,
         trace_times,
         shadow_times,
         direct_times,
@@ -511,6 +545,66 @@ impl ReconstructExecutor for GpuExecutor {
             });
         }
         Ok(())
+    }
+}
+
+/// `fovea_gpu::GpuDof` as the pipeline's depth-of-field executor: the gather filter (its
+/// default parameters, as `FilterKind::Gather` builds it) on the GPU's own CoC map.
+#[cfg(feature = "gpu")]
+struct GpuDofExecutor {
+    gpu: fovea_gpu::GpuDof,
+    times: Arc<Mutex<Option<GpuDofMs>>>,
+}
+
+#[cfg(feature = "gpu")]
+impl DofExecutor for GpuDofExecutor {
+    fn backend(&self) -> &str {
+        "gpu"
+    }
+
+    fn supports(
+        &self,
+        filter: fovea_post::dof::FilterKind,
+        coc_model: &fovea_post::dof::coc::CocModel,
+    ) -> bool {
+        filter == fovea_post::dof::FilterKind::Gather && fovea_gpu::GpuDof::supports_coc(coc_model)
+    }
+
+    fn depth_of_field(
+        &mut self,
+        filter: fovea_post::dof::FilterKind,
+        coc: &fovea_post::dof::coc::CocParams,
+        focus_m: f64,
+        color: &fovea_core::Image<fovea_post::Rgb>,
+        depth_m: &fovea_core::Image<f32>,
+    ) -> std::result::Result<(fovea_core::Image<fovea_post::Rgb>, fovea_core::Image<f32>), String>
+    {
+        if filter != fovea_post::dof::FilterKind::Gather {
+            return Err(format!(
+                "the {} filter is not on the GPU; use --backend cpu",
+                filter.name()
+            ));
+        }
+        let gather = fovea_post::dof::gather::ScatterAsGather::default();
+        let (blurred, coc_px, t) = self
+            .gpu
+            .coc_and_gather(
+                &gather,
+                coc,
+                fovea_core::units::Metres(focus_m),
+                color,
+                depth_m,
+            )
+            .map_err(|e| e.to_string())?;
+        if let Ok(mut slot) = self.times.lock() {
+            *slot = Some(GpuDofMs {
+                upload_ms: t.upload_ms,
+                run_and_readback_ms: t.run_and_readback_ms,
+                gpu_pass_ms: t.gpu_pass_ms,
+                total_ms: t.total_ms,
+            });
+        }
+        Ok((blurred, coc_px))
     }
 }
 

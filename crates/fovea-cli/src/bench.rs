@@ -25,7 +25,7 @@ use fovea_render::plan::FramePlan;
 use fovea_render::world::World;
 use fovea_render::RenderError;
 
-use crate::backend::{GpuReconstructMs, GpuTraceMs, Preflight};
+use crate::backend::{GpuDofMs, GpuReconstructMs, GpuTraceMs, Preflight};
 use crate::choices::{BackendArg, EnvLightChoice, Eyes, Shading};
 use crate::common::{display_of, thousands, FrameOptions, MethodOptions};
 use crate::dof_args::EyeArgs;
@@ -254,6 +254,7 @@ struct ExecutorTimes {
     trace: Arc<Mutex<Option<GpuTraceMs>>>,
     shadow: Arc<Mutex<Option<GpuTraceMs>>>,
     direct_light: Arc<Mutex<Option<GpuTraceMs>>>,
+    dof: Arc<Mutex<Option<GpuDofMs>>>,
 }
 
 impl BenchExecutors for BenchBackend {
@@ -274,6 +275,7 @@ impl BenchExecutors for BenchBackend {
             trace: backend.trace_times.clone(),
             shadow: backend.shadow_times.clone(),
             direct_light: backend.direct_times.clone(),
+            dof: backend.dof_times.clone(),
         });
         backend.install(ctx);
         Ok(())
@@ -286,6 +288,7 @@ impl BenchExecutors for BenchBackend {
             trace,
             shadow,
             direct_light,
+            dof,
         }) = &self.times
         {
             if let Some(ms) = take(direct_light).and_then(|t| t.gpu_pass_ms) {
@@ -299,6 +302,9 @@ impl BenchExecutors for BenchBackend {
             }
             if let Some(ms) = take(reconstruct).and_then(|t| t.gpu_pass_ms) {
                 out.insert("reconstruct".to_string(), ms);
+            }
+            if let Some(ms) = take(dof).and_then(|t| t.gpu_pass_ms) {
+                out.insert("dof".to_string(), ms);
             }
         }
         out

@@ -652,6 +652,7 @@ fn backend_line(
         ("shadow rays", &s.shadow_backend),
         ("direct light", &s.direct_light_backend),
         ("reconstruct", &s.reconstruct_backend),
+        ("depth of field", &s.dof_backend),
     ]
     .into_iter()
     .filter(|(_, b)| b.as_str() != "cpu")

@@ -175,6 +175,20 @@ fn gpu_frames_are_the_cpu_frames_method_by_method() {
                 for stage in ["trace", "shadow", "direct_light"] {
                     assert_eq!(s["frame"][format!("{stage}_backend")], "gpu", "{name}");
                 }
+                // The gather DOF (the eye's CoC map and the filter) runs on the GPU too; a
+                // frame without a filter has none on the GPU.
+                let dof_on = if dof == "gather" { "gpu" } else { "cpu" };
+                assert_eq!(s["frame"]["dof_backend"], dof_on, "{name}");
+                assert_eq!(s["backend"]["dof"], dof_on, "{name}");
+                if dof == "gather" {
+                    assert_eq!(s["backend"]["stages"]["dof"], "gpu", "{name}");
+                    assert!(s["backend"]["gpu_dof"]["total_ms"].is_number(), "{name}");
+                    let cpu_stats = stats(dir.path(), &format!("{name}-cpu"));
+                    assert_eq!(cpu_stats["frame"]["dof_backend"], "cpu", "{name}");
+                } else {
+                    let stage = s["backend"]["stages"].get("dof");
+                    assert!(stage.is_none_or(|v| v == "cpu"), "{name}: {stage:?}");
+                }
                 // "display 320x180 …: 1.23 px/deg across, …"
                 let stdout = String::from_utf8_lossy(&cpu.stdout);
                 let ppd: f32 = stdout

@@ -20,6 +20,9 @@
 //!   through the same BVH ([`GpuTracer::direct_light_timed`]).
 //! * [`ray_generation`]: a polar buffer's primary rays generated from their polar
 //!   coordinates and traced ([`GpuTracer::closest_hits_polar_timed`]).
+//! * [`dof`]: the signed CoC map from depth with the eye model and the scatter-as-gather
+//!   depth-of-field filter ([`GpuDof`]).
+//! * [`tonemap`]: exposure, tone curve and 8-bit sRGB encoding ([`GpuToneMap`]).
 //! * [`shaders`]: the WGSL sources, validated with naga in a plain `cargo test`.
 //!
 //! ```no_run
@@ -45,22 +48,26 @@
 pub mod backend;
 pub mod device;
 pub mod direct_light;
+pub mod dof;
 pub mod error;
 pub mod mapping;
 pub mod ray_generation;
 pub mod reconstruct;
 pub mod shaders;
 mod timestamps;
+pub mod tonemap;
 pub mod trace;
 mod transfer;
 
 pub use backend::{BackendChoice, Resolved};
 pub use device::{AdapterSummary, DeviceKind, GpuContext, GpuRequest};
 pub use direct_light::{DirectLight, GpuLight, GpuSurface};
+pub use dof::{DofTimes, GpuDof};
 pub use error::{GpuError, Result};
 pub use mapping::{Direction, GpuMapping};
 pub use ray_generation::{GpuPolarRay, RayGenCamera};
 pub use reconstruct::{GpuReconstructor, ReconstructTimes};
+pub use tonemap::GpuToneMap;
 pub use trace::{BvhStats, DirectLightModel, GpuHit, GpuRay, GpuTracer, TraceTimes};
 
 /// Every WGSL module of the crate, as the device compiles it.
@@ -71,4 +78,7 @@ pub const ALL_SHADERS: &[shaders::ShaderSource] = &[
     mapping::polar_table::SHADER,
     reconstruct::SHADER,
     trace::SHADER,
+    dof::COC_SHADER,
+    dof::GATHER_SHADER,
+    tonemap::SHADER,
 ];

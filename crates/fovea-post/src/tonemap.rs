@@ -59,6 +59,13 @@ pub fn to_srgb8(img: &Image<Rgb>, exposure_stops: f32, curve: ToneCurve) -> Vec<
     out
 }
 
+/// The 255 linear thresholds of the 8-bit sRGB encoding [`to_srgb8`] uses: the code of a
+/// linear value `x ∈ [0, ∞)` is the number of thresholds `≤ x` (the same byte as
+/// `(linear_to_srgb(x)·255 + ½) as u8`). For another executor of the encoding (the GPU's).
+pub fn srgb8_thresholds() -> [f32; 255] {
+    Srgb8Table::new().thresholds
+}
+
 /// 8-bit sRGB encoding without `powf` per value: `thresholds[c]` is the linear value where
 /// the rounded code steps from `c` to `c + 1`, so a code is the number of thresholds at or
 /// below the value (a binary search over 255 entries). It gives the same bytes as

@@ -161,6 +161,70 @@ pub fn coc_map(params: &CocParams, focus: Metres, depth_m: &Image<f32>) -> Resul
     Ok(out)
 }
 
+/// The constants of a CoC map for one focus, for another executor of [`coc_map`] (the
+/// GPU's): with `d` the depth in metres (NaN or ≤ 0 counting as `+∞`), the map is
+/// `clamp(c(d), −max_coc_px, max_coc_px)`, NaN → 0, with `c(+∞) = no_hit_coc_px` and for
+/// finite `d`:
+///
+/// * [`CocForm::ThinLens`]: `c = px_per_dioptre · (inv_focus_per_m − 1/d)`;
+/// * [`CocForm::Linear`]: `c = (d − focus_m) · px_per_m` (Eq. 13, scaled);
+/// * [`CocForm::Zero`]: `c = 0`;
+/// * [`CocForm::Other`]: a model with no closed form here (tracking-aware).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CocConstants {
+    /// The form of the model at this focus.
+    pub form: CocForm,
+    /// Largest CoC magnitude, pixels.
+    pub max_coc_px: f64,
+    /// The clamped CoC of a pixel with no hit (`d = +∞`), pixels.
+    pub no_hit_coc_px: f32,
+}
+
+/// The closed form of a CoC model at one focus (see [`CocConstants`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CocForm {
+    /// `px_per_dioptre · (inv_focus_per_m − 1/d)`.
+    ThinLens {
+        /// `τ·f_px`, pixels per dioptre.
+        px_per_dioptre: f64,
+        /// `1/F`, dioptres (0 for focus at infinity).
+        inv_focus_per_m: f64,
+    },
+    /// `(d − focus_m) · px_per_m`.
+    Linear {
+        /// Pixels per metre beyond the focus.
+        px_per_m: f64,
+        /// The focus, metres.
+        focus_m: f64,
+    },
+    /// Everything in focus.
+    Zero,
+    /// No closed form exported.
+    Other,
+}
+
+/// The constants of `params`' CoC map focused at `focus` (errors as [`coc_map`]).
+pub fn coc_constants(params: &CocParams, focus: Metres) -> Result<CocConstants> {
+    let f = CocFn::new(params, focus)?;
+    let form = match &f.kind {
+        CocKind::ThinLens { k, inv_f } => CocForm::ThinLens {
+            px_per_dioptre: *k,
+            inv_focus_per_m: *inv_f,
+        },
+        CocKind::Stabilised { scale, focus } => CocForm::Linear {
+            px_per_m: *scale,
+            focus_m: *focus,
+        },
+        CocKind::Zero => CocForm::Zero,
+        CocKind::Tracking(..) => CocForm::Other,
+    };
+    Ok(CocConstants {
+        form,
+        max_coc_px: f.max,
+        no_hit_coc_px: f.eval(f64::INFINITY),
+    })
+}
+
 /// A CoC model evaluated for one focus: precomputed constants.
 enum CocKind {
     ThinLens { k: f64, inv_f: f64 },
@@ -357,6 +421,40 @@ mod tests {
         assert!(CocModel::parse("tracking-aware:0.3").is_ok());
         assert!(CocModel::parse("tracking-aware:-1").is_err());
         assert!(CocModel::parse("gauss").is_err());
+    }
+
+    #[test]
+    fn exported_constants_reproduce_the_map() {
+        // What another executor evaluates from `coc_constants` is the CPU's CoC.
+        for model in [CocModel::ThinLens, CocModel::Stabilised] {
+            for focus in [0.4, 1.0, 3.0, f64::INFINITY] {
+                let p = params(model);
+                let k = coc_constants(&p, Metres(focus)).unwrap();
+                let eval = |d: f64| -> f64 {
+                    let c = match k.form {
+                        CocForm::ThinLens {
+                            px_per_dioptre,
+                            inv_focus_per_m,
+                        } => px_per_dioptre * (inv_focus_per_m - 1.0 / d),
+                        CocForm::Linear { px_per_m, focus_m } => (d - focus_m) * px_per_m,
+                        CocForm::Zero => 0.0,
+                        CocForm::Other => panic!("{model:?} has a closed form"),
+                    };
+                    c.clamp(-k.max_coc_px, k.max_coc_px)
+                };
+                for d in [0.05, 0.3, 0.9, 2.0, 7.5, 100.0] {
+                    let want = coc_px(&p, Metres(focus), d).unwrap();
+                    // Depths are f32 images: the CPU rounds them first.
+                    let got = eval(d as f32 as f64) as f32 as f64;
+                    assert_eq!(got, want, "{model:?} focus {focus} depth {d}");
+                }
+                let no_hit = coc_px(&p, Metres(focus), f64::INFINITY).unwrap();
+                assert_eq!(k.no_hit_coc_px as f64, no_hit, "{model:?} focus {focus}");
+            }
+        }
+        let t = params(CocModel::TrackingAware { uncertainty_m: 0.2 });
+        assert_eq!(coc_constants(&t, Metres(1.0)).unwrap().form, CocForm::Other);
+        assert!(coc_constants(&t, Metres(f64::NAN)).is_err());
     }
 
     #[test]

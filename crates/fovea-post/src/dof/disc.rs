@@ -113,6 +113,11 @@ impl Disc {
         Self { offsets }
     }
 
+    /// Every offset `(dx, dy, |o|)`, sorted by distance (the order the gather visits them).
+    pub fn offsets(&self) -> &[(i32, i32, f32)] {
+        &self.offsets
+    }
+
     /// The offsets a disc of radius `radius_px` can cover (`|o| < r + ½`), centre first.
     #[inline]
     pub fn within(&self, radius_px: f32) -> &[(i32, i32, f32)] {
@@ -127,7 +132,7 @@ pub(crate) struct AreaLut {
     inv_area: Vec<f32>,
 }
 
-const LUT_STEPS_PER_PX: f32 = 16.0;
+pub(crate) const LUT_STEPS_PER_PX: f32 = 16.0;
 
 impl AreaLut {
     pub fn new(disc: &Disc, max_radius_px: f32) -> Self {
@@ -140,6 +145,11 @@ impl AreaLut {
             })
             .collect();
         Self { inv_area }
+    }
+
+    /// The tabulated `1 / A(½ + k/16)`, `k = 0, 1, …`.
+    pub fn table(&self) -> &[f32] {
+        &self.inv_area
     }
 
     /// `1 / A(radius_px)`, `radius_px ≥ ½`.
@@ -204,7 +214,7 @@ pub(crate) struct TileReach {
     reach_px: Vec<f32>,
 }
 
-const TILE: usize = 16;
+pub(crate) const TILE: usize = 16;
 
 impl TileReach {
     pub fn new<R: Radii>(radius_px: &[R], w: usize, h: usize, max_radius_px: f32) -> Self {

@@ -57,7 +57,8 @@
 use fovea_core::{FoveaError, Image, Result};
 
 use super::disc::{
-    check_max_radius, coverage, for_each_tap, map_pixels, AreaLut, Disc, Prepared, Radii, TileReach,
+    check_max_radius, coverage, for_each_tap, map_pixels, AreaLut, Disc, Prepared, Radii,
+    TileReach, LUT_STEPS_PER_PX, TILE,
 };
 use super::{DofFilter, DofInput};
 use crate::Rgb;
@@ -97,14 +98,7 @@ impl DofFilter for ScatterAsGather {
 
     fn apply(&self, input: &DofInput) -> Result<Image<Rgb>> {
         input.validate()?;
-        check_max_radius(self.max_radius_px, 0.5)?;
-        if !(self.depth_tolerance >= 0.0 && self.depth_tolerance < 1.0) {
-            return Err(FoveaError::invalid(
-                "depth_tolerance",
-                self.depth_tolerance,
-                "a relative tolerance in [0, 1)",
-            ));
-        }
+        self.validate()?;
         let prep = Prepared::new(input, self.max_radius_px);
         let planes = GatherPlanes {
             w: prep.w,
@@ -120,6 +114,53 @@ impl DofFilter for ScatterAsGather {
         };
         disc_gather(&planes, self.max_radius_px, occlusion, NO_MASK)
     }
+}
+
+impl ScatterAsGather {
+    /// Checks the parameters: `max_radius_px` in `[0.5, 256]`, `depth_tolerance` in `[0, 1)`.
+    pub fn validate(&self) -> Result<()> {
+        check_max_radius(self.max_radius_px, 0.5)?;
+        if !(self.depth_tolerance >= 0.0 && self.depth_tolerance < 1.0) {
+            return Err(FoveaError::invalid(
+                "depth_tolerance",
+                self.depth_tolerance,
+                "a relative tolerance in [0, 1)",
+            ));
+        }
+        Ok(())
+    }
+
+    /// The tables the filter builds once per call, for another executor of the same filter
+    /// (the GPU's): the disc's offsets in the order the gather visits them and the `1/A(r)`
+    /// table. Errors as [`Self::validate`].
+    pub fn tables(&self) -> Result<GatherTables> {
+        self.validate()?;
+        let disc = Disc::new(self.max_radius_px);
+        let area = AreaLut::new(&disc, self.max_radius_px);
+        Ok(GatherTables {
+            offsets: disc.offsets().to_vec(),
+            inv_area: area.table().to_vec(),
+            inv_area_steps_per_px: LUT_STEPS_PER_PX,
+            tile_px: TILE as u32,
+        })
+    }
+}
+
+/// The constant tables of [`ScatterAsGather`] ([`ScatterAsGather::tables`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct GatherTables {
+    /// Integer offsets `(dx, dy, |o|)` with `|o| ≤ max_radius_px + ½`, sorted by distance:
+    /// a pixel's gather visits the prefix with `|o| < search + ½`.
+    pub offsets: Vec<(i32, i32, f32)>,
+    /// `1/A(r)` at `r = ½ + k / inv_area_steps_per_px`; between entries the filter
+    /// interpolates linearly, `t = (r − ½)·steps`, `k = min(⌊t⌋, len − 2)`,
+    /// `f = min(t − k, 1)`.
+    pub inv_area: Vec<f32>,
+    /// Entries of `inv_area` per pixel of radius (16).
+    pub inv_area_steps_per_px: f32,
+    /// Side of the square tiles whose largest CoC radius (dilated by each neighbour tile's
+    /// reach) bounds a pixel's search, pixels (16).
+    pub tile_px: u32,
 }
 
 /// What [`disc_gather`] reads per pixel, sanitised: colour, depth (no NaN; `+∞` for no hit)

@@ -13,6 +13,7 @@ use fovea_post::inverse_map::SampleBuffers;
 use fovea_post::Rgb;
 
 use super::reconstruct::ReconstructExecutor;
+use super::screen_post::DofExecutor;
 use super::trace_shade::TraceExecutor;
 use super::{Frame, Prefill};
 use crate::error::{RenderError, Result};
@@ -49,6 +50,8 @@ pub struct FrameContext {
     reconstructor: Option<Box<dyn ReconstructExecutor>>,
     /// Another executor of the trace stage's ray casting (see [`Self::set_tracer`]).
     tracer: Option<Box<dyn TraceExecutor>>,
+    /// Another executor of the depth-of-field stage (see [`Self::set_dof_executor`]).
+    dof: Option<Box<dyn DofExecutor>>,
 }
 
 impl FrameContext {
@@ -202,6 +205,17 @@ impl FrameContext {
     /// supports, in every frame rendered with this context.
     pub fn set_reconstructor(&mut self, executor: Box<dyn ReconstructExecutor>) {
         self.reconstructor = Some(executor);
+    }
+
+    /// Runs the depth-of-field stage (CoC map and filter) on `executor` (e.g. the GPU's) for
+    /// the filters it supports, in every frame rendered with this context.
+    pub fn set_dof_executor(&mut self, executor: Box<dyn DofExecutor>) {
+        self.dof = Some(executor);
+    }
+
+    /// The executor of the depth-of-field stage, if one is plugged in.
+    pub(crate) fn dof_executor(&mut self) -> Option<&mut (dyn DofExecutor + 'static)> {
+        self.dof.as_deref_mut()
     }
 
     /// Screen-sized colour and depth buffers for `plan`'s display: the last frame's when they

@@ -44,6 +44,7 @@ pub mod trace_shade;
 pub use context::FrameContext;
 pub use fovea_core::mapping::footprint::sample_spread_rad;
 pub use reconstruct::ReconstructExecutor;
+pub use screen_post::DofExecutor;
 pub use timing::{Stage, StageMs, StageTimes, Stopwatch};
 pub use trace_shade::{PolarRay, TraceExecutor};
 
@@ -127,6 +128,10 @@ pub struct FrameStats {
     /// The backend that computed the lights' part of direct shading (their BRDF-weighted
     /// radiance behind their shadow rays): `cpu`, or the executor's name where it did.
     pub direct_light_backend: String,
+    /// The backend that ran the depth-of-field stage (CoC map and filter): `cpu`, or the
+    /// name of the [`screen_post::DofExecutor`] in the frame's context where it supports the
+    /// filter (`gpu` for `gather`).
+    pub dof_backend: String,
 }
 
 /// A rendered frame.
@@ -331,11 +336,13 @@ pub fn render_planned<'c>(
         times.add(Stage::Contrast, &t);
     }
     let t = Stopwatch::start();
-    let coc = match screen_post::depth_of_field(plan, camera, &color, &depth)? {
-        Some((blurred, coc)) => {
-            ctx.keep_spare(std::mem::replace(&mut color, blurred));
+    let mut dof_backend = reconstruct::CPU.to_string();
+    let coc = match screen_post::depth_of_field(plan, camera, &color, &depth, ctx.dof_executor())? {
+        Some(out) => {
+            ctx.keep_spare(std::mem::replace(&mut color, out.color));
             times.add(Stage::Dof, &t);
-            Some(coc)
+            dof_backend = out.backend;
+            Some(out.coc_px)
         }
         None => None,
     };
@@ -354,6 +361,7 @@ pub fn render_planned<'c>(
     stats.ray_generation_backend = casters.ray_generation;
     stats.shadow_backend = casters.shadow;
     stats.direct_light_backend = casters.direct_light;
+    stats.dof_backend = dof_backend;
     Ok(ctx.store(Frame {
         color,
         depth,
@@ -409,6 +417,7 @@ fn frame_stats(
         ray_generation_backend: trace_shade::CPU.to_string(),
         shadow_backend: trace_shade::CPU.to_string(),
         direct_light_backend: trace_shade::CPU.to_string(),
+        dof_backend: reconstruct::CPU.to_string(),
     }
 }
 
