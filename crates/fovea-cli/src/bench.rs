@@ -254,6 +254,7 @@ struct ExecutorTimes {
     trace: Arc<Mutex<Option<GpuTraceMs>>>,
     shadow: Arc<Mutex<Option<GpuTraceMs>>>,
     direct_light: Arc<Mutex<Option<GpuTraceMs>>>,
+    aa: Arc<Mutex<Option<crate::backend::GpuAaMs>>>,
 }
 
 impl BenchExecutors for BenchBackend {
@@ -274,6 +275,7 @@ impl BenchExecutors for BenchBackend {
             trace: backend.trace_times.clone(),
             shadow: backend.shadow_times.clone(),
             direct_light: backend.direct_times.clone(),
+            aa: backend.aa_times.clone(),
         });
         backend.install(ctx);
         Ok(())
@@ -286,8 +288,12 @@ impl BenchExecutors for BenchBackend {
             trace,
             shadow,
             direct_light,
+            aa,
         }) = &self.times
         {
+            if let Some(ms) = take(aa).and_then(|t| t.gpu_pass_ms) {
+                out.insert("aa".to_string(), ms);
+            }
             if let Some(ms) = take(direct_light).and_then(|t| t.gpu_pass_ms) {
                 out.insert("direct_light".to_string(), ms);
             }

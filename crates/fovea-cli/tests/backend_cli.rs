@@ -78,8 +78,9 @@ fn cpu_backend_reports_every_stage_on_the_cpu() {
     assert_eq!(s["backend"]["requested"], "cpu");
     assert_eq!(s["backend"]["adapter"], serde_json::Value::Null);
     assert_eq!(s["frame"]["reconstruct_backend"], "cpu");
+    assert_eq!(s["frame"]["aa_backend"], "cpu");
     let stages = s["backend"]["stages"].as_object().unwrap();
-    for k in ["plan", "trace", "shade", "reconstruct"] {
+    for k in ["plan", "trace", "shade", "aa", "reconstruct"] {
         assert_eq!(stages[k], "cpu", "{k}: {stages:?}");
     }
 }
@@ -172,6 +173,18 @@ fn gpu_frames_are_the_cpu_frames_method_by_method() {
                 let s = stats(dir.path(), &format!("{name}-gpu"));
                 for stage in ["trace", "shadow", "direct_light"] {
                     assert_eq!(s["frame"][format!("{stage}_backend")], "gpu", "{name}");
+                }
+                // Stage 5's filter (FXAA for VaFR, the Gaussian for KFR) runs on the GPU too;
+                // full resolution and Weier have none.
+                let aa_on = if matches!(method, "vafr" | "kfr") {
+                    "gpu"
+                } else {
+                    "cpu"
+                };
+                assert_eq!(s["frame"]["aa_backend"], aa_on, "{name}");
+                if aa_on == "gpu" {
+                    assert_eq!(s["backend"]["stages"]["aa"], "gpu", "{name}");
+                    assert_eq!(s["backend"]["gpu_aa"]["layers"], 1, "{name}");
                 }
                 // "display 320x180 …: 1.23 px/deg across, …"
                 let stdout = String::from_utf8_lossy(&cpu.stdout);
@@ -266,6 +279,8 @@ fn gpu_backend_traces_and_reconstructs_on_the_gpu() {
     let s = stats(dir.path(), "gpu");
     assert_eq!(s["frame"]["reconstruct_backend"], "gpu");
     assert_eq!(s["backend"]["stages"]["reconstruct"], "gpu");
+    assert_eq!(s["frame"]["aa_backend"], "gpu");
+    assert_eq!(s["backend"]["stages"]["aa"], "gpu");
     assert_eq!(s["frame"]["trace_backend"], "gpu");
     assert_eq!(s["backend"]["stages"]["trace"], "gpu");
     assert_eq!(s["backend"]["stages"]["shade"], "cpu");
@@ -306,7 +321,7 @@ fn gpu_backend_traces_and_reconstructs_on_the_gpu() {
     assert!(
         stdout.contains(
             "primary rays on the GPU, shadow rays on the GPU, direct light on the GPU, \
-             reconstruct on the GPU, every other stage on the CPU"
+             aa on the GPU, reconstruct on the GPU, every other stage on the CPU"
         ),
         "{stdout}"
     );

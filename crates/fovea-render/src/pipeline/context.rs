@@ -13,6 +13,7 @@ use fovea_post::inverse_map::SampleBuffers;
 use fovea_post::Rgb;
 
 use super::reconstruct::ReconstructExecutor;
+use super::sample_post::AaExecutor;
 use super::trace_shade::TraceExecutor;
 use super::{Frame, Prefill};
 use crate::error::{RenderError, Result};
@@ -49,6 +50,8 @@ pub struct FrameContext {
     reconstructor: Option<Box<dyn ReconstructExecutor>>,
     /// Another executor of the trace stage's ray casting (see [`Self::set_tracer`]).
     tracer: Option<Box<dyn TraceExecutor>>,
+    /// Another executor of the sample-space AA filter (see [`Self::set_anti_aliaser`]).
+    anti_aliaser: Option<Box<dyn AaExecutor>>,
 }
 
 impl FrameContext {
@@ -160,6 +163,18 @@ impl FrameContext {
     }
 
     /// The sample buffers [`samples_for`](Self::samples_for) prepared, and the executor of
+    /// the AA filter, if one is plugged in.
+    pub(crate) fn samples_and_anti_aliaser(
+        &mut self,
+    ) -> (&mut SampleBuffers, Option<&mut (dyn AaExecutor + 'static)>) {
+        let samples = self
+            .samples
+            .as_mut()
+            .expect("samples_for runs before the AA");
+        (samples, self.anti_aliaser.as_deref_mut())
+    }
+
+    /// The sample buffers [`samples_for`](Self::samples_for) prepared, and the executor of
     /// the reconstruct stage, if one is plugged in.
     pub(crate) fn samples_and_executor(
         &mut self,
@@ -202,6 +217,12 @@ impl FrameContext {
     /// supports, in every frame rendered with this context.
     pub fn set_reconstructor(&mut self, executor: Box<dyn ReconstructExecutor>) {
         self.reconstructor = Some(executor);
+    }
+
+    /// Runs the sample-space AA filter (FXAA, the 3×3 Gaussian) on `executor` (e.g. the GPU's)
+    /// for the modes and grids it supports, in every frame rendered with this context.
+    pub fn set_anti_aliaser(&mut self, executor: Box<dyn AaExecutor>) {
+        self.anti_aliaser = Some(executor);
     }
 
     /// Screen-sized colour and depth buffers for `plan`'s display: the last frame's when they
