@@ -540,6 +540,7 @@ fn cpu_bench_reports_every_stage_on_the_cpu_and_no_gpu_passes() {
     for r in runs {
         assert_eq!(r["stage_backends"]["trace"], "cpu", "{r}");
         assert_eq!(r["stage_backends"]["reconstruct"], "cpu", "{r}");
+        assert_eq!(r["stage_backends"]["aa"], "cpu", "{r}");
         assert!(r["gpu_pass_ms"].as_object().unwrap().is_empty(), "{r}");
         let fps = r["fps"].as_f64().unwrap();
         assert!(fps.is_finite() && fps > 0.0, "{r}");
@@ -633,7 +634,8 @@ fn bench_gpu_reports_pass_times_fps_and_speedup() {
     assert_eq!(vafr["stage_backends"]["trace"], "gpu", "{vafr}");
     assert_eq!(vafr["stage_backends"]["shadow_rays"], "gpu", "{vafr}");
     assert_eq!(vafr["stage_backends"]["reconstruct"], "gpu", "{vafr}");
-    for pass in ["trace", "direct_light", "shadow", "reconstruct"] {
+    assert_eq!(vafr["stage_backends"]["aa"], "gpu", "{vafr}");
+    for pass in ["trace", "direct_light", "shadow", "aa", "reconstruct"] {
         let ms = vafr["gpu_pass_ms"][pass].as_f64().unwrap_or(f64::NAN);
         assert!(ms.is_finite() && ms > 0.0, "{pass}: {vafr}");
     }
