@@ -521,10 +521,12 @@ impl AaExecutor for GpuAaExecutor {
     fn supports(
         &self,
         mode: fovea_render::pipeline::AaMode,
-        _grid: &fovea_post::grid::Grid,
+        grid: &fovea_post::grid::Grid,
     ) -> bool {
         use fovea_render::pipeline::AaMode;
-        matches!(mode, AaMode::Fxaa | AaMode::Gaussian)
+        // A buffer too large for the device (a full-resolution 8K frame with --aa forced)
+        // is filtered on the CPU.
+        matches!(mode, AaMode::Fxaa | AaMode::Gaussian) && self.gpu.fits(grid)
     }
 
     fn anti_alias(

@@ -246,6 +246,26 @@ impl GpuSampleAa {
         &self.ctx
     }
 
+    /// Whether a buffer of `grid` fits the device: its RGB texels in one storage binding (a
+    /// polar grid counted as its columns times its longest column, the smallest buffer that
+    /// holds it) and its rows within one dispatch. A caller that can fall back to the CPU
+    /// asks this first; [`Self::run`] checks the actual buffer.
+    pub fn fits(&self, grid: &Grid) -> bool {
+        let (w, h) = match grid {
+            Grid::Rect { width, height } => (*width, *height),
+            Grid::Polar { rows, .. } => {
+                (rows.len() as u32, rows.iter().copied().max().unwrap_or(0))
+            }
+        };
+        let limits = self.ctx.limits();
+        let binding = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size);
+        u64::from(w) * u64::from(h) * RGB_BYTES <= binding
+            && h <= limits.max_compute_workgroups_per_dimension
+            && w.div_ceil(WORKGROUP_SIZE) <= limits.max_compute_workgroups_per_dimension
+    }
+
     /// `filter` applied to the texels of `img` that `grid` marks valid (the others copied), as
     /// `fovea_post::fxaa::fxaa` / `fovea_post::gaussian_aa::gaussian_3x3` do on the CPU.
     pub fn run(

@@ -235,4 +235,16 @@ fn inconsistent_grids_are_errors() {
         assert!(matches!(e, GpuError::Input(_)), "{e}");
         assert!(!e.to_string().contains('\n'));
     }
+    // What a caller asks before it hands a buffer over: small grids fit, one of 40 G texels
+    // does not (the CPU filters it).
+    assert!(gpu.fits(&Grid::Rect {
+        width: 4,
+        height: 4
+    }));
+    assert!(!gpu.fits(&Grid::Rect {
+        width: 200_000,
+        height: 200_000
+    }));
+    let (_, grid) = polar(Method::Vafr);
+    assert!(gpu.fits(&grid));
 }
