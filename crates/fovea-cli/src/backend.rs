@@ -3,7 +3,8 @@
 //! rays (closest hits through a BVH, `fovea_gpu::GpuTracer`) and the shade stage's shadow rays
 //! — and computes the lights' part of direct shading (the BRDF, the lights' falloff, their
 //! shadow rays: `GpuTracer::direct_light_timed`), while the surfaces and the environment's
-//! estimator stay on the CPU; and it runs the reconstruct stage's lookup of polar
+//! estimator stay on the CPU; it runs the sample-space AA filter (FXAA with the polar seam,
+//! the 3×3 Gaussian; `fovea_gpu::GpuSampleAa`), the reconstruct stage's lookup of polar
 //! buffers (VaFR, KFR, LaFR, visual-polar, liu-hybrid; `fovea_gpu::GpuReconstructor`), and
 //! the screen post's depth of field with the `gather` filter (the eye's CoC map and the
 //! scatter-as-gather filter, thin-lens or stabilised CoC; `fovea_gpu::GpuDof`). Every other
@@ -24,7 +25,9 @@ use anyhow::Result;
 use serde::Serialize;
 
 use fovea_core::mapping::FoveationMapping;
-use fovea_render::pipeline::{DofExecutor, FrameContext, ReconstructExecutor, TraceExecutor};
+use fovea_render::pipeline::{
+    AaExecutor, DofExecutor, FrameContext, ReconstructExecutor, TraceExecutor,
+};
 use fovea_render::world::World;
 
 use crate::choices::BackendArg;
@@ -42,6 +45,22 @@ pub struct GpuReconstructMs {
     pub gpu_pass_ms: Option<f64>,
     /// Bands of rows the screen was split into.
     pub bands: u32,
+}
+
+/// The GPU AA filter's own times (ms), as JSON: sums over its calls (one per sample buffer:
+/// layers, eyes) since the slot was last taken.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct GpuAaMs {
+    /// The grid's tables on the CPU (0 when reused from the last frame).
+    pub tables_ms: f64,
+    /// Buffers, upload, recording, submission.
+    pub upload_ms: f64,
+    /// Submission to the image filled (GPU work, readback).
+    pub run_and_readback_ms: f64,
+    /// The compute passes alone, from timestamps (when the device has them).
+    pub gpu_pass_ms: Option<f64>,
+    /// Layers filtered.
+    pub layers: u32,
 }
 
 /// The GPU tracer's own times of a frame's primary rays (ms), as JSON: sums over the trace
@@ -86,12 +105,16 @@ pub struct Backend {
     pub tracer: Option<Box<dyn TraceExecutor>>,
     /// The depth-of-field executor to plug into the frame's context.
     pub dof: Option<Box<dyn DofExecutor>>,
+    /// The AA executor to plug into the frame's context.
+    pub anti_aliaser: Option<Box<dyn AaExecutor>>,
     /// The GPU's BVH, when it traces.
     pub gpu_bvh: Option<serde_json::Value>,
     /// Filled by the executor after each frame.
     pub times: Arc<Mutex<Option<GpuReconstructMs>>>,
     /// Filled by the depth-of-field executor after each frame it ran.
     pub dof_times: Arc<Mutex<Option<GpuDofMs>>>,
+    /// Filled by the AA executor: sums over its calls since the slot was last taken.
+    pub aa_times: Arc<Mutex<Option<GpuAaMs>>>,
     /// Filled by the trace executor after each frame: its primary rays.
     pub trace_times: Arc<Mutex<Option<GpuTraceMs>>>,
     /// Filled by the trace executor after each frame: the shade stage's shadow rays.
@@ -119,6 +142,8 @@ impl Backend {
             gpu_bvh: None,
             times: Arc::default(),
             dof_times: Arc::default(),
+            anti_aliaser: None,
+            aa_times: Arc::default(),
             trace_times: Arc::default(),
             shadow_times: Arc::default(),
             direct_times: Arc::default(),
@@ -126,9 +151,9 @@ impl Backend {
         }
     }
 
-    /// Whether a GPU runs a stage (the rays or the reconstruction).
+    /// Whether a GPU runs a stage (the rays, the AA or the reconstruction).
     pub fn on_gpu(&self) -> bool {
-        self.tracer.is_some() || self.executor.is_some()
+        self.tracer.is_some() || self.executor.is_some() || self.anti_aliaser.is_some()
     }
 
     /// Moves the GPU executors, if any, into a frame context (each frame rendered with it
@@ -142,6 +167,9 @@ impl Backend {
         }
         if let Some(dof) = self.dof.take() {
             ctx.set_dof_executor(dof);
+        }
+        if let Some(aa) = self.anti_aliaser.take() {
+            ctx.set_anti_aliaser(aa);
         }
     }
 
@@ -161,6 +189,7 @@ impl Backend {
                     Stage::Reconstruct => reconstruct,
                     Stage::Trace => trace,
                     Stage::Dof => frame.dof_backend.as_str(),
+                    Stage::Aa => frame.aa_backend.as_str(),
                     _ => "cpu",
                 };
                 (k.name().to_string(), serde_json::Value::from(on))
@@ -173,6 +202,7 @@ impl Backend {
             "stages": per_stage,
             "gpu_reconstruct": *self.times.lock().unwrap_or_else(|e| e.into_inner()),
             "gpu_dof": *self.dof_times.lock().unwrap_or_else(|e| e.into_inner()),
+            "gpu_aa": *self.aa_times.lock().unwrap_or_else(|e| e.into_inner()),
             "gpu_trace": *self.trace_times.lock().unwrap_or_else(|e| e.into_inner()),
             "gpu_shadow": *self.shadow_times.lock().unwrap_or_else(|e| e.into_inner()),
             "gpu_direct_light": *self.direct_times.lock().unwrap_or_else(|e| e.into_inner()),
@@ -329,11 +359,17 @@ fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend
         gpu: GpuDof::new(&ctx)?,
         times: dof_times.clone(),
     };
+    let aa_times = Arc::new(Mutex::new(None));
+    let anti_aliaser = GpuAaExecutor {
+        gpu: fovea_gpu::GpuSampleAa::new(&ctx)?,
+        times: aa_times.clone(),
+    };
     Ok(Backend {
         requested,
         describe: facts.describe,
         adapter: facts.adapter,
         executor: Some(Box::new(executor)),
+        anti_aliaser: Some(Box::new(anti_aliaser)),
         tracer: Some(Box::new(GpuTraceExecutor {
             gpu: tracer,
             fingerprint: world.tris_fingerprint,
@@ -345,6 +381,7 @@ fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend
         gpu_bvh: Some(gpu_bvh),
         times,
         dof_times,
+        aa_times,
         trace_times,
         shadow_times,
         direct_times,
@@ -605,6 +642,69 @@ impl DofExecutor for GpuDofExecutor {
             });
         }
         Ok((blurred, coc_px))
+    }
+}
+
+/// `fovea_gpu::GpuSampleAa` as the pipeline's AA executor (FXAA and the Gaussian, on rect and
+/// polar grids).
+#[cfg(feature = "gpu")]
+struct GpuAaExecutor {
+    gpu: fovea_gpu::GpuSampleAa,
+    /// The frame's AA times, summed over its layers until taken.
+    times: Arc<Mutex<Option<GpuAaMs>>>,
+}
+
+#[cfg(feature = "gpu")]
+impl AaExecutor for GpuAaExecutor {
+    fn backend(&self) -> &str {
+        "gpu"
+    }
+
+    fn supports(
+        &self,
+        mode: fovea_render::pipeline::AaMode,
+        grid: &fovea_post::grid::Grid,
+    ) -> bool {
+        use fovea_render::pipeline::AaMode;
+        // A buffer too large for the device (a full-resolution 8K frame with --aa forced)
+        // is filtered on the CPU.
+        matches!(mode, AaMode::Fxaa | AaMode::Gaussian) && self.gpu.fits(grid)
+    }
+
+    fn anti_alias(
+        &mut self,
+        mode: fovea_render::pipeline::AaMode,
+        params: &fovea_post::fxaa::FxaaParams,
+        grid: &fovea_post::grid::Grid,
+        color: &fovea_core::Image<fovea_post::Rgb>,
+    ) -> std::result::Result<fovea_core::Image<fovea_post::Rgb>, String> {
+        use fovea_gpu::SampleFilter;
+        use fovea_render::pipeline::AaMode;
+        let filter = match mode {
+            AaMode::Fxaa => SampleFilter::Fxaa(*params),
+            AaMode::Gaussian => SampleFilter::Gaussian,
+            other => {
+                return Err(format!(
+                    "AA mode {other:?} is not a filter; use --backend cpu"
+                ))
+            }
+        };
+        let (out, t) = self
+            .gpu
+            .run(color, grid, filter)
+            .map_err(|e| e.to_string())?;
+        if let Ok(mut slot) = self.times.lock() {
+            let sum = slot.get_or_insert_with(GpuAaMs::default);
+            sum.tables_ms += t.tables_ms;
+            sum.upload_ms += t.upload_ms;
+            sum.run_and_readback_ms += t.run_and_readback_ms;
+            sum.gpu_pass_ms = match (sum.gpu_pass_ms, t.gpu_pass_ms) {
+                (Some(a), Some(b)) => Some(a + b),
+                (a, b) => a.or(b),
+            };
+            sum.layers += 1;
+        }
+        Ok(out)
     }
 }
 

@@ -255,6 +255,7 @@ struct ExecutorTimes {
     shadow: Arc<Mutex<Option<GpuTraceMs>>>,
     direct_light: Arc<Mutex<Option<GpuTraceMs>>>,
     dof: Arc<Mutex<Option<GpuDofMs>>>,
+    aa: Arc<Mutex<Option<crate::backend::GpuAaMs>>>,
 }
 
 impl BenchExecutors for BenchBackend {
@@ -276,6 +277,7 @@ impl BenchExecutors for BenchBackend {
             shadow: backend.shadow_times.clone(),
             direct_light: backend.direct_times.clone(),
             dof: backend.dof_times.clone(),
+            aa: backend.aa_times.clone(),
         });
         backend.install(ctx);
         Ok(())
@@ -289,8 +291,12 @@ impl BenchExecutors for BenchBackend {
             shadow,
             direct_light,
             dof,
+            aa,
         }) = &self.times
         {
+            if let Some(ms) = take(aa).and_then(|t| t.gpu_pass_ms) {
+                out.insert("aa".to_string(), ms);
+            }
             if let Some(ms) = take(direct_light).and_then(|t| t.gpu_pass_ms) {
                 out.insert("direct_light".to_string(), ms);
             }
@@ -533,7 +539,7 @@ fn print_run(r: &BenchRun, labels: bool) {
         format!(" | gpu passes {} ms", passes.join(" "))
     };
     println!(
-        "{:>5}x{:<5} {:>6} rays {:>13} | trace {:>8.0}{} shade {:>8.0}{} aa {:>6.0} reconstruct {:>6.0}{}{gpu} | wall {:>8.0} ms, cpu {:>8.0} ms ({:.0}% of {} cores){} | {:.2} fps | speedup {:>6.2}x wall, {:>6.2}x cpu",
+        "{:>5}x{:<5} {:>6} rays {:>13} | trace {:>8.0}{} shade {:>8.0}{} aa {:>6.0}{} reconstruct {:>6.0}{}{gpu} | wall {:>8.0} ms, cpu {:>8.0} ms ({:.0}% of {} cores){} | {:.2} fps | speedup {:>6.2}x wall, {:>6.2}x cpu",
         s.width,
         s.height,
         s.method,
@@ -546,6 +552,7 @@ fn print_run(r: &BenchRun, labels: bool) {
             s.direct_light_backend, s.shadow_backend
         )),
         st(Stage::Aa),
+        on(&s.aa_backend),
         st(Stage::Reconstruct),
         on(&s.reconstruct_backend),
         s.total_ms,

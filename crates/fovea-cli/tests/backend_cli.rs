@@ -78,8 +78,9 @@ fn cpu_backend_reports_every_stage_on_the_cpu() {
     assert_eq!(s["backend"]["requested"], "cpu");
     assert_eq!(s["backend"]["adapter"], serde_json::Value::Null);
     assert_eq!(s["frame"]["reconstruct_backend"], "cpu");
+    assert_eq!(s["frame"]["aa_backend"], "cpu");
     let stages = s["backend"]["stages"].as_object().unwrap();
-    for k in ["plan", "trace", "shade", "reconstruct"] {
+    for k in ["plan", "trace", "shade", "aa", "reconstruct"] {
         assert_eq!(stages[k], "cpu", "{k}: {stages:?}");
     }
 }
@@ -189,6 +190,18 @@ fn gpu_frames_are_the_cpu_frames_method_by_method() {
                     let stage = s["backend"]["stages"].get("dof");
                     assert!(stage.is_none_or(|v| v == "cpu"), "{name}: {stage:?}");
                 }
+                // Stage 5's filter (FXAA for VaFR, the Gaussian for KFR) runs on the GPU too;
+                // full resolution and Weier have none.
+                let aa_on = if matches!(method, "vafr" | "kfr") {
+                    "gpu"
+                } else {
+                    "cpu"
+                };
+                assert_eq!(s["frame"]["aa_backend"], aa_on, "{name}");
+                if aa_on == "gpu" {
+                    assert_eq!(s["backend"]["stages"]["aa"], "gpu", "{name}");
+                    assert_eq!(s["backend"]["gpu_aa"]["layers"], 1, "{name}");
+                }
                 // "display 320x180 …: 1.23 px/deg across, …"
                 let stdout = String::from_utf8_lossy(&cpu.stdout);
                 let ppd: f32 = stdout
@@ -282,6 +295,8 @@ fn gpu_backend_traces_and_reconstructs_on_the_gpu() {
     let s = stats(dir.path(), "gpu");
     assert_eq!(s["frame"]["reconstruct_backend"], "gpu");
     assert_eq!(s["backend"]["stages"]["reconstruct"], "gpu");
+    assert_eq!(s["frame"]["aa_backend"], "gpu");
+    assert_eq!(s["backend"]["stages"]["aa"], "gpu");
     assert_eq!(s["frame"]["trace_backend"], "gpu");
     assert_eq!(s["backend"]["stages"]["trace"], "gpu");
     assert_eq!(s["backend"]["stages"]["shade"], "cpu");
@@ -325,7 +340,7 @@ fn gpu_backend_traces_and_reconstructs_on_the_gpu() {
     assert!(
         stdout.contains(
             "primary rays on the GPU, shadow rays on the GPU, direct light on the GPU, \
-             reconstruct on the GPU, every other stage on the CPU"
+             aa on the GPU, reconstruct on the GPU, every other stage on the CPU"
         ),
         "{stdout}"
     );
@@ -544,6 +559,7 @@ fn cpu_bench_reports_every_stage_on_the_cpu_and_no_gpu_passes() {
     for r in runs {
         assert_eq!(r["stage_backends"]["trace"], "cpu", "{r}");
         assert_eq!(r["stage_backends"]["reconstruct"], "cpu", "{r}");
+        assert_eq!(r["stage_backends"]["aa"], "cpu", "{r}");
         assert!(r["gpu_pass_ms"].as_object().unwrap().is_empty(), "{r}");
         let fps = r["fps"].as_f64().unwrap();
         assert!(fps.is_finite() && fps > 0.0, "{r}");
@@ -637,7 +653,8 @@ fn bench_gpu_reports_pass_times_fps_and_speedup() {
     assert_eq!(vafr["stage_backends"]["trace"], "gpu", "{vafr}");
     assert_eq!(vafr["stage_backends"]["shadow_rays"], "gpu", "{vafr}");
     assert_eq!(vafr["stage_backends"]["reconstruct"], "gpu", "{vafr}");
-    for pass in ["trace", "direct_light", "shadow", "reconstruct"] {
+    assert_eq!(vafr["stage_backends"]["aa"], "gpu", "{vafr}");
+    for pass in ["trace", "direct_light", "shadow", "aa", "reconstruct"] {
         let ms = vafr["gpu_pass_ms"][pass].as_f64().unwrap_or(f64::NAN);
         assert!(ms.is_finite() && ms > 0.0, "{pass}: {vafr}");
     }

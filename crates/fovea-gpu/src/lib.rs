@@ -14,6 +14,8 @@
 //!   mappings on the GPU ([`GpuMapping`]).
 //! * [`reconstruct`]: polar sample buffers back to the screen, bilinear or footprint-filtered
 //!   ([`GpuReconstructor`]).
+//! * [`sample_aa`]: FXAA (with the polar seam) and the 3×3 Gaussian inside sample buffers
+//!   ([`GpuSampleAa`]).
 //! * [`trace`]: closest hits and occlusion of ray batches through a BVH built by obvhs
 //!   ([`GpuTracer`]).
 //! * [`direct_light`]: the renderer's direct lighting of surface samples, shadow rays
@@ -53,6 +55,7 @@ pub mod error;
 pub mod mapping;
 pub mod ray_generation;
 pub mod reconstruct;
+pub mod sample_aa;
 pub mod shaders;
 mod timestamps;
 pub mod tonemap;
@@ -67,6 +70,7 @@ pub use error::{GpuError, Result};
 pub use mapping::{Direction, GpuMapping};
 pub use ray_generation::{GpuPolarRay, RayGenCamera};
 pub use reconstruct::{GpuReconstructor, ReconstructTimes};
+pub use sample_aa::{GpuSampleAa, SampleAaTimes, SampleFilter};
 pub use tonemap::GpuToneMap;
 pub use trace::{BvhStats, DirectLightModel, GpuHit, GpuRay, GpuTracer, TraceTimes};
 
@@ -77,6 +81,8 @@ pub const ALL_SHADERS: &[shaders::ShaderSource] = &[
     mapping::lafr::SHADER,
     mapping::polar_table::SHADER,
     reconstruct::SHADER,
+    sample_aa::FXAA_SHADER,
+    sample_aa::GAUSSIAN_SHADER,
     trace::SHADER,
     dof::COC_SHADER,
     dof::GATHER_SHADER,

@@ -50,6 +50,25 @@ impl PassTimer {
         }
     }
 
+    /// For a timed span of several passes: the first pass's `timestamp_writes` (stamp 0 at
+    /// its start).
+    pub(crate) fn begin_writes(&self) -> wgpu::ComputePassTimestampWrites<'_> {
+        wgpu::ComputePassTimestampWrites {
+            query_set: &self.set,
+            beginning_of_pass_write_index: Some(0),
+            end_of_pass_write_index: None,
+        }
+    }
+
+    /// … and the last pass's (stamp 1 at its end).
+    pub(crate) fn end_writes(&self) -> wgpu::ComputePassTimestampWrites<'_> {
+        wgpu::ComputePassTimestampWrites {
+            query_set: &self.set,
+            beginning_of_pass_write_index: None,
+            end_of_pass_write_index: Some(1),
+        }
+    }
+
     /// Records the copy of the stamps into the readback buffer (after the pass, before the
     /// encoder is finished).
     pub(crate) fn resolve(&self, encoder: &mut wgpu::CommandEncoder) {

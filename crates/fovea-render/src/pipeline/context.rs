@@ -13,6 +13,7 @@ use fovea_post::inverse_map::SampleBuffers;
 use fovea_post::Rgb;
 
 use super::reconstruct::ReconstructExecutor;
+use super::sample_post::AaExecutor;
 use super::screen_post::DofExecutor;
 use super::trace_shade::TraceExecutor;
 use super::{Frame, Prefill};
@@ -52,6 +53,8 @@ pub struct FrameContext {
     tracer: Option<Box<dyn TraceExecutor>>,
     /// Another executor of the depth-of-field stage (see [`Self::set_dof_executor`]).
     dof: Option<Box<dyn DofExecutor>>,
+    /// Another executor of the sample-space AA filter (see [`Self::set_anti_aliaser`]).
+    anti_aliaser: Option<Box<dyn AaExecutor>>,
 }
 
 impl FrameContext {
@@ -163,6 +166,18 @@ impl FrameContext {
     }
 
     /// The sample buffers [`samples_for`](Self::samples_for) prepared, and the executor of
+    /// the AA filter, if one is plugged in.
+    pub(crate) fn samples_and_anti_aliaser(
+        &mut self,
+    ) -> (&mut SampleBuffers, Option<&mut (dyn AaExecutor + 'static)>) {
+        let samples = self
+            .samples
+            .as_mut()
+            .expect("samples_for runs before the AA");
+        (samples, self.anti_aliaser.as_deref_mut())
+    }
+
+    /// The sample buffers [`samples_for`](Self::samples_for) prepared, and the executor of
     /// the reconstruct stage, if one is plugged in.
     pub(crate) fn samples_and_executor(
         &mut self,
@@ -216,6 +231,12 @@ impl FrameContext {
     /// The executor of the depth-of-field stage, if one is plugged in.
     pub(crate) fn dof_executor(&mut self) -> Option<&mut (dyn DofExecutor + 'static)> {
         self.dof.as_deref_mut()
+    }
+
+    /// Runs the sample-space AA filter (FXAA, the 3×3 Gaussian) on `executor` (e.g. the GPU's)
+    /// for the modes and grids it supports, in every frame rendered with this context.
+    pub fn set_anti_aliaser(&mut self, executor: Box<dyn AaExecutor>) {
+        self.anti_aliaser = Some(executor);
     }
 
     /// Screen-sized colour and depth buffers for `plan`'s display: the last frame's when they

@@ -44,6 +44,7 @@ pub mod trace_shade;
 pub use context::FrameContext;
 pub use fovea_core::mapping::footprint::sample_spread_rad;
 pub use reconstruct::ReconstructExecutor;
+pub use sample_post::AaExecutor;
 pub use screen_post::DofExecutor;
 pub use timing::{Stage, StageMs, StageTimes, Stopwatch};
 pub use trace_shade::{PolarRay, TraceExecutor};
@@ -109,6 +110,9 @@ pub struct FrameStats {
     pub inset_smoothing: Option<String>,
     /// Whether every screen pixel had samples (see [`FramePlan::covers_screen`]).
     pub covers_screen: bool,
+    /// The backend that ran the sample-space AA filter (stage 5): `cpu`, or the name of the
+    /// [`sample_post::AaExecutor`] in the frame's context (`gpu`); `cpu` without AA.
+    pub aa_backend: String,
     /// The backend that ran the reconstruct stage's lookup: `cpu`, or the name of the
     /// [`reconstruct::ReconstructExecutor`] in the frame's context (`gpu`). Every other stage
     /// runs on the CPU.
@@ -312,9 +316,10 @@ pub fn render_planned<'c>(
         None => None,
     };
     let kept_samples = plan.settings.keep_samples.then(|| samples.clone());
-    times.time(Stage::Aa, || {
-        sample_post::anti_alias(plan, &mut samples.color)
-    });
+    let (samples, anti_aliaser) = ctx.samples_and_anti_aliaser();
+    let aa_backend = times.time(Stage::Aa, || {
+        sample_post::anti_alias(plan, &mut samples.color, anti_aliaser)
+    })?;
 
     // 6. Reconstruct into the context's screen buffers.
     let (mut color, mut depth) = ctx.screen_buffers(plan)?;
@@ -356,6 +361,7 @@ pub fn render_planned<'c>(
     let (total_ms, total_cpu_ms) = t_total.elapsed_ms();
     let mut stats = frame_stats(plan, counts, times, temporal, total_ms, total_cpu_ms);
     stats.inset_smoothing = inset_smoothing.map(|s| s.name().to_string());
+    stats.aa_backend = aa_backend;
     stats.reconstruct_backend = reconstruct_backend;
     stats.trace_backend = casters.primary;
     stats.ray_generation_backend = casters.ray_generation;
@@ -412,6 +418,7 @@ fn frame_stats(
         temporal,
         inset_smoothing: None,
         covers_screen: plan.covers_screen,
+        aa_backend: sample_post::CPU.to_string(),
         reconstruct_backend: reconstruct::CPU.to_string(),
         trace_backend: trace_shade::CPU.to_string(),
         ray_generation_backend: trace_shade::CPU.to_string(),

@@ -3,6 +3,11 @@
 //! `crate::temporal`) and anti-aliasing inside the sample buffers: FXAA for VaFR and
 //! visual-polar (VaFR Sec. 3.4, with the polar seam wrapped), the 3×3 Gaussian for KFR and LaFR
 //! (Meng et al.), none for the others unless asked.
+//!
+//! Another executor (the GPU's, `fovea-gpu`, plugged in by the CLI) can take over the AA
+//! filter through [`AaExecutor`]; the frame's stats say which one ran
+//! ([`super::FrameStats::aa_backend`]). The minified columns are restored on the CPU either
+//! way.
 
 use fovea_core::Image;
 use fovea_post::fxaa::{fxaa, FxaaParams};
@@ -13,7 +18,7 @@ use fovea_post::Rgb;
 
 use super::AaMode;
 use crate::camera::EyeCamera;
-use crate::error::Result;
+use crate::error::{RenderError, Result};
 use crate::plan::FramePlan;
 use crate::temporal::{TemporalAccumulator, TemporalStats};
 
@@ -27,16 +32,45 @@ pub fn accumulate(
     accumulator.accumulate(plan, camera, samples)
 }
 
-/// Anti-aliases every layer of `color` with the plan's resolved AA mode. With the footprint
+/// Another executor of the AA filter (e.g. the GPU's), kept in a [`super::FrameContext`] from
+/// frame to frame. For the modes and grids it [`supports`](Self::supports) it replaces
+/// `fovea_post::fxaa::fxaa` / `fovea_post::gaussian_aa::gaussian_3x3` and must return what
+/// they return (every texel: the grid's valid ones filtered, the others as they were); the
+/// restoring of minified columns and every other stage stay on the CPU.
+pub trait AaExecutor: Send {
+    /// The backend's short name in stats and JSON, e.g. `gpu`.
+    fn backend(&self) -> &str;
+    /// Whether it runs `mode` ([`AaMode::Fxaa`] or [`AaMode::Gaussian`]) on `grid`.
+    fn supports(&self, mode: AaMode, grid: &Grid) -> bool;
+    /// `color` filtered with `mode` (FXAA with `params`) on `grid`. An error is one line
+    /// saying what to do.
+    fn anti_alias(
+        &mut self,
+        mode: AaMode,
+        params: &FxaaParams,
+        grid: &Grid,
+        color: &Image<Rgb>,
+    ) -> std::result::Result<Image<Rgb>, String>;
+}
+
+/// Anti-aliases every layer of `color` with the plan's resolved AA mode, on `executor` where
+/// it supports the mode and grid and on the CPU otherwise; returns the backend that filtered
+/// (`cpu` or the executor's name; `cpu` when there was nothing to do). With the footprint
 /// reconstruction (the default), the columns of a polar buffer whose texels are smaller than a
 /// screen pixel both ways ([`minified_columns`]: VaFR's and visual-polar's fovea) are left as
 /// they are: the reconstruction averages every sample a pixel holds there, so an edge is
 /// already anti-aliased and FXAA or the Gaussian would only blur it further (issue 17; the
 /// measurements are in docs/rendering.md, "Anti-aliasing the fovea and the periphery").
-pub fn anti_alias(plan: &FramePlan, color: &mut [Image<Rgb>]) {
+pub fn anti_alias(
+    plan: &FramePlan,
+    color: &mut [Image<Rgb>],
+    mut executor: Option<&mut (dyn AaExecutor + 'static)>,
+) -> Result<String> {
+    let mut backend = CPU.to_string();
     if plan.aa == AaMode::None {
-        return;
+        return Ok(backend);
     }
+    let params = FxaaParams::default();
     let polar = plan.mapping().polar_layout();
     let keep = match plan.settings.reconstruct_filter {
         ReconstructFilter::Footprint => minified_columns(plan.mapping()),
@@ -50,18 +84,51 @@ pub fn anti_alias(plan: &FramePlan, color: &mut [Image<Rgb>]) {
                 height: c.height(),
             },
         };
-        let mut out = match plan.aa {
-            AaMode::Fxaa => fxaa(c, &grid, &FxaaParams::default()),
-            AaMode::Gaussian => gaussian_3x3(c, &grid),
+        if matches!(plan.aa, AaMode::None | AaMode::Auto) {
             // `FramePlan` resolves `Auto`; `None` returned above.
-            AaMode::None | AaMode::Auto => return,
+            return Ok(backend);
+        }
+        let on_executor = executor
+            .as_deref_mut()
+            .filter(|e| e.supports(plan.aa, &grid));
+        let mut out = match on_executor {
+            Some(ex) => {
+                let out = ex
+                    .anti_alias(plan.aa, &params, &grid, c)
+                    .map_err(|message| RenderError::Executor {
+                        stage: "aa",
+                        backend: ex.backend().to_string(),
+                        message,
+                    })?;
+                if (out.width(), out.height()) != (c.width(), c.height()) {
+                    return Err(RenderError::Executor {
+                        stage: "aa",
+                        backend: ex.backend().to_string(),
+                        message: format!(
+                            "returned a {}x{} buffer for a {}x{} one",
+                            out.width(),
+                            out.height(),
+                            c.width(),
+                            c.height()
+                        ),
+                    });
+                }
+                backend = ex.backend().to_string();
+                out
+            }
+            None if plan.aa == AaMode::Fxaa => fxaa(c, &grid, &params),
+            None => gaussian_3x3(c, &grid),
         };
         if let Some(keep) = &keep {
             restore_columns(&mut out, c, keep);
         }
         *c = out;
     }
+    Ok(backend)
 }
+
+/// The name of the CPU backend in stats.
+pub const CPU: &str = "cpu";
 
 /// Copies the columns `i` of `original` with `keep[i]` back into `out` (same size; a polar
 /// buffer's x is its column `u`, so `keep` applies along every image row).
