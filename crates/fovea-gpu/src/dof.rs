@@ -37,7 +37,7 @@ use crate::device::GpuContext;
 use crate::error::{GpuError, Result};
 use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
 use crate::timestamps::PassTimer;
-use crate::transfer::{read_buffers, upload};
+use crate::transfer::{bind_group, read_buffers, upload};
 
 /// The CoC module: entry point `coc`, [`CocUniform`] at binding 0.
 pub const COC_SHADER: ShaderSource = ShaderSource {
@@ -373,18 +373,7 @@ impl GpuDof {
             let coc_out = scratch("CoC map", n_bytes(4), copy_out);
             let planes = scratch("DOF planes", n_bytes(PLANE_BYTES), storage);
             let bind = |pipeline: &wgpu::ComputePipeline, entries: &[(u32, &wgpu::Buffer)]| {
-                let entries: Vec<wgpu::BindGroupEntry> = entries
-                    .iter()
-                    .map(|&(binding, b)| wgpu::BindGroupEntry {
-                        binding,
-                        resource: b.as_entire_binding(),
-                    })
-                    .collect();
-                device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("depth of field"),
-                    layout: &pipeline.get_bind_group_layout(0),
-                    entries: &entries,
-                })
+                bind_group(device, "depth of field", pipeline, entries)
             };
             let coc_bind = bind(
                 &self.coc,

@@ -33,7 +33,7 @@ use crate::device::GpuContext;
 use crate::error::{GpuError, Result};
 use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
 use crate::timestamps::PassTimer;
-use crate::transfer::{read_buffers, upload};
+use crate::transfer::{bind_group, read_buffers, upload};
 
 /// FXAA's module: entry points `fxaa_luma` then `fxaa`, [`SampleAaUniform`] at binding 0.
 pub const FXAA_SHADER: ShaderSource = ShaderSource {
@@ -367,18 +367,7 @@ impl GpuSampleAa {
                 mapped_at_creation: false,
             });
             let bind = |pipeline: &wgpu::ComputePipeline, entries: &[(u32, &wgpu::Buffer)]| {
-                let entries: Vec<wgpu::BindGroupEntry> = entries
-                    .iter()
-                    .map(|&(binding, b)| wgpu::BindGroupEntry {
-                        binding,
-                        resource: b.as_entire_binding(),
-                    })
-                    .collect();
-                device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("AA bindings"),
-                    layout: &pipeline.get_bind_group_layout(0),
-                    entries: &entries,
-                })
+                bind_group(device, "AA bindings", pipeline, entries)
             };
             let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("sample AA"),

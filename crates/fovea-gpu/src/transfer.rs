@@ -24,6 +24,28 @@ pub(crate) fn upload(
     buffer
 }
 
+/// A bind group of group 0 of `pipeline` with each buffer of `entries` bound whole at its
+/// binding.
+pub(crate) fn bind_group(
+    device: &wgpu::Device,
+    label: &str,
+    pipeline: &wgpu::ComputePipeline,
+    entries: &[(u32, &wgpu::Buffer)],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = entries
+        .iter()
+        .map(|&(binding, b)| wgpu::BindGroupEntry {
+            binding,
+            resource: b.as_entire_binding(),
+        })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &entries,
+    })
+}
+
 /// Maps every buffer of `buffers` (MAP_READ), waits for the queue once, and hands each
 /// buffer's bytes to `read(index, bytes)` in order, unmapping it after.
 pub(crate) fn read_buffers(

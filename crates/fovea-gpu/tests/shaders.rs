@@ -72,19 +72,10 @@ fn entry_points_are_the_dispatched_ones() {
 #[test]
 fn uniform_blocks_match_their_rust_structs() {
     for shader in ALL {
-        let (module, _) = validate(shader);
         let (name, rust_size) = shader.uniform;
-        let ty = module
-            .types
-            .iter()
-            .find(|(_, t)| t.name.as_deref() == Some(name))
-            .unwrap_or_else(|| panic!("{}: no struct {name}", shader.file))
-            .1;
-        let naga::TypeInner::Struct { span, .. } = &ty.inner else {
-            panic!("{}: {name} is not a struct", shader.file)
-        };
+        let span = struct_span(shader, name);
         assert_eq!(
-            *span as usize, rust_size,
+            span, rust_size,
             "{}: WGSL {name} is {span} bytes, its Rust twin {rust_size}",
             shader.file
         );

@@ -223,17 +223,12 @@ impl Ring {
     /// (`period ≤ 0`) has only the pole, at `v = 0`.
     #[inline]
     pub fn point(&self, v: f64) -> Option<ScreenPoint> {
-        if self.period <= 0.0 {
-            return (v == 0.0).then_some(self.centre);
-        }
-        if !(v >= 0.0 && v <= self.period) {
-            return None;
-        }
-        Some(from_polar_deg(
-            self.r_px,
-            v / self.period * 360.0,
-            self.centre,
-        ))
+        let (r_px, turn) = self.polar(v)?;
+        Some(if self.period <= 0.0 {
+            self.centre
+        } else {
+            from_polar_deg(r_px, turn * 360.0, self.centre)
+        })
     }
 
     /// The polar coordinates of [`point`](Self::point)`(v)` around the centre: its radius,
