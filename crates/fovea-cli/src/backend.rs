@@ -25,8 +25,9 @@ use anyhow::Result;
 use serde::Serialize;
 
 use fovea_core::mapping::FoveationMapping;
+use fovea_post::tonemap::ToneMapExecutor;
 use fovea_render::pipeline::{
-    AaExecutor, DofExecutor, FrameContext, ReconstructExecutor, TraceExecutor,
+    AaExecutor, DofExecutor, Executors, FrameContext, ReconstructExecutor, TraceExecutor,
 };
 use fovea_render::world::World;
 
@@ -61,6 +62,15 @@ pub struct GpuAaMs {
     pub gpu_pass_ms: Option<f64>,
     /// Layers filtered.
     pub layers: u32,
+}
+
+/// The GPU tone map's times (ms), as JSON: sums over its calls (the images written).
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct GpuToneMs {
+    /// Images encoded.
+    pub calls: u32,
+    /// Upload, passes, readback, wall ms, over all calls.
+    pub total_ms: f64,
 }
 
 /// The GPU tracer's own times of a frame's primary rays (ms), as JSON: sums over the trace
@@ -107,6 +117,8 @@ pub struct Backend {
     pub dof: Option<Box<dyn DofExecutor>>,
     /// The AA executor to plug into the frame's context.
     pub anti_aliaser: Option<Box<dyn AaExecutor>>,
+    /// The executor of the 8-bit output's tone curve and encoding.
+    pub tone_map: Option<Box<dyn ToneMapExecutor>>,
     /// The GPU's BVH, when it traces.
     pub gpu_bvh: Option<serde_json::Value>,
     /// Filled by the executor after each frame.
@@ -121,6 +133,8 @@ pub struct Backend {
     pub shadow_times: Arc<Mutex<Option<GpuTraceMs>>>,
     /// Filled by the trace executor after each frame: the lights' part of direct shading.
     pub direct_times: Arc<Mutex<Option<GpuTraceMs>>>,
+    /// Filled by the tone-map executor: sums over the images it encoded.
+    pub tone_times: Arc<Mutex<Option<GpuToneMs>>>,
     /// The adapter is a CPU device (lavapipe, llvmpipe, WARP): its times are CPU-emulated.
     pub cpu_emulated: bool,
 }
@@ -143,6 +157,8 @@ impl Backend {
             times: Arc::default(),
             dof_times: Arc::default(),
             anti_aliaser: None,
+            tone_map: None,
+            tone_times: Arc::default(),
             aa_times: Arc::default(),
             trace_times: Arc::default(),
             shadow_times: Arc::default(),
@@ -151,25 +167,30 @@ impl Backend {
         }
     }
 
-    /// Whether a GPU runs a stage (the rays, the AA or the reconstruction).
+    /// Whether a GPU runs a stage (the rays, the AA, the reconstruction or the tone map).
     pub fn on_gpu(&self) -> bool {
-        self.tracer.is_some() || self.executor.is_some() || self.anti_aliaser.is_some()
+        self.tracer.is_some()
+            || self.executor.is_some()
+            || self.anti_aliaser.is_some()
+            || self.tone_map.is_some()
     }
 
     /// Moves the GPU executors, if any, into a frame context (each frame rendered with it
     /// then runs the stages they support on the GPU).
     pub fn install(&mut self, ctx: &mut FrameContext) {
-        if let Some(tracer) = self.tracer.take() {
-            ctx.set_tracer(tracer);
+        let executors = self.take_executors();
+        if !executors.is_empty() {
+            ctx.set_executors(executors);
         }
-        if let Some(executor) = self.executor.take() {
-            ctx.set_reconstructor(executor);
-        }
-        if let Some(dof) = self.dof.take() {
-            ctx.set_dof_executor(dof);
-        }
-        if let Some(aa) = self.anti_aliaser.take() {
-            ctx.set_anti_aliaser(aa);
+    }
+
+    /// Moves the GPU executors, if any, out (e.g. to the viewer's frame contexts).
+    pub fn take_executors(&mut self) -> Executors {
+        Executors {
+            tracer: self.tracer.take(),
+            reconstructor: self.executor.take(),
+            dof: self.dof.take(),
+            anti_aliaser: self.anti_aliaser.take(),
         }
     }
 
@@ -195,6 +216,7 @@ impl Backend {
                 (k.name().to_string(), serde_json::Value::from(on))
             })
             .collect();
+        let tone = *self.tone_times.lock().unwrap_or_else(|e| e.into_inner());
         serde_json::json!({
             "requested": self.requested,
             "resolved": self.describe,
@@ -212,6 +234,8 @@ impl Backend {
                 "shadow": frame.shadow_backend,
             },
             "direct_light": frame.direct_light_backend,
+            "tone_map": if tone.is_some() { "gpu" } else { "cpu" },
+            "gpu_tone_map": tone,
             "dof": frame.dof_backend,
             "cpu_emulated": self.cpu_emulated,
             "gpu_bvh": self.gpu_bvh,
@@ -359,6 +383,11 @@ fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend
         gpu: GpuDof::new(&ctx)?,
         times: dof_times.clone(),
     };
+    let tone_times = Arc::new(Mutex::new(None));
+    let tone_map = GpuToneExecutor {
+        gpu: fovea_gpu::GpuToneMap::new(&ctx)?,
+        times: tone_times.clone(),
+    };
     let aa_times = Arc::new(Mutex::new(None));
     let anti_aliaser = GpuAaExecutor {
         gpu: fovea_gpu::GpuSampleAa::new(&ctx)?,
@@ -370,6 +399,8 @@ fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend
         adapter: facts.adapter,
         executor: Some(Box::new(executor)),
         anti_aliaser: Some(Box::new(anti_aliaser)),
+        tone_map: Some(Box::new(tone_map)),
+        tone_times,
         tracer: Some(Box::new(GpuTraceExecutor {
             gpu: tracer,
             fingerprint: world.tris_fingerprint,
@@ -705,6 +736,40 @@ impl AaExecutor for GpuAaExecutor {
             sum.layers += 1;
         }
         Ok(out)
+    }
+}
+
+/// `fovea_gpu::GpuToneMap` as the output's tone-map executor (any size: bands of rows).
+#[cfg(feature = "gpu")]
+struct GpuToneExecutor {
+    gpu: fovea_gpu::GpuToneMap,
+    /// Sums over the images encoded.
+    times: Arc<Mutex<Option<GpuToneMs>>>,
+}
+
+#[cfg(feature = "gpu")]
+impl ToneMapExecutor for GpuToneExecutor {
+    fn backend(&self) -> &str {
+        "gpu"
+    }
+
+    fn to_srgb8(
+        &mut self,
+        img: &fovea_core::Image<fovea_post::Rgb>,
+        exposure_stops: f32,
+        curve: fovea_post::tonemap::ToneCurve,
+    ) -> std::result::Result<Vec<u8>, String> {
+        let t = std::time::Instant::now();
+        let bytes = self
+            .gpu
+            .to_srgb8(img, exposure_stops, curve)
+            .map_err(|e| e.to_string())?;
+        if let Ok(mut slot) = self.times.lock() {
+            let sum = slot.get_or_insert_with(GpuToneMs::default);
+            sum.calls += 1;
+            sum.total_ms += t.elapsed().as_secs_f64() * 1e3;
+        }
+        Ok(bytes)
     }
 }
 

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use anyhow::{bail, Context, Result};
 use fovea_core::Image;
-use fovea_post::tonemap::{to_srgb8, ToneCurve};
+use fovea_post::tonemap::{to_srgb8, ToneCurve, ToneMapExecutor};
 use fovea_post::Rgb;
 
 /// `left` and `right` (the same size) next to each other.
@@ -129,6 +129,18 @@ pub fn check_image_path(path: &Path) -> Result<()> {
 
 /// Writes a linear RGB image.
 pub fn write_rgb(path: &Path, img: &Image<Rgb>, exposure: f32, curve: ToneCurve) -> Result<()> {
+    write_rgb_on(path, img, exposure, curve, None)
+}
+
+/// Writes a linear RGB image, its 8-bit encoding (exposure, tone curve, sRGB) on `tone_map`
+/// when given (e.g. the GPU's: `--backend`), else on the CPU.
+pub fn write_rgb_on(
+    path: &Path,
+    img: &Image<Rgb>,
+    exposure: f32,
+    curve: ToneCurve,
+    tone_map: Option<&mut (dyn ToneMapExecutor + 'static)>,
+) -> Result<()> {
     check_image_path(path)?;
     ensure_parent(path)?;
     let (w, h) = (img.width(), img.height());
@@ -140,13 +152,28 @@ pub fn write_rgb(path: &Path, img: &Image<Rgb>, exposure: f32, curve: ToneCurve)
                 .with_context(|| format!("cannot write {}", path.display()))?;
         }
         _ => {
-            let bytes = to_srgb8(img, exposure, curve);
+            let bytes = encode_srgb8(img, exposure, curve, tone_map)?;
             let buf = image::RgbImage::from_raw(w, h, bytes).context("image size")?;
             buf.save(path)
                 .with_context(|| format!("cannot write {}", path.display()))?;
         }
     }
     Ok(())
+}
+
+/// `img`'s 8-bit sRGB bytes through `exposure` and `curve`, on `tone_map` when given.
+pub fn encode_srgb8(
+    img: &Image<Rgb>,
+    exposure: f32,
+    curve: ToneCurve,
+    tone_map: Option<&mut (dyn ToneMapExecutor + 'static)>,
+) -> Result<Vec<u8>> {
+    match tone_map {
+        Some(t) => t
+            .to_srgb8(img, exposure, curve)
+            .map_err(|e| anyhow::anyhow!("tone map on the {}: {e}", t.backend())),
+        None => Ok(to_srgb8(img, exposure, curve)),
+    }
 }
 
 /// A perceptual-ish false-colour ramp (dark blue → cyan → yellow → white) for `t` in [0, 1].

@@ -22,7 +22,7 @@ use crate::choices::{
 use crate::common::{thousands, DisplayArgs, FrameOptions, MethodOptions};
 use crate::dof_args::DofArgs;
 use crate::exposure_args::{expose, exposure_json, ExposureArgs};
-use crate::output::{check_image_path, write_rgb, write_scalar};
+use crate::output::{check_image_path, write_rgb_on, write_scalar};
 use crate::scene_args::{prepare, GazeArgs, SceneArgs};
 
 /// Options of `fovea render`.
@@ -371,7 +371,13 @@ pub fn run(args: RenderArgs) -> Result<()> {
 
     let exposure = args.exposure.choose(prepared.world.scene.light_units)?;
     let exposed = expose(&frame.color, &frame.depth, exposure, tone);
-    write_rgb(&args.out, &frame.color, exposed.stops, tone)?;
+    write_rgb_on(
+        &args.out,
+        &frame.color,
+        exposed.stops,
+        tone,
+        backend.tone_map.as_deref_mut(),
+    )?;
     written.insert(0, &args.out);
     if let Some(p) = &args.depth_out {
         write_scalar(p, &frame.depth, 0.1, 100.0)?;
@@ -597,7 +603,13 @@ fn run_stereo(
     let both_depth = crate::output::side_by_side(&frame.left.depth, &frame.right.depth)?;
     let exposure = args.exposure.choose(prepared.world.scene.light_units)?;
     let exposed = expose(&both, &both_depth, exposure, tone);
-    write_rgb(&args.out, &both, exposed.stops, tone)?;
+    write_rgb_on(
+        &args.out,
+        &both,
+        exposed.stops,
+        tone,
+        backend.tone_map.as_deref_mut(),
+    )?;
     let stats_path = args
         .stats
         .clone()
@@ -649,6 +661,11 @@ fn backend_line(
     backend: &crate::backend::Backend,
     s: &fovea_render::pipeline::FrameStats,
 ) -> String {
+    // The tone map ran on the GPU when its executor recorded a call.
+    let toned = match backend.tone_times.lock().is_ok_and(|t| t.is_some()) {
+        true => "gpu".to_string(),
+        false => "cpu".to_string(),
+    };
     let on_gpu: Vec<String> = [
         ("ray generation", &s.ray_generation_backend),
         ("primary rays", &s.trace_backend),
@@ -657,6 +674,7 @@ fn backend_line(
         ("aa", &s.aa_backend),
         ("reconstruct", &s.reconstruct_backend),
         ("depth of field", &s.dof_backend),
+        ("tone map", &toned),
     ]
     .into_iter()
     .filter(|(_, b)| b.as_str() != "cpu")

@@ -321,12 +321,18 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     backend.install(track.context_mut());
     let mut driver = SequenceDriver::new(world, &seq, vec![track])?;
     let out = &args.out;
+    let mut tone_map = backend.tone_map.take();
     let counts = driver.run(
         &|i| frame_is_complete(&frame_path(out, i), &display),
         &mut |e| {
             let path = frame_path(out, e.index);
             let tmp = path.with_extension("png.tmp");
-            write_png(&tmp, &e.frames[0].color, exposure_stops)?;
+            write_png(
+                &tmp,
+                &e.frames[0].color,
+                exposure_stops,
+                tone_map.as_deref_mut(),
+            )?;
             std::fs::rename(&tmp, &path)
                 .with_context(|| format!("cannot write {}", path.display()))?;
             Ok::<(), anyhow::Error>(())
@@ -464,9 +470,15 @@ fn frame_is_complete(path: &Path, d: &DisplayProfile) -> bool {
             .is_ok_and(|img| (img.width(), img.height()) == (d.width_px, d.height_px))
 }
 
-/// Writes 8-bit sRGB PNG (Reinhard tone curve, as `fovea render`) whatever the extension.
-fn write_png(path: &Path, img: &fovea_core::Image<fovea_post::Rgb>, stops: f32) -> Result<()> {
-    let bytes = fovea_post::tonemap::to_srgb8(img, stops, ToneCurve::Reinhard);
+/// Writes 8-bit sRGB PNG (Reinhard tone curve, as `fovea render`) whatever the extension,
+/// encoded on `tone_map` when given.
+fn write_png(
+    path: &Path,
+    img: &fovea_core::Image<fovea_post::Rgb>,
+    stops: f32,
+    tone_map: Option<&mut (dyn fovea_post::tonemap::ToneMapExecutor + 'static)>,
+) -> Result<()> {
+    let bytes = crate::output::encode_srgb8(img, stops, ToneCurve::Reinhard, tone_map)?;
     let buf = image::RgbImage::from_raw(img.width(), img.height(), bytes)
         .ok_or_else(|| anyhow::anyhow!("frame buffer size"))?;
     buf.save_with_format(path, image::ImageFormat::Png)

@@ -118,6 +118,52 @@ fn gpu_backend_casts_a_screen_aligned_methods_rays() {
     );
 }
 
+/// The 8-bit output's tone map on the GPU (`--backend gpu`, a PNG): the stats and the
+/// `backend:` line say so, and the bytes are the CPU's encoding of the same frame (its EXR,
+/// rendered the same way) within one code in at most 1e-4 of the values (Reinhard's division
+/// may round differently on the device; `fovea-gpu/tests/tonemap.rs`). An EXR has no tone map.
+#[cfg(feature = "gpu")]
+#[test]
+fn gpu_backend_tone_maps_the_8_bit_output() {
+    use fovea_post::tonemap::{to_srgb8, ToneCurve};
+    let dir = tempfile::tempdir().unwrap();
+    let args = ["--method", "vafr", "--backend", "gpu", "--exposure", "1.5"];
+    let mut c = fovea();
+    c.args(SMALL).arg("150,80").args(args).arg("--out");
+    let out = c.arg(dir.path().join("g.png")).output().unwrap();
+    if !gpu_ran(&out, "gpu_backend_tone_maps_the_8_bit_output") {
+        return;
+    }
+    let s = stats(dir.path(), "g");
+    assert_eq!(s["backend"]["tone_map"], "gpu");
+    assert_eq!(s["backend"]["gpu_tone_map"]["calls"], 1);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("tone map on the GPU"), "{stdout}");
+    assert!(render(dir.path(), "g", &args, &[]).status.success());
+    assert_eq!(stats(dir.path(), "g")["backend"]["tone_map"], "cpu");
+    let exr = image::open(dir.path().join("g.exr")).unwrap().into_rgb32f();
+    let (w, h) = exr.dimensions();
+    let px: Vec<[f32; 3]> = exr.as_raw().chunks(3).map(|c| [c[0], c[1], c[2]]).collect();
+    let img = fovea_core::Image::from_vec(w, h, px).unwrap();
+    let want = to_srgb8(&img, 1.5, ToneCurve::Reinhard);
+    let got = image::open(dir.path().join("g.png")).unwrap().into_rgb8();
+    assert_eq!(got.as_raw().len(), want.len());
+    let (mut off1, mut worse) = (0usize, 0usize);
+    for (a, b) in got.as_raw().iter().zip(&want) {
+        match a.abs_diff(*b) {
+            0 => {}
+            1 => off1 += 1,
+            _ => worse += 1,
+        }
+    }
+    eprintln!(
+        "[fovea-cli] GPU tone map vs CPU: {off1} of {} values one code off, {worse} more",
+        want.len()
+    );
+    assert_eq!(worse, 0);
+    assert!(off1 as f64 <= 1e-4 * want.len() as f64, "{off1}");
+}
+
 /// The frame of `--backend gpu` against the frame of `--backend cpu`, as issue 18 asks: the
 /// built-in scene and (where `../shared/scenes` is present) the classroom at 320×180, full
 /// resolution, VaFR, KFR and Weier, without and with the gather DOF filter — luma PSNR ≥ 40 dB

@@ -276,3 +276,61 @@ fn a_recorded_viewing_replays_through_sequence_to_the_same_frames() {
     // The frames differ from one another (the camera and gaze moved).
     assert!(moved > -40.0, "the recorded frames did not change");
 }
+
+/// `fovea view --backend gpu --eyes both` (issue 18): both eyes' frames run on the GPU's
+/// executors (the right eye borrows the left's: primary rays, AA, reconstruction) and are
+/// encoded there; the screenshot is the CPU viewer's within luma PSNR 40 dB. Needs a Vulkan
+/// device (lavapipe will do): without one it says why and passes, unless
+/// `FOVEA_REQUIRE_GPU=1`.
+#[test]
+fn gpu_view_runs_both_eyes_on_the_gpu() {
+    if !display_or_skip("gpu_view_runs_both_eyes_on_the_gpu") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let csv = d.join("gaze.csv");
+    std::fs::write(&csv, "t,x,y\n0,150,80\n1,150,80\n").unwrap();
+    let view = |backend: &str| {
+        let shot = d.join(format!("{backend}.png"));
+        let out = fovea()
+            .args(["view", "--res", "320x180", "--lights", "2", "-q"])
+            .args(["--method", "vafr", "--eyes", "both", "--frames", "1"])
+            .args(["--backend", backend, "--gaze-csv"])
+            .arg(&csv)
+            .arg("--screenshot")
+            .arg(&shot)
+            .output()
+            .unwrap();
+        (out, shot)
+    };
+    let (out, gpu) = view("gpu");
+    if !out.status.success() {
+        let err = String::from_utf8_lossy(&out.stderr);
+        if err.contains("no GPU adapter")
+            && std::env::var("FOVEA_REQUIRE_GPU").as_deref() != Ok("1")
+        {
+            eprintln!("skipping gpu_view_runs_both_eyes_on_the_gpu: {err}");
+            return;
+        }
+        panic!("{err}");
+    }
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(gpu.with_extension("json")).unwrap()).unwrap();
+    assert_eq!(stats["eyes"], "both");
+    for k in 0..2 {
+        let f = &stats["frames"][k];
+        assert_eq!(f["trace_backend"], "gpu", "eye {k}: {f}");
+        assert_eq!(f["aa_backend"], "gpu", "eye {k}: {f}");
+        assert_eq!(f["reconstruct_backend"], "gpu", "eye {k}: {f}");
+    }
+    let (out, cpu) = view("cpu");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let psnr = luma_psnr(&rgb(&gpu), &rgb(&cpu));
+    println!("GPU viewer's screenshot (both eyes) against the CPU's: luma PSNR {psnr:.2} dB");
+    assert!(psnr >= 40.0, "{psnr} dB");
+}

@@ -64,6 +64,9 @@ pub const GRID_FILE: &str = "sample_grid.wgsl";
 
 /// Bytes per texel of the colour buffers (RGB f32).
 const RGB_BYTES: u64 = 12;
+/// Most FXAA search steps each way the GPU takes (the CPU's default is 12): a bound that keeps
+/// the shader's loop finite.
+pub const MAX_SEARCH_STEPS: u32 = 1 << 16;
 /// Rows a polar column may hold (the alignment table packs two rows into a u32).
 const MAX_POLAR_ROWS: u32 = 1 << 16;
 
@@ -77,7 +80,7 @@ pub struct SampleAaUniform {
     pub height: u32,
     /// 1: polar grid, 0: rect.
     pub polar: u32,
-    /// [`FxaaParams::search_steps`].
+    /// [`FxaaParams::search_steps`], at most [`MAX_SEARCH_STEPS`].
     pub search_steps: u32,
     /// [`FxaaParams::edge_threshold`].
     pub edge_threshold: f32,
@@ -316,6 +319,14 @@ impl GpuSampleAa {
             SampleFilter::Fxaa(p) => p,
             SampleFilter::Gaussian => FxaaParams::default(),
         };
+        // The shader's search loop counts to `search_steps` inclusive: a bound keeps it
+        // finite (at `u32::MAX` the counter would wrap) and a dispatch short.
+        if params.search_steps > MAX_SEARCH_STEPS {
+            return Err(GpuError::Input(format!(
+                "an FXAA edge search of {} steps each way (at most {MAX_SEARCH_STEPS} on the                  GPU; use --backend cpu)",
+                params.search_steps
+            )));
+        }
         let uniform = SampleAaUniform {
             width: w,
             height: h,

@@ -9,6 +9,10 @@
 //! each value, packing four codes per u32. The only arithmetic that may round differently from
 //! the CPU is Reinhard's division (Vulkan allows 2.5 ulp): a value within an ulp or two of a
 //! code step can land one code off (`tests/tonemap.rs` counts them).
+//!
+//! An image larger than one storage binding (an 8K frame is 398 MB of f32 values; lavapipe
+//! binds 128 MiB) is encoded in bands of whole output words, one dispatch each
+//! ([`GpuToneMap::band_values`]); the bytes do not depend on the bands.
 
 use bytemuck::{Pod, Zeroable};
 use fovea_core::Image;
@@ -52,6 +56,9 @@ pub struct ToneUniform {
 pub struct GpuToneMap {
     ctx: GpuContext,
     pipeline: wgpu::ComputePipeline,
+    /// Most values one dispatch encodes (a multiple of 4: whole output words): what fits one
+    /// storage binding and one dispatch. A larger image goes in bands of this many.
+    band_values: u64,
 }
 
 impl GpuToneMap {
@@ -63,10 +70,33 @@ impl GpuToneMap {
                 SHADER.pipelines(device).pop()
             })?
             .ok_or_else(|| GpuError::Input("the tone-map module has no entry point".into()))?;
+        let limits = ctx.limits();
+        let binding = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size);
+        let dispatch = u64::from(limits.max_compute_workgroups_per_dimension)
+            * u64::from(GROUPS_PER_ROW)
+            * u64::from(WORKGROUP_SIZE)
+            * 4;
+        let band_values = (binding / 4).min(dispatch).min(u64::from(u32::MAX)) / 4 * 4;
         Ok(Self {
             ctx: ctx.clone(),
             pipeline,
+            band_values,
         })
+    }
+
+    /// The same pipeline encoding at most `values` channel values per dispatch (rounded down
+    /// to whole output words; at least 4), e.g. to test the bands of a frame larger than one
+    /// binding on a small image, or to bound the device memory one dispatch takes.
+    pub fn with_band_values(mut self, values: u64) -> Self {
+        self.band_values = self.band_values.min(values / 4 * 4).max(4);
+        self
+    }
+
+    /// Most channel values (3 a pixel) one dispatch encodes; a larger image goes in bands.
+    pub fn band_values(&self) -> u64 {
+        self.band_values
     }
 
     /// `img` scaled by `2^exposure_stops`, through `curve`, encoded to 8-bit sRGB RGB bytes
@@ -83,12 +113,26 @@ impl GpuToneMap {
             )));
         }
         let values: &[f32] = bytemuck::cast_slice(img.data());
+        let scale = 2f32.powf(exposure_stops);
+        let curve = match curve {
+            ToneCurve::Clamp => 0,
+            ToneCurve::Reinhard => 1,
+        };
+        let what = format!("the tone map of {}x{}", img.width(), img.height());
+        let mut out = Vec::with_capacity(values.len());
+        for band in values.chunks(self.band_values as usize) {
+            out.extend(self.encode(band, scale, curve, &what)?);
+        }
+        Ok(out)
+    }
+
+    /// One dispatch: `values` scaled by `scale`, through curve number `curve`, encoded.
+    fn encode(&self, values: &[f32], scale: f32, curve: u32, what: &str) -> Result<Vec<u8>> {
         let n_values = values.len() as u64;
         if n_values == 0 {
             return Ok(Vec::new());
         }
         let n_words = n_values.div_ceil(4);
-        let what = format!("the tone map of {}x{}", img.width(), img.height());
         self.ctx
             .check_storage_binding("the tone map's input", n_values * 4)?;
         let groups = n_words.div_ceil(WORKGROUP_SIZE as u64);
@@ -102,11 +146,8 @@ impl GpuToneMap {
         let uniform = ToneUniform {
             n_values: n_values as u32,
             n_words: n_words as u32,
-            scale: 2f32.powf(exposure_stops),
-            curve: match curve {
-                ToneCurve::Clamp => 0,
-                ToneCurve::Reinhard => 1,
-            },
+            scale,
+            curve,
         };
         let thresholds = srgb8_thresholds();
         let inputs = [
@@ -131,7 +172,7 @@ impl GpuToneMap {
         ];
         let device = self.ctx.device();
         let bytes = n_words * 4;
-        let readback = self.ctx.scoped(&what, || {
+        let readback = self.ctx.scoped(what, || {
             let out = device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("sRGB bytes"),
                 size: bytes,
@@ -183,7 +224,7 @@ impl GpuToneMap {
             read
         })?;
         let mut out = Vec::new();
-        read_buffers(&self.ctx, &[&readback], &what, |_, b| {
+        read_buffers(&self.ctx, &[&readback], what, |_, b| {
             out = b.to_vec();
         })?;
         out.truncate(n_values as usize);

@@ -235,6 +235,20 @@ fn inconsistent_grids_are_errors() {
         assert!(matches!(e, GpuError::Input(_)), "{e}");
         assert!(!e.to_string().contains('\n'));
     }
+    // An edge search the shader's loop could not finish is refused, not run.
+    let endless = fovea_post::fxaa::FxaaParams {
+        search_steps: u32::MAX,
+        ..Default::default()
+    };
+    let grid = Grid::Rect {
+        width: img.width(),
+        height: img.height(),
+    };
+    let e = gpu
+        .run(&img, &grid, SampleFilter::Fxaa(endless))
+        .unwrap_err();
+    assert!(matches!(e, GpuError::Input(_)), "{e}");
+    assert!(!e.to_string().contains('\n'));
     // What a caller asks before it hands a buffer over: small grids fit, one of 40 G texels
     // does not (the CPU filters it).
     assert!(gpu.fits(&Grid::Rect {

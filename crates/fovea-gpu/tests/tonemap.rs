@@ -79,6 +79,18 @@ fn tone_curve_bytes_equal_the_cpu() {
             }
         }
     }
+    // In bands (as an image larger than a binding goes): the same bytes as in one dispatch,
+    // whatever the band, even one not a whole number of pixels.
+    let row = Image::from_vec(w, 1, img.data()[..w as usize].to_vec()).unwrap();
+    for (band, image) in [(64u64, &row), (30_001, &img), (262_147, &img)] {
+        let banded = GpuToneMap::new(&ctx).unwrap().with_band_values(band);
+        assert_eq!(banded.band_values(), band / 4 * 4);
+        for curve in [ToneCurve::Clamp, ToneCurve::Reinhard] {
+            let whole = gpu.to_srgb8(image, 1.0, curve).unwrap();
+            let bands = banded.to_srgb8(image, 1.0, curve).unwrap();
+            assert_eq!(bands, whole, "band {band} {curve:?}");
+        }
+    }
     // Empty image, bad exposure.
     assert!(gpu
         .to_srgb8(&img, f32::NAN, ToneCurve::Clamp)

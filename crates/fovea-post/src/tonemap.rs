@@ -38,6 +38,20 @@ pub fn srgb_to_linear(e: f32) -> f32 {
     }
 }
 
+/// Another executor of the output's display encoding ([`to_srgb8`]), e.g. the GPU's: the
+/// same bytes from the same image, exposure and curve.
+pub trait ToneMapExecutor: Send {
+    /// The backend's short name in stats and JSON, e.g. `gpu`.
+    fn backend(&self) -> &str;
+    /// `img` encoded as [`to_srgb8`] does. An error is one line saying what to do.
+    fn to_srgb8(
+        &mut self,
+        img: &Image<Rgb>,
+        exposure_stops: f32,
+        curve: ToneCurve,
+    ) -> Result<Vec<u8>, String>;
+}
+
 /// Encodes a linear image to 8-bit sRGB RGB bytes, rows in parallel.
 pub fn to_srgb8(img: &Image<Rgb>, exposure_stops: f32, curve: ToneCurve) -> Vec<u8> {
     let k = 2f32.powf(exposure_stops);

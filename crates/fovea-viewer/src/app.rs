@@ -124,13 +124,7 @@ pub fn run(cfg: ViewerConfig) -> Result<Summary> {
             source: e,
         })?;
     }
-    let renderer = FrameRenderer::new(
-        cfg.world,
-        cfg.base,
-        cfg.ipd_m,
-        cfg.tracer,
-        cfg.reconstructor,
-    )?;
+    let renderer = FrameRenderer::new(cfg.world, cfg.base, cfg.ipd_m, cfg.executors, cfg.tone_map)?;
     let headless = cfg.frames.is_some();
     let worker = RenderWorker::start(renderer, cfg.cpu_path && !headless);
     let mut app = App {

@@ -15,13 +15,13 @@ use fovea_core::display::{DisplayProfile, Gaze};
 use fovea_core::gaze::GazeSample;
 use fovea_core::units::{CyclesPerDegree, Degrees};
 use fovea_core::Image;
-use fovea_post::tonemap::{to_srgb8, ToneCurve};
+use fovea_post::tonemap::{to_srgb8, ToneCurve, ToneMapExecutor};
 use fovea_render::camera::EyeCamera;
 use fovea_render::eye::{EyeState, EyeTracker};
 use fovea_render::lod::{LodParams, LodScene, LodStats};
 use fovea_render::pipeline::{
-    render_planned, FrameContext, FrameInputs, FrameSettings, FrameStats, ReconstructExecutor,
-    Stage, StageTimes, Stopwatch, TraceExecutor,
+    render_planned, Executors, FrameContext, FrameInputs, FrameSettings, FrameStats, Stage,
+    StageTimes, Stopwatch,
 };
 use fovea_render::plan::FramePlan;
 use fovea_render::scene::Light;
@@ -133,7 +133,10 @@ pub struct FrameRenderer {
     all_lights: Vec<Light>,
     base: FrameSettings,
     ipd_m: f32,
+    /// Each eye's buffers; the executors stay in the first's between frames.
     ctx: [FrameContext; 2],
+    /// The display encoding's executor, if not the CPU.
+    tone_map: Option<Box<dyn ToneMapExecutor>>,
     tracker: EyeTracker,
     last_eye: Option<EyeState>,
     accumulator: Option<(TemporalAccumulator, String)>,
@@ -142,22 +145,19 @@ pub struct FrameRenderer {
 
 impl FrameRenderer {
     /// A renderer of `world` with `base` settings (the panel changes the rest), both eyes
-    /// `ipd_m` apart; `tracer` and `reconstructor` run the stages they support (one eye).
+    /// `ipd_m` apart; `executors` run the stages they support (both eyes, in turn), and
+    /// `tone_map` the display encoding.
     pub fn new(
         world: World,
         base: FrameSettings,
         ipd_m: f32,
-        tracer: Option<Box<dyn TraceExecutor>>,
-        reconstructor: Option<Box<dyn ReconstructExecutor>>,
+        executors: Executors,
+        tone_map: Option<Box<dyn ToneMapExecutor>>,
     ) -> Result<Self> {
         let mut ctx = [FrameContext::new(), FrameContext::new()];
-        if let Some(t) = tracer {
-            ctx[0].set_tracer(t);
-        }
-        if let Some(r) = reconstructor {
-            ctx[0].set_reconstructor(r);
-        }
+        ctx[0].set_executors(executors);
         Ok(Self {
+            tone_map,
             all_lights: world.lights.clone(),
             world,
             base,
@@ -279,7 +279,12 @@ impl FrameRenderer {
                     let mut e = eye;
                     e.gaze = gaze;
                     let plan = FramePlan::new(world, &cam, &settings, &e, [0.0, 0.0])?;
-                    render_planned(
+                    // The executors go to this eye's context and come back, error or not.
+                    if k > 0 {
+                        let executors = self.ctx[0].take_executors();
+                        self.ctx[k].set_executors(executors);
+                    }
+                    let rendered = render_planned(
                         &mut self.ctx[k],
                         world,
                         &cam,
@@ -287,7 +292,13 @@ impl FrameRenderer {
                         FrameInputs::default(),
                         if k == 0 { times } else { StageTimes::default() },
                         &|_, _| {},
-                    )?;
+                    )
+                    .map(|_| ());
+                    if k > 0 {
+                        let executors = self.ctx[k].take_executors();
+                        self.ctx[0].set_executors(executors);
+                    }
+                    rendered?;
                 }
             }
         }
@@ -302,7 +313,7 @@ impl FrameRenderer {
         let width = w * eyes as u32;
         let mut rgba = vec![255u8; (width * h * 4) as usize];
         for (k, f) in frames.iter().enumerate() {
-            let rgb = eye_rgb(f, view);
+            let rgb = eye_rgb(f, view, self.tone_map.as_deref_mut())?;
             for y in 0..h as usize {
                 for x in 0..w as usize {
                     let src = (y * w as usize + x) * 3;
@@ -387,10 +398,18 @@ pub fn scaled_display(display: &DisplayProfile, scale: f32) -> Result<DisplayPro
 
 /// One eye's 8-bit sRGB pixels (RGB): the frame through the tone curve, or the CoC map, with
 /// the density overlay blended over it.
-fn eye_rgb(f: &fovea_render::pipeline::Frame, view: &ViewSettings) -> Vec<u8> {
-    let mut rgb = match (&f.coc, view.overlays.coc) {
-        (Some(coc), true) => false_colour(coc, |v| v.abs().max(0.01), 0.01, 64.0),
-        _ => to_srgb8(&f.color, view.exposure_stops, ToneCurve::Reinhard),
+fn eye_rgb(
+    f: &fovea_render::pipeline::Frame,
+    view: &ViewSettings,
+    tone_map: Option<&mut (dyn ToneMapExecutor + 'static)>,
+) -> Result<Vec<u8>> {
+    let (stops, curve) = (view.exposure_stops, ToneCurve::Reinhard);
+    let mut rgb = match (&f.coc, view.overlays.coc, tone_map) {
+        (Some(coc), true, _) => false_colour(coc, |v| v.abs().max(0.01), 0.01, 64.0),
+        (_, _, Some(t)) => t
+            .to_srgb8(&f.color, stops, curve)
+            .map_err(|e| ViewerError::Render(format!("tone map on the {}: {e}", t.backend())))?,
+        (_, _, None) => to_srgb8(&f.color, stops, curve),
     };
     if let (Some(d), true) = (&f.density, view.overlays.density) {
         let over = false_colour(d, |v| v.max(1e-3), 1e-3, 10.0);
@@ -398,7 +417,7 @@ fn eye_rgb(f: &fovea_render::pipeline::Frame, view: &ViewSettings) -> Vec<u8> {
             *p = ((u16::from(*p) + u16::from(o)) / 2) as u8;
         }
     }
-    rgb
+    Ok(rgb)
 }
 
 /// A false-colour view of a scalar image, log-scaled from `lo` (blue) to `hi` (red).

@@ -23,8 +23,9 @@ pub mod record;
 use std::path::PathBuf;
 
 use fovea_core::display::DisplayProfile;
+use fovea_post::tonemap::ToneMapExecutor;
 use fovea_render::camera_path::CameraPath;
-use fovea_render::pipeline::{FrameSettings, ReconstructExecutor, TraceExecutor};
+use fovea_render::pipeline::{Executors, FrameSettings};
 use fovea_render::world::World;
 
 pub use controls::{ViewMethod, ViewSettings};
@@ -74,10 +75,11 @@ pub struct ViewerConfig {
     pub frames_out: Option<PathBuf>,
     /// Record the gaze and camera of every frame shown into this folder.
     pub record: Option<PathBuf>,
-    /// Executor of the primary rays (the GPU's), if any.
-    pub tracer: Option<Box<dyn TraceExecutor>>,
-    /// Executor of the reconstruction (the GPU's), if any.
-    pub reconstructor: Option<Box<dyn ReconstructExecutor>>,
+    /// Executors of the frame's stages other than the CPU's (the GPU's), if any: both eyes
+    /// run on them.
+    pub executors: Executors,
+    /// Executor of the display encoding (exposure, tone curve, 8-bit sRGB; the GPU's), if any.
+    pub tone_map: Option<Box<dyn ToneMapExecutor>>,
     /// Which backend renders, in words (the HUD shows it).
     pub backend: String,
     /// Whether the frames are rendered on the CPU (then a still view is refined from the

@@ -10,7 +10,7 @@ use fovea_core::units::Degrees;
 use fovea_post::tonemap::{to_srgb8, ToneCurve};
 use fovea_render::bvh::Backend;
 use fovea_render::camera::{Eye, HmdRig};
-use fovea_render::pipeline::{render_frame, FrameSettings};
+use fovea_render::pipeline::{render_frame, Executors, FrameSettings};
 use fovea_render::scene::builtin;
 use fovea_render::world::World;
 use fovea_viewer::controls::{EyesChoice, LightsChoice};
@@ -56,7 +56,7 @@ fn the_full_scale_frame_is_the_pipelines_frame() {
     )
     .unwrap();
     let want = to_srgb8(&want.color, 0.0, ToneCurve::Reinhard);
-    let mut r = FrameRenderer::new(world, base, 0.063, None, None).unwrap();
+    let mut r = FrameRenderer::new(world, base, 0.063, Executors::default(), None).unwrap();
     let f = r.render(&request(vafr(1.0), &display, pose)).unwrap();
     assert_eq!((f.id, f.width, f.height), (7, 192, 160));
     let got: Vec<u8> = f
@@ -71,8 +71,14 @@ fn the_full_scale_frame_is_the_pipelines_frame() {
 #[test]
 fn a_reduced_scale_caps_vafr_at_the_reduced_displays_nyquist_rate() {
     let (world, display, pose) = setup();
-    let mut r =
-        FrameRenderer::new(world, FrameSettings::new(Method::Vafr), 0.063, None, None).unwrap();
+    let mut r = FrameRenderer::new(
+        world,
+        FrameSettings::new(Method::Vafr),
+        0.063,
+        Executors::default(),
+        None,
+    )
+    .unwrap();
     let full = r.render(&request(vafr(1.0), &display, pose)).unwrap();
     let half = r.render(&request(vafr(0.5), &display, pose)).unwrap();
     assert_eq!((half.width, half.height), (96, 80));
@@ -99,8 +105,14 @@ fn a_reduced_scale_caps_vafr_at_the_reduced_displays_nyquist_rate() {
 fn both_eyes_lights_and_ab_reach_the_frame() {
     let (world, display, pose) = setup();
     let lights = world.lights.len();
-    let mut r =
-        FrameRenderer::new(world, FrameSettings::new(Method::Kfr), 0.063, None, None).unwrap();
+    let mut r = FrameRenderer::new(
+        world,
+        FrameSettings::new(Method::Kfr),
+        0.063,
+        Executors::default(),
+        None,
+    )
+    .unwrap();
     let mut v = ViewSettings::new(ViewMethod::Method(Method::Kfr), None, 1.0);
     v.eyes = EyesChoice::Both;
     let both = r.render(&request(v.clone(), &display, pose)).unwrap();
@@ -131,8 +143,14 @@ fn both_eyes_lights_and_ab_reach_the_frame() {
 #[test]
 fn a_bad_setting_is_an_error_not_a_panic() {
     let (world, display, pose) = setup();
-    let mut r =
-        FrameRenderer::new(world, FrameSettings::new(Method::Vafr), 0.063, None, None).unwrap();
+    let mut r = FrameRenderer::new(
+        world,
+        FrameSettings::new(Method::Vafr),
+        0.063,
+        Executors::default(),
+        None,
+    )
+    .unwrap();
     let mut v = vafr(1.0);
     v.dof = Some(fovea_post::dof::FilterKind::Gather);
     v.pupil = fovea_viewer::controls::PupilChoice::Mm(40.0);

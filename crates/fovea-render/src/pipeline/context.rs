@@ -47,14 +47,34 @@ pub struct FrameContext {
     spare_color: Option<Image<Rgb>>,
     /// Screen buffers allocated so far (colour and depth count one each).
     screen_allocations: u64,
-    /// Another executor of the reconstruct stage (see [`Self::set_reconstructor`]).
-    reconstructor: Option<Box<dyn ReconstructExecutor>>,
-    /// Another executor of the trace stage's ray casting (see [`Self::set_tracer`]).
-    tracer: Option<Box<dyn TraceExecutor>>,
-    /// Another executor of the depth-of-field stage (see [`Self::set_dof_executor`]).
-    dof: Option<Box<dyn DofExecutor>>,
-    /// Another executor of the sample-space AA filter (see [`Self::set_anti_aliaser`]).
-    anti_aliaser: Option<Box<dyn AaExecutor>>,
+    /// The other executors the stages run on, where one is plugged in.
+    executors: Executors,
+}
+
+/// The executors other than the CPU's (e.g. the GPU's) that a [`FrameContext`] runs stages
+/// on; each `None` stage runs on the CPU. They move between contexts as a whole
+/// ([`FrameContext::take_executors`], [`FrameContext::set_executors`]): e.g. a viewer's two
+/// eyes, each with its own buffers, take turns on one GPU's executors.
+#[derive(Default)]
+pub struct Executors {
+    /// The trace stage's ray casting (see [`FrameContext::set_tracer`]).
+    pub tracer: Option<Box<dyn TraceExecutor>>,
+    /// The reconstruct stage (see [`FrameContext::set_reconstructor`]).
+    pub reconstructor: Option<Box<dyn ReconstructExecutor>>,
+    /// The depth-of-field stage (see [`FrameContext::set_dof_executor`]).
+    pub dof: Option<Box<dyn DofExecutor>>,
+    /// The sample-space AA filter (see [`FrameContext::set_anti_aliaser`]).
+    pub anti_aliaser: Option<Box<dyn AaExecutor>>,
+}
+
+impl Executors {
+    /// Whether every stage runs on the CPU.
+    pub fn is_empty(&self) -> bool {
+        self.tracer.is_none()
+            && self.reconstructor.is_none()
+            && self.dof.is_none()
+            && self.anti_aliaser.is_none()
+    }
 }
 
 impl FrameContext {
@@ -174,7 +194,7 @@ impl FrameContext {
             .samples
             .as_mut()
             .expect("samples_for runs before the AA");
-        (samples, self.anti_aliaser.as_deref_mut())
+        (samples, self.executors.anti_aliaser.as_deref_mut())
     }
 
     /// The sample buffers [`samples_for`](Self::samples_for) prepared, and the executor of
@@ -189,7 +209,7 @@ impl FrameContext {
             .samples
             .as_mut()
             .expect("samples_for runs before the reconstruction");
-        (samples, self.reconstructor.as_deref_mut())
+        (samples, self.executors.reconstructor.as_deref_mut())
     }
 
     /// The sample buffers for `plan` ([`samples_for`](Self::samples_for)) and the executor
@@ -207,36 +227,47 @@ impl FrameContext {
             .samples
             .as_mut()
             .expect("samples_for keeps the buffers it prepares");
-        Ok((samples, self.tracer.as_deref_mut()))
+        Ok((samples, self.executors.tracer.as_deref_mut()))
     }
 
     /// Casts the trace stage's primary rays on `executor` (e.g. the GPU's) in every frame
     /// rendered with this context, for the world it was built for.
     pub fn set_tracer(&mut self, executor: Box<dyn TraceExecutor>) {
-        self.tracer = Some(executor);
+        self.executors.tracer = Some(executor);
     }
 
     /// Runs the reconstruct stage's lookup on `executor` (e.g. the GPU's) for the mappings it
     /// supports, in every frame rendered with this context.
     pub fn set_reconstructor(&mut self, executor: Box<dyn ReconstructExecutor>) {
-        self.reconstructor = Some(executor);
+        self.executors.reconstructor = Some(executor);
     }
 
     /// Runs the depth-of-field stage (CoC map and filter) on `executor` (e.g. the GPU's) for
     /// the filters it supports, in every frame rendered with this context.
     pub fn set_dof_executor(&mut self, executor: Box<dyn DofExecutor>) {
-        self.dof = Some(executor);
+        self.executors.dof = Some(executor);
     }
 
     /// The executor of the depth-of-field stage, if one is plugged in.
     pub(crate) fn dof_executor(&mut self) -> Option<&mut (dyn DofExecutor + 'static)> {
-        self.dof.as_deref_mut()
+        self.executors.dof.as_deref_mut()
     }
 
     /// Runs the sample-space AA filter (FXAA, the 3×3 Gaussian) on `executor` (e.g. the GPU's)
     /// for the modes and grids it supports, in every frame rendered with this context.
     pub fn set_anti_aliaser(&mut self, executor: Box<dyn AaExecutor>) {
-        self.anti_aliaser = Some(executor);
+        self.executors.anti_aliaser = Some(executor);
+    }
+
+    /// Plugs in `executors`, replacing every executor the context had.
+    pub fn set_executors(&mut self, executors: Executors) {
+        self.executors = executors;
+    }
+
+    /// Takes the context's executors out (its stages then run on the CPU until
+    /// [`Self::set_executors`]).
+    pub fn take_executors(&mut self) -> Executors {
+        std::mem::take(&mut self.executors)
     }
 
     /// Screen-sized colour and depth buffers for `plan`'s display: the last frame's when they

@@ -41,7 +41,7 @@ pub mod screen_post;
 pub mod timing;
 pub mod trace_shade;
 
-pub use context::FrameContext;
+pub use context::{Executors, FrameContext};
 pub use fovea_core::mapping::footprint::sample_spread_rad;
 pub use reconstruct::ReconstructExecutor;
 pub use sample_post::AaExecutor;
