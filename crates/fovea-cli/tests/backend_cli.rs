@@ -659,7 +659,13 @@ fn bench_gpu_reports_pass_times_fps_and_speedup() {
     assert_eq!(vafr["stage_backends"]["shadow_rays"], "gpu", "{vafr}");
     assert_eq!(vafr["stage_backends"]["reconstruct"], "gpu", "{vafr}");
     assert_eq!(vafr["stage_backends"]["aa"], "gpu", "{vafr}");
-    for pass in ["trace", "direct_light", "environment_light", "aa", "reconstruct"] {
+    for pass in [
+        "trace",
+        "direct_light",
+        "environment_light",
+        "aa",
+        "reconstruct",
+    ] {
         let ms = vafr["gpu_pass_ms"][pass].as_f64().unwrap_or(f64::NAN);
         assert!(ms.is_finite() && ms > 0.0, "{pass}: {vafr}");
     }
