@@ -2,8 +2,9 @@
 //! stage of the frame. Today the GPU casts every method's rays — the trace stage's primary
 //! rays (closest hits through a BVH, `fovea_gpu::GpuTracer`) and the shade stage's shadow rays
 //! — and computes the lights' part of direct shading (the BRDF, the lights' falloff, their
-//! shadow rays: `GpuTracer::direct_light_timed`), while the surfaces and the environment's
-//! estimator stay on the CPU; it runs the sample-space AA filter (FXAA with the polar seam,
+//! shadow rays: `GpuTracer::direct_light_timed`) and the environment's (its MIS estimator
+//! with the CPU's random numbers, its shadow rays: `GpuTracer::environment_light_timed`),
+//! while the surfaces stay on the CPU; it runs the sample-space AA filter (FXAA with the polar seam,
 //! the 3×3 Gaussian; `fovea_gpu::GpuSampleAa`), the reconstruct stage's lookup of polar
 //! buffers (VaFR, KFR, LaFR, visual-polar, liu-hybrid; `fovea_gpu::GpuReconstructor`), and
 //! the screen post's depth of field with the `gather` filter (the eye's CoC map and the
@@ -135,6 +136,9 @@ pub struct Backend {
     pub direct_times: Arc<Mutex<Option<GpuTraceMs>>>,
     /// Filled by the tone-map executor: sums over the images it encoded.
     pub tone_times: Arc<Mutex<Option<GpuToneMs>>>,
+    /// Filled by the trace executor after each frame: the environment's part of direct
+    /// shading.
+    pub environment_times: Arc<Mutex<Option<GpuTraceMs>>>,
     /// The adapter is a CPU device (lavapipe, llvmpipe, WARP): its times are CPU-emulated.
     pub cpu_emulated: bool,
 }
@@ -163,6 +167,7 @@ impl Backend {
             trace_times: Arc::default(),
             shadow_times: Arc::default(),
             direct_times: Arc::default(),
+            environment_times: Arc::default(),
             cpu_emulated: false,
         }
     }
@@ -228,6 +233,8 @@ impl Backend {
             "gpu_trace": *self.trace_times.lock().unwrap_or_else(|e| e.into_inner()),
             "gpu_shadow": *self.shadow_times.lock().unwrap_or_else(|e| e.into_inner()),
             "gpu_direct_light": *self.direct_times.lock().unwrap_or_else(|e| e.into_inner()),
+            "gpu_environment_light":
+                *self.environment_times.lock().unwrap_or_else(|e| e.into_inner()),
             "rays": {
                 "generation": frame.ray_generation_backend,
                 "primary": trace,
@@ -236,6 +243,7 @@ impl Backend {
             "direct_light": frame.direct_light_backend,
             "tone_map": if tone.is_some() { "gpu" } else { "cpu" },
             "gpu_tone_map": tone,
+            "environment_light": frame.environment_light_backend,
             "dof": frame.dof_backend,
             "cpu_emulated": self.cpu_emulated,
             "gpu_bvh": self.gpu_bvh,
@@ -374,6 +382,8 @@ fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend
     let trace_times = Arc::new(Mutex::new(None));
     let shadow_times = Arc::new(Mutex::new(None));
     let direct_times = Arc::new(Mutex::new(None));
+    let environment_times = Arc::new(Mutex::new(None));
+    let environment = fovea_gpu::GpuEnvironment::new(&ctx, &world.scene.environment)?;
     let dof_times = Arc::new(Mutex::new(None));
     let executor = GpuExecutor {
         gpu: GpuReconstructor::new(&ctx)?,
@@ -407,6 +417,8 @@ fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend
             times: trace_times.clone(),
             shadow_times: shadow_times.clone(),
             direct_times: direct_times.clone(),
+            environment,
+            environment_times: environment_times.clone(),
         })),
         dof: Some(Box::new(dof)),
         gpu_bvh: Some(gpu_bvh),
@@ -416,6 +428,7 @@ fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend
         trace_times,
         shadow_times,
         direct_times,
+        environment_times,
         cpu_emulated: facts.cpu_emulated,
     })
 }
@@ -431,6 +444,10 @@ struct GpuTraceExecutor {
     shadow_times: Arc<Mutex<Option<GpuTraceMs>>>,
     /// The direct-light passes' times.
     direct_times: Arc<Mutex<Option<GpuTraceMs>>>,
+    /// The world's environment on the device.
+    environment: fovea_gpu::GpuEnvironment,
+    /// The environment-light passes' times.
+    environment_times: Arc<Mutex<Option<GpuTraceMs>>>,
 }
 
 #[cfg(feature = "gpu")]
@@ -569,6 +586,39 @@ impl TraceExecutor for GpuTraceExecutor {
         Ok(out
             .into_iter()
             .map(|d| (glam::Vec3::from(d.radiance), d.shadow_rays))
+            .collect())
+    }
+
+    fn shades_environment(&self) -> bool {
+        true
+    }
+
+    fn environment_light(
+        &mut self,
+        hits: &[&fovea_render::trace::GSample],
+        keys: &[u64],
+        samples: u32,
+    ) -> std::result::Result<Vec<(glam::Vec3, u32)>, String> {
+        if keys.len() != hits.len() {
+            return Err(format!(
+                "{} keys for {} surface samples",
+                keys.len(),
+                hits.len()
+            ));
+        }
+        let surfaces: Vec<fovea_gpu::GpuSurface> = hits
+            .iter()
+            .zip(keys)
+            .map(|(g, &k)| fovea_gpu::GpuSurface::keyed(g, k))
+            .collect();
+        let (out, t) = self
+            .gpu
+            .environment_light_timed(&surfaces, &self.environment, samples)
+            .map_err(|e| e.to_string())?;
+        Self::add(&self.environment_times, t);
+        Ok(out
+            .into_iter()
+            .map(|e| (glam::Vec3::from(e.radiance), e.rays))
             .collect())
     }
 }

@@ -254,6 +254,7 @@ struct ExecutorTimes {
     trace: Arc<Mutex<Option<GpuTraceMs>>>,
     shadow: Arc<Mutex<Option<GpuTraceMs>>>,
     direct_light: Arc<Mutex<Option<GpuTraceMs>>>,
+    environment_light: Arc<Mutex<Option<GpuTraceMs>>>,
     dof: Arc<Mutex<Option<GpuDofMs>>>,
     aa: Arc<Mutex<Option<crate::backend::GpuAaMs>>>,
 }
@@ -276,6 +277,7 @@ impl BenchExecutors for BenchBackend {
             trace: backend.trace_times.clone(),
             shadow: backend.shadow_times.clone(),
             direct_light: backend.direct_times.clone(),
+            environment_light: backend.environment_times.clone(),
             dof: backend.dof_times.clone(),
             aa: backend.aa_times.clone(),
         });
@@ -290,6 +292,7 @@ impl BenchExecutors for BenchBackend {
             trace,
             shadow,
             direct_light,
+            environment_light,
             dof,
             aa,
         }) = &self.times
@@ -299,6 +302,9 @@ impl BenchExecutors for BenchBackend {
             }
             if let Some(ms) = take(direct_light).and_then(|t| t.gpu_pass_ms) {
                 out.insert("direct_light".to_string(), ms);
+            }
+            if let Some(ms) = take(environment_light).and_then(|t| t.gpu_pass_ms) {
+                out.insert("environment_light".to_string(), ms);
             }
             if let Some(ms) = take(trace).and_then(|t| t.gpu_pass_ms) {
                 out.insert("trace".to_string(), ms);
@@ -548,8 +554,8 @@ fn print_run(r: &BenchRun, labels: bool) {
         on(&s.trace_backend),
         st(Stage::Shade),
         on(&format!(
-            "cpu, direct light {}, shadow rays {}",
-            s.direct_light_backend, s.shadow_backend
+            "cpu, direct light {}, environment light {}, shadow rays {}",
+            s.direct_light_backend, s.environment_light_backend, s.shadow_backend
         )),
         st(Stage::Aa),
         on(&s.aa_backend),

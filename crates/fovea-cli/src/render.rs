@@ -469,9 +469,10 @@ pub fn run(args: RenderArgs) -> Result<()> {
             format!("{k} {:.1} ({})", s.stages_ms.get(k), s.aa_backend)
         }
         Stage::Shade if s.shadow_backend != "cpu" => format!(
-            "{k} {:.1} (direct light {}, shadow rays {})",
+            "{k} {:.1} (direct light {}, environment light {}, shadow rays {})",
             s.stages_ms.get(k),
             s.direct_light_backend,
+            s.environment_light_backend,
             s.shadow_backend
         ),
         _ => format!("{k} {:.1}", s.stages_ms.get(k)),
@@ -655,7 +656,7 @@ fn run_stereo(
 }
 
 /// "backend: GPU: <adapter> | primary rays on the GPU, shadow rays on the GPU, direct light on
-/// the GPU, aa on the GPU, reconstruct on the GPU, every other stage on the CPU", or "backend: CPU (<why>)": where a frame's stages
+/// the GPU, environment light on the GPU, aa on the GPU, reconstruct on the GPU, every other stage on the CPU", or "backend: CPU (<why>)": where a frame's stages
 /// ran.
 fn backend_line(
     backend: &crate::backend::Backend,
@@ -671,6 +672,7 @@ fn backend_line(
         ("primary rays", &s.trace_backend),
         ("shadow rays", &s.shadow_backend),
         ("direct light", &s.direct_light_backend),
+        ("environment light", &s.environment_light_backend),
         ("aa", &s.aa_backend),
         ("reconstruct", &s.reconstruct_backend),
         ("depth of field", &s.dof_backend),

@@ -111,8 +111,8 @@ fn gpu_backend_casts_a_screen_aligned_methods_rays() {
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         stdout.contains(
-            "primary rays on the GPU, shadow rays on the GPU, direct light on the GPU, every \
-             other stage"
+            "primary rays on the GPU, shadow rays on the GPU, direct light on the GPU, \
+             environment light on the GPU, every other stage"
         ),
         "{stdout}"
     );
@@ -219,7 +219,7 @@ fn gpu_frames_are_the_cpu_frames_method_by_method() {
                 }
                 let cpu = run("cpu");
                 let s = stats(dir.path(), &format!("{name}-gpu"));
-                for stage in ["trace", "shadow", "direct_light"] {
+                for stage in ["trace", "shadow", "direct_light", "environment_light"] {
                     assert_eq!(s["frame"][format!("{stage}_backend")], "gpu", "{name}");
                 }
                 // The gather DOF (the eye's CoC map and the filter) runs on the GPU too; a
@@ -372,7 +372,10 @@ fn gpu_backend_traces_and_reconstructs_on_the_gpu() {
     // ray per texel).
     assert_eq!(s["frame"]["shadow_backend"], "gpu");
     assert_eq!(s["frame"]["direct_light_backend"], "gpu");
-    for key in ["gpu_shadow", "gpu_direct_light"] {
+    // The environment's rays are cast in its own pass: none is left for `occluded`.
+    assert_eq!(s["frame"]["environment_light_backend"], "gpu");
+    assert_eq!(s["backend"]["environment_light"], "gpu");
+    for key in ["gpu_shadow", "gpu_direct_light", "gpu_environment_light"] {
         let t = &s["backend"][key];
         assert!(t["calls"].as_u64().unwrap() >= 1, "{key}: {t}");
         if let Some(pass) = t["gpu_pass_ms"].as_f64() {
@@ -386,7 +389,8 @@ fn gpu_backend_traces_and_reconstructs_on_the_gpu() {
     assert!(
         stdout.contains(
             "primary rays on the GPU, shadow rays on the GPU, direct light on the GPU, \
-             aa on the GPU, reconstruct on the GPU, every other stage on the CPU"
+             environment light on the GPU, aa on the GPU, reconstruct on the GPU, every other \
+             stage on the CPU"
         ),
         "{stdout}"
     );
@@ -690,8 +694,9 @@ fn bench_gpu_reports_pass_times_fps_and_speedup() {
     assert_eq!(full["stage_backends"]["trace"], "gpu", "{full}");
     assert_eq!(full["stage_backends"]["shadow_rays"], "gpu", "{full}");
     assert_eq!(full["stage_backends"]["direct_light"], "gpu", "{full}");
+    assert_eq!(full["stage_backends"]["environment_light"], "gpu", "{full}");
     assert_eq!(full["stage_backends"]["reconstruct"], "cpu", "{full}");
-    for pass in ["trace", "direct_light", "shadow"] {
+    for pass in ["trace", "direct_light", "environment_light"] {
         let ms = full["gpu_pass_ms"][pass].as_f64().unwrap_or(f64::NAN);
         assert!(ms.is_finite() && ms > 0.0, "{pass}: {full}");
     }
@@ -700,7 +705,13 @@ fn bench_gpu_reports_pass_times_fps_and_speedup() {
     assert_eq!(vafr["stage_backends"]["shadow_rays"], "gpu", "{vafr}");
     assert_eq!(vafr["stage_backends"]["reconstruct"], "gpu", "{vafr}");
     assert_eq!(vafr["stage_backends"]["aa"], "gpu", "{vafr}");
-    for pass in ["trace", "direct_light", "shadow", "aa", "reconstruct"] {
+    for pass in [
+        "trace",
+        "direct_light",
+        "environment_light",
+        "aa",
+        "reconstruct",
+    ] {
         let ms = vafr["gpu_pass_ms"][pass].as_f64().unwrap_or(f64::NAN);
         assert!(ms.is_finite() && ms > 0.0, "{pass}: {vafr}");
     }
@@ -807,7 +818,7 @@ fn report_speed_section_says_which_backend_ran() {
     for want in [
         "GPU trace pass (ms)",
         "GPU direct_light pass (ms)",
-        "GPU shadow pass (ms)",
+        "GPU environment_light pass (ms)",
         "rays on",
     ] {
         assert!(text.contains(want), "no {want} in {text}");

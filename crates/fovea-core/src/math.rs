@@ -59,12 +59,25 @@ pub fn halton2(index: u64, shift: (f64, f64)) -> (f64, f64) {
     (a - a.floor(), b - b.floor())
 }
 
+/// The constants of [`mix64`] (Steele, Lea and Flood 2014, SplitMix64; the finaliser's
+/// multipliers and shifts are Stafford's "Mix13"), named so another executor of it (the GPU's
+/// environment light, `fovea-gpu`) uploads these values instead of writing its own.
+pub mod mix64_constants {
+    /// Added first (the golden-ratio increment, 2⁶⁴ / φ).
+    pub const INCREMENT: u64 = 0x9E37_79B9_7F4A_7C15;
+    /// The two multipliers, in order.
+    pub const MULTIPLIERS: [u64; 2] = [0xBF58_476D_1CE4_E5B9, 0x94D0_49BB_1331_11EB];
+    /// The three right shifts xored in, in order.
+    pub const SHIFTS: [u32; 3] = [30, 27, 31];
+}
+
 /// A 64-bit mix (SplitMix64 finaliser) used to derive rotations and dithers from a seed.
 pub fn mix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
+    use mix64_constants::{INCREMENT, MULTIPLIERS, SHIFTS};
+    z = z.wrapping_add(INCREMENT);
+    z = (z ^ (z >> SHIFTS[0])).wrapping_mul(MULTIPLIERS[0]);
+    z = (z ^ (z >> SHIFTS[1])).wrapping_mul(MULTIPLIERS[1]);
+    z ^ (z >> SHIFTS[2])
 }
 
 /// `mix64(seed)` as a float in [0, 1).

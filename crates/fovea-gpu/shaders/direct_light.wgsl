@@ -17,9 +17,11 @@ struct Surface {
     face_normal: vec3<f32>,
     roughness: f32,
     to_eye: vec3<f32>,
-    pad0: f32,
+    // The sample's key (`fovea_render::shade::texel_key`), low and high words: the seed of
+    // environment_light.wgsl's random numbers.
+    key_lo: u32,
     albedo: vec3<f32>,
-    pad1: f32,
+    key_hi: u32,
     specular: vec3<f32>,
     pad2: f32,
 }

@@ -34,8 +34,8 @@ impl DirectLightModel {
     };
 }
 
-/// A surface sample as `direct_light.wgsl` reads it (`Surface`): the renderer's G-buffer
-/// record less what direct light does not read.
+/// A surface sample as `direct_light.wgsl` and `environment_light.wgsl` read it (`Surface`):
+/// the renderer's G-buffer record less what they do not read, and the sample's key.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuSurface {
@@ -53,12 +53,13 @@ pub struct GpuSurface {
     pub roughness: f32,
     /// Unit vector towards the eye.
     pub to_eye: [f32; 3],
-    /// Padding.
-    pub pad0: f32,
+    /// The low word of the sample's key (`fovea_render::shade::texel_key`: the seed of the
+    /// environment light's random numbers, [`crate::environment_light`]).
+    pub key_lo: u32,
     /// Base colour, linear RGB.
     pub albedo: [f32; 3],
-    /// Padding.
-    pub pad1: f32,
+    /// The key's high word.
+    pub key_hi: u32,
     /// Dielectric specular reflectance at normal incidence.
     pub specular: [f32; 3],
     /// Padding.
@@ -102,6 +103,36 @@ impl GpuSurface {
             specular: g.specular.to_array(),
             ..Self::default()
         }
+    }
+
+    /// The record `g` with its key (the environment light's seed).
+    pub fn keyed(g: &GSample, key: u64) -> Self {
+        Self {
+            key_lo: key as u32,
+            key_hi: (key >> 32) as u32,
+            ..Self::of(g)
+        }
+    }
+
+    /// The key.
+    pub fn key(&self) -> u64 {
+        u64::from(self.key_lo) | (u64::from(self.key_hi) << 32)
+    }
+
+    /// Whether every float field is finite (WGSL may assume it).
+    pub fn is_finite(&self) -> bool {
+        [
+            self.position,
+            self.normal,
+            self.face_normal,
+            self.to_eye,
+            self.albedo,
+            self.specular,
+        ]
+        .iter()
+        .flatten()
+        .chain([&self.t, &self.metallic, &self.roughness, &self.pad2])
+        .all(|v| v.is_finite())
     }
 }
 
@@ -185,11 +216,7 @@ impl GpuTracer {
             radiance: [0.0; 3],
             shadow_rays: 0,
         };
-        if let Some(k) = surfaces.iter().position(|s| {
-            !bytemuck::cast_slice::<_, f32>(&[*s])
-                .iter()
-                .all(|v| v.is_finite())
-        }) {
+        if let Some(k) = surfaces.iter().position(|s| !s.is_finite()) {
             return Err(GpuError::Input(format!(
                 "surface sample {k} has a non-finite field"
             )));
@@ -245,6 +272,7 @@ impl GpuTracer {
                         (6, bytemuck::cast_slice(chunk), storage),
                         (7, bytemuck::cast_slice(&lights), storage),
                     ],
+                    resident: &[],
                     items: chunk.len(),
                     out_bytes: OUT_BYTES,
                 },

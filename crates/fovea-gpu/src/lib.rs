@@ -20,6 +20,9 @@
 //!   ([`GpuTracer`]).
 //! * [`direct_light`]: the renderer's direct lighting of surface samples, shadow rays
 //!   through the same BVH ([`GpuTracer::direct_light_timed`]).
+//! * [`environment_light`]: the renderer's environment light (its MIS estimator, the same
+//!   random numbers), shadow rays through the same BVH
+//!   ([`GpuTracer::environment_light_timed`], [`GpuEnvironment`]).
 //! * [`ray_generation`]: a polar buffer's primary rays generated from their polar
 //!   coordinates and traced ([`GpuTracer::closest_hits_polar_timed`]).
 //! * [`dof`]: the signed CoC map from depth with the eye model and the scatter-as-gather
@@ -51,6 +54,7 @@ pub mod backend;
 pub mod device;
 pub mod direct_light;
 pub mod dof;
+pub mod environment_light;
 pub mod error;
 pub mod mapping;
 pub mod ray_generation;
@@ -66,6 +70,7 @@ pub use backend::{BackendChoice, Resolved};
 pub use device::{AdapterSummary, DeviceKind, GpuContext, GpuRequest};
 pub use direct_light::{DirectLight, GpuLight, GpuSurface};
 pub use dof::{DofTimes, GpuDof};
+pub use environment_light::{EnvironmentLight, GpuEnvironment};
 pub use error::{GpuError, Result};
 pub use mapping::{Direction, GpuMapping};
 pub use ray_generation::{GpuPolarRay, RayGenCamera};

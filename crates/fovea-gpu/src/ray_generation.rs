@@ -157,6 +157,7 @@ impl GpuTracer {
                         (6, bytemuck::bytes_of(camera), wgpu::BufferUsages::UNIFORM),
                         (7, bytemuck::cast_slice(chunk), wgpu::BufferUsages::STORAGE),
                     ],
+                    resident: &[],
                     items: chunk.len(),
                     out_bytes: OUT_BYTES,
                 },

@@ -24,22 +24,26 @@ use crate::shaders::ShaderSource;
 use crate::transfer::{batch_len, run_1d, run_1d_at, upload};
 
 /// The module: `closest_hit` and `any_hit`, `direct_light` (`shaders/direct_light.wgsl`,
-/// appended: it walks the same BVH; see [`crate::direct_light`]) and `closest_hit_polar`
-/// (`shaders/ray_generation.wgsl`, appended; see [`crate::ray_generation`]), [`TraceUniform`]
-/// at binding 0.
+/// appended: it walks the same BVH; see [`crate::direct_light`]), `closest_hit_polar`
+/// (`shaders/ray_generation.wgsl`, appended; see [`crate::ray_generation`]), and
+/// `environment_light` and `mix64_check` (`shaders/environment_light.wgsl`, appended; see
+/// [`crate::environment_light`]), [`TraceUniform`] at binding 0.
 pub const SHADER: ShaderSource = ShaderSource {
     file: "trace.wgsl",
     source: concat!(
         include_str!("../shaders/common.wgsl"),
         include_str!("../shaders/trace.wgsl"),
         include_str!("../shaders/direct_light.wgsl"),
-        include_str!("../shaders/ray_generation.wgsl")
+        include_str!("../shaders/ray_generation.wgsl"),
+        include_str!("../shaders/environment_light.wgsl")
     ),
     entry_points: &[
         "closest_hit",
         "any_hit",
         "direct_light",
         "closest_hit_polar",
+        "environment_light",
+        "mix64_check",
     ],
     uniform: ("TraceParams", std::mem::size_of::<TraceUniform>()),
 };
@@ -171,12 +175,14 @@ impl TraceTimes {
 }
 
 /// One batch of a trace-module entry point that reads the scene: its parameter block (binding
-/// 0), its own inputs (`(binding, bytes, usage)`, at bindings 6 and up) and its output per item
-/// (at binding 8), for [`GpuTracer::run_scene_pass`].
+/// 0), its own inputs (`(binding, bytes, usage)`, at bindings 6 and up; `resident`: buffers
+/// already on the device) and its output per item (at binding 8), for
+/// [`GpuTracer::run_scene_pass`].
 pub(crate) struct ScenePass<'a> {
     pub(crate) what: &'a str,
     pub(crate) block: TraceUniform,
     pub(crate) inputs: &'a [(u32, &'a [u8], wgpu::BufferUsages)],
+    pub(crate) resident: &'a [(u32, &'a wgpu::Buffer)],
     pub(crate) items: usize,
     pub(crate) out_bytes: u64,
 }
@@ -213,6 +219,9 @@ pub struct GpuTracer {
     stats: BvhStats,
     /// `None` for an empty scene (every ray misses without a dispatch).
     pub(crate) scene: Option<SceneBuffers>,
+    /// The hash check's pipeline (`mix64_check`; built with the scene's, or on first use
+    /// for an empty scene).
+    pub(crate) mix64: std::sync::OnceLock<wgpu::ComputePipeline>,
 }
 
 pub(crate) struct SceneBuffers {
@@ -223,6 +232,7 @@ pub(crate) struct SceneBuffers {
     any: wgpu::ComputePipeline,
     pub(crate) direct: wgpu::ComputePipeline,
     pub(crate) polar: wgpu::ComputePipeline,
+    pub(crate) environment: wgpu::ComputePipeline,
 }
 
 impl GpuTracer {
@@ -249,6 +259,7 @@ impl GpuTracer {
                     build_ms: 0.0,
                 },
                 scene: None,
+                mix64: std::sync::OnceLock::new(),
             });
         }
         let input: Vec<Triangle> = triangles
@@ -315,18 +326,20 @@ impl GpuTracer {
                 )
             },
         )?;
-        // `closest_hit`, `any_hit`, `direct_light`, `closest_hit_polar`: the order of the
-        // module's entry points.
+        // `closest_hit`, `any_hit`, `direct_light`, `closest_hit_polar`,
+        // `environment_light`, `mix64_check`: the order of the module's entry points.
         let mut pipelines = pipelines.into_iter();
-        let (Some(closest), Some(any), Some(direct), Some(polar)) = (
+        let (Some(closest), Some(any), Some(direct), Some(polar), Some(environment), Some(hash)) = (
+            pipelines.next(),
+            pipelines.next(),
             pipelines.next(),
             pipelines.next(),
             pipelines.next(),
             pipelines.next(),
         ) else {
             return Err(GpuError::Input(
-                "the trace module lacks one of its four entry points (closest_hit, any_hit, \
-                 direct_light, closest_hit_polar)"
+                "the trace module lacks one of its six entry points (closest_hit, any_hit, \
+                 direct_light, closest_hit_polar, environment_light, mix64_check)"
                     .into(),
             ));
         };
@@ -338,6 +351,7 @@ impl GpuTracer {
             any,
             direct,
             polar,
+            environment,
         };
         Ok(Self {
             ctx: ctx.clone(),
@@ -348,6 +362,7 @@ impl GpuTracer {
                 build_ms,
             },
             scene: Some(scene),
+            mix64: hash.into(),
         })
     }
 
@@ -423,6 +438,11 @@ impl GpuTracer {
             (3, scene.prim_ids.as_entire_binding()),
         ];
         bindings.extend(inputs.iter().map(|(b, buf)| (*b, buf.as_entire_binding())));
+        bindings.extend(
+            pass.resident
+                .iter()
+                .map(|(b, buf)| (*b, buf.as_entire_binding())),
+        );
         run_1d_at(
             ctx,
             pass.what,

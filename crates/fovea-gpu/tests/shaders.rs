@@ -134,6 +134,27 @@ fn the_ray_generation_records_match_their_rust_structs() {
 }
 
 #[test]
+fn the_environment_light_records_match_their_rust_structs() {
+    // The environment's block and the surface samples of `environment_light.wgsl` and
+    // `direct_light.wgsl` (appended to the trace module).
+    let shader = fovea_gpu::trace::SHADER;
+    for (name, rust_size) in [
+        (
+            "EnvParams",
+            std::mem::size_of::<fovea_gpu::environment_light::EnvUniform>(),
+        ),
+        ("Surface", std::mem::size_of::<fovea_gpu::GpuSurface>()),
+    ] {
+        assert_eq!(
+            struct_span(&shader, name),
+            rust_size,
+            "{}: WGSL {name}",
+            shader.file
+        );
+    }
+}
+
+#[test]
 fn every_wgsl_file_is_compiled_by_some_module() {
     // A shader file on disk that no module includes would escape validation: each file is
     // a module's own or appended to one (`direct_light.wgsl` and `ray_generation.wgsl` to the
@@ -154,9 +175,10 @@ fn every_wgsl_file_is_compiled_by_some_module() {
             "shaders/{name} is in no module of fovea_gpu::ALL_SHADERS"
         );
     }
-    // Every module's own file, common.wgsl, the appended direct_light.wgsl and
-    // ray_generation.wgsl, and the AA modules' shared sample_grid.wgsl.
-    assert_eq!(seen, ALL.len() + 3 + 1);
+    // Every module's own file, common.wgsl, the appended direct_light.wgsl,
+    // ray_generation.wgsl and environment_light.wgsl, and the AA modules' shared
+    // sample_grid.wgsl.
+    assert_eq!(seen, ALL.len() + 4 + 1);
 }
 
 #[test]

@@ -31,7 +31,7 @@ mod shadow_batch;
 use crate::trace::{trace_sample, GSample};
 use crate::world::World;
 pub use env_light::{
-    environment_light, subsample_key, texel_key, unoccluded_estimate, EnvLight,
+    env_constants, environment_light, subsample_key, texel_key, unoccluded_estimate, EnvLight,
     DEFAULT_ENV_SAMPLES, MAX_ENV_SAMPLES,
 };
 pub use shadow_batch::{direct_batch, shade_direct_batch, ShadowRays};

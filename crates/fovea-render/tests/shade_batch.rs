@@ -111,11 +111,18 @@ fn gathered_shadow_rays_shade_as_shade_does_bit_for_bit() {
             rays.rays.iter().map(|r| world.caster.occluded(r)).collect()
         };
         let mut many = RayCounts::default();
-        let rays = ShadowRays::gather(&world, &refs, &keys, env_light, true, &mut many);
+        let rays = ShadowRays::gather(&world, &refs, &keys, env_light, (true, true), &mut many);
         let mut out = vec![Vec3::NAN; refs.len()];
         rays.shade(&world, &refs, env_light, &answer(&rays), &mut out);
         let mut env_only = RayCounts::default();
-        let env_rays = ShadowRays::gather(&world, &refs, &keys, env_light, false, &mut env_only);
+        let env_rays = ShadowRays::gather(
+            &world,
+            &refs,
+            &keys,
+            env_light,
+            (false, true),
+            &mut env_only,
+        );
         let given: Vec<Vec3> = refs
             .iter()
             .map(|g| direct(&world, g, &mut env_only))

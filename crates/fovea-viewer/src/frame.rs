@@ -333,10 +333,12 @@ impl FrameRenderer {
                 "cpu".to_string()
             } else {
                 format!(
-                    "primary rays {}, shadow rays {}, direct light {}, reconstruct {}",
+                    "primary rays {}, shadow rays {}, direct light {}, environment light {}, \
+                     reconstruct {}",
                     s.trace_backend,
                     s.shadow_backend,
                     s.direct_light_backend,
+                    s.environment_light_backend,
                     s.reconstruct_backend
                 )
             }

@@ -80,7 +80,13 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
     // Where the rays and the reconstruction ran, and the GPU passes' own times, when a GPU
     // ran any (`--backend`).
     let on_gpu = result.runs.iter().any(|r| !r.device_pass_ms.is_empty());
-    const PASSES: [&str; 4] = ["trace", "direct_light", "shadow", "reconstruct"];
+    const PASSES: [&str; 5] = [
+        "trace",
+        "direct_light",
+        "environment_light",
+        "shadow",
+        "reconstruct",
+    ];
     if on_gpu {
         cols.extend(["rays on", "reconstruct on"].map(String::from));
         cols.extend(PASSES.map(|p| format!("GPU {p} pass (ms)")));

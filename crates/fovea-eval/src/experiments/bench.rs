@@ -730,6 +730,7 @@ impl BenchResult {
                         "trace": s.trace_backend,
                         "shadow_rays": s.shadow_backend,
                         "direct_light": s.direct_light_backend,
+                        "environment_light": s.environment_light_backend,
                         "aa": s.aa_backend,
                         "reconstruct": s.reconstruct_backend,
                     },

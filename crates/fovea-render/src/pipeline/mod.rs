@@ -132,6 +132,10 @@ pub struct FrameStats {
     /// The backend that computed the lights' part of direct shading (their BRDF-weighted
     /// radiance behind their shadow rays): `cpu`, or the executor's name where it did.
     pub direct_light_backend: String,
+    /// The backend that computed the environment's part of direct shading (its MIS
+    /// estimator behind its shadow rays): `cpu`, or the executor's name where it did
+    /// ([`trace_shade::TraceExecutor::shades_environment`]).
+    pub environment_light_backend: String,
     /// The backend that ran the depth-of-field stage (CoC map and filter): `cpu`, or the
     /// name of the [`screen_post::DofExecutor`] in the frame's context where it supports the
     /// filter (`gpu` for `gather`).
@@ -367,6 +371,7 @@ pub fn render_planned<'c>(
     stats.ray_generation_backend = casters.ray_generation;
     stats.shadow_backend = casters.shadow;
     stats.direct_light_backend = casters.direct_light;
+    stats.environment_light_backend = casters.environment_light;
     stats.dof_backend = dof_backend;
     Ok(ctx.store(Frame {
         color,
@@ -424,6 +429,7 @@ fn frame_stats(
         ray_generation_backend: trace_shade::CPU.to_string(),
         shadow_backend: trace_shade::CPU.to_string(),
         direct_light_backend: trace_shade::CPU.to_string(),
+        environment_light_backend: trace_shade::CPU.to_string(),
         dof_backend: reconstruct::CPU.to_string(),
     }
 }

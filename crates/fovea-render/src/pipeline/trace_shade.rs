@@ -33,7 +33,8 @@ use crate::error::{RenderError, Result};
 use crate::plan::{FramePlan, RayRings};
 use crate::scene::Light;
 use crate::shade::{
-    shade, shade_direct_batch, subsample_key, texel_key, RayCounts, ShadingMode, ShadowRays,
+    shade, shade_direct_batch, subsample_key, texel_key, EnvLight, RayCounts, ShadingMode,
+    ShadowRays,
 };
 use crate::trace::{surface, GSample};
 use crate::world::World;
@@ -41,8 +42,9 @@ use crate::world::World;
 /// Another executor of the trace and shade stages' ray casting (e.g. the GPU's, `fovea-gpu`):
 /// the closest hits of a chunk's primary rays, and the shadow rays of its direct shading,
 /// against the triangles of the world it was built for. The surface attributes (normals, UVs,
-/// materials, the ray cone) and the shading arithmetic stay on the CPU; so do the rays of a
-/// world it was not built for (a level-of-detail world).
+/// materials, the ray cone) and the shading arithmetic stay on the CPU, except the lights' and
+/// the environment's parts of direct shading where it computes them; the rays of a world it
+/// was not built for (a level-of-detail world) stay on the CPU too.
 pub trait TraceExecutor: Send {
     /// The backend's short name in stats and JSON, e.g. `gpu`.
     fn backend(&self) -> &str;
@@ -69,6 +71,30 @@ pub trait TraceExecutor: Send {
     ) -> std::result::Result<Vec<(Vec3, u32)>, String> {
         let _ = (hits, lights);
         Err(format!("{} does not compute direct light", self.backend()))
+    }
+    /// Whether it computes the environment's part of direct shading itself
+    /// ([`Self::environment_light`], for the environment of the world it serves); if not, the
+    /// environment's shadow rays come to [`Self::occluded`].
+    fn shades_environment(&self) -> bool {
+        false
+    }
+    /// The environment's part of direct shading at each surface sample of `hits` (all hits),
+    /// with `samples` rays each, `keys[s]` seeding sample `s`'s random numbers:
+    /// [`crate::shade::environment_light`]'s radiance with
+    /// [`crate::shade::EnvLight::Occluded`] for the environment of the world it serves, and
+    /// the rays it cast. Called only when [`Self::shades_environment`] and `samples > 0`. An
+    /// error is one line saying what to do.
+    fn environment_light(
+        &mut self,
+        hits: &[&GSample],
+        keys: &[u64],
+        samples: u32,
+    ) -> std::result::Result<Vec<(Vec3, u32)>, String> {
+        let _ = (hits, keys, samples);
+        Err(format!(
+            "{} does not compute the environment light",
+            self.backend()
+        ))
     }
     /// Whether it generates a polar buffer's primary rays itself
     /// ([`Self::closest_hits_polar`]); if not, they come to [`Self::closest_hits`].
@@ -335,7 +361,8 @@ pub const SHADE_GROUP: usize = SHADE_BATCH * 256;
 /// With `tracer`, the shadow rays of direct shading of one ray per texel without culling
 /// (the default frame) are cast there, [`SHADE_GROUP`] texels' at a time; the shading
 /// arithmetic stays here — except the lights' part where the executor computes it
-/// ([`TraceExecutor::shades_direct_light`]). Returns what the executor did (the other frames'
+/// ([`TraceExecutor::shades_direct_light`]) and the environment's where it computes that
+/// ([`TraceExecutor::shades_environment`]). Returns what the executor did (the other frames'
 /// shadow rays are cast and shaded on the CPU).
 #[allow(clippy::too_many_arguments)]
 pub fn shade_chunk(
@@ -398,44 +425,71 @@ pub fn shade_chunk(
                 })
                 .collect()
         };
-        // For another executor: a batch's representative records and their shadow rays.
-        type Gathered<'g> = (Vec<Option<&'g GSample>>, ShadowRays, RayCounts);
-        // The lights' part of a batch's surface samples and their shadow rays, when another
-        // executor computed it.
-        type Given<'d> = Option<&'d [(Vec3, u32)]>;
-        // `lights`: the lights' rays too (else only the environment's: the executor computes
-        // the lights' part).
-        let gather = |t0: usize, ks: &[u32], lights: bool| -> Gathered<'_> {
+        // For another executor: a batch's representative records, their shadow rays, and the
+        // keys of its surface samples (hits).
+        type Gathered<'g> = (Vec<Option<&'g GSample>>, ShadowRays, RayCounts, Vec<u64>);
+        // The lights' and the environment's parts of a batch's surface samples and the rays
+        // each cast, where another executor computed them.
+        type Given<'d> = (Option<&'d [(Vec3, u32)]>, Option<&'d [(Vec3, u32)]>);
+        // The environment's samples when the executor computes its part.
+        let env_samples = match env_light {
+            EnvLight::Occluded { samples } if samples > 0 => Some(samples),
+            _ => None,
+        };
+        // `parts`: which rays to gather, the lights' and the environment's (the executor
+        // computes the others' parts).
+        let gather = |t0: usize, ks: &[u32], parts: (bool, bool)| -> Gathered<'_> {
             let (reps, gs, keys) = records(t0, ks);
             let mut rc = RayCounts::default();
-            let rays = ShadowRays::gather(world, &gs, &keys, env_light, lights, &mut rc);
-            (reps, rays, rc)
+            let rays = ShadowRays::gather(world, &gs, &keys, env_light, parts, &mut rc);
+            let hit_keys = gs
+                .iter()
+                .zip(&keys)
+                .filter(|(g, _)| g.is_hit())
+                .map(|(_, &k)| k)
+                .collect();
+            (reps, rays, rc, hit_keys)
+        };
+        // A value per surface sample of `gs` (misses: zero) from `given` (one per hit), its
+        // rays added to `count`.
+        let per_sample = |gs: &[&GSample], given: &[(Vec3, u32)], count: &mut u64| {
+            let mut given = given.iter();
+            gs.iter()
+                .map(|g| match g.is_hit().then(|| given.next()).flatten() {
+                    Some(&(v, n)) => {
+                        *count += u64::from(n);
+                        v
+                    }
+                    None => Vec3::ZERO,
+                })
+                .collect::<Vec<Vec3>>()
         };
         // Each texel's colour and depth once its batch's rays are answered (`blocked`), with
-        // the lights' part given per surface sample (`direct`) or summed from the rays.
-        let finish = |(reps, rays, rc): Gathered<'_>,
+        // the lights' and the environment's parts given per surface sample or summed from the
+        // rays.
+        let finish = |(reps, rays, rc, _): Gathered<'_>,
                       blocked: &[bool],
-                      direct: Given<'_>|
+                      (direct, environment): Given<'_>|
          -> Batch {
             let gs: Vec<&GSample> = reps.iter().flatten().copied().collect();
             let mut values = vec![Vec3::ZERO; gs.len()];
             let mut rc = rc;
-            match direct {
-                Some(direct) => {
-                    let mut given = direct.iter();
-                    let lights: Vec<Vec3> = gs
-                        .iter()
-                        .map(|g| match g.is_hit().then(|| given.next()).flatten() {
-                            Some(&(v, n)) => {
-                                rc.shadow += u64::from(n);
-                                v
-                            }
-                            None => Vec3::ZERO,
-                        })
-                        .collect();
-                    rays.shade_given_direct(world, &gs, env_light, &lights, blocked, &mut values);
-                }
-                None => rays.shade(world, &gs, env_light, blocked, &mut values),
+            if direct.is_none() && environment.is_none() {
+                rays.shade(world, &gs, env_light, blocked, &mut values);
+            } else {
+                let lights = match direct {
+                    Some(d) => per_sample(&gs, d, &mut rc.shadow),
+                    None => rays.light_sums(blocked, gs.len()),
+                };
+                let env = environment.map(|e| per_sample(&gs, e, &mut rc.environment));
+                rays.shade_given(
+                    world,
+                    &gs,
+                    env_light,
+                    (&lights, env.as_deref()),
+                    blocked,
+                    &mut values,
+                );
             }
             (emit(&reps, values), rc)
         };
@@ -444,6 +498,8 @@ pub fn shade_chunk(
         let on_executor = ShadeCast {
             shadow_rays: tracer.is_some(),
             direct_light: tracer.as_ref().is_some_and(|t| t.shades_direct_light()),
+            environment_light: env_samples.is_some()
+                && tracer.as_ref().is_some_and(|t| t.shades_environment()),
         };
         let blocks: Vec<Batch> = match tracer {
             None => order
@@ -459,12 +515,19 @@ pub fn shade_chunk(
                 .collect(),
             Some(tracer) => {
                 let shades = tracer.shades_direct_light();
+                let env_on = on_executor.environment_light;
                 let mut blocks = Vec::with_capacity(order.len().div_ceil(SHADE_BATCH));
                 for (n, group) in order.chunks(SHADE_GROUP).enumerate() {
+                    let parts = (!shades, !env_on);
                     let gathered: Vec<Gathered<'_>> = group
                         .par_chunks(SHADE_BATCH)
                         .enumerate()
-                        .map(|(b, ks)| gather(n * SHADE_GROUP + b * SHADE_BATCH, ks, !shades))
+                        .map(|(b, ks)| gather(n * SHADE_GROUP + b * SHADE_BATCH, ks, parts))
+                        .collect();
+                    let hits: Vec<&GSample> = gathered
+                        .iter()
+                        .flat_map(|g| g.0.iter().flatten().copied())
+                        .filter(|g| g.is_hit())
                         .collect();
                     let rays: Vec<Ray> = gathered
                         .iter()
@@ -473,18 +536,23 @@ pub fn shade_chunk(
                     let got = tracer.occluded(&rays);
                     let blocked =
                         checked(tracer, "shade", ("answers", "shadow rays"), rays.len(), got)?;
+                    let what = ("values", "surface samples");
                     // The lights' part of every surface sample of the group, in one call.
                     let direct = if shades {
-                        let hits: Vec<&GSample> = gathered
-                            .iter()
-                            .flat_map(|g| g.0.iter().flatten().copied())
-                            .filter(|g| g.is_hit())
-                            .collect();
                         let got = tracer.direct_light(&hits, &world.lights);
-                        let what = ("values", "surface samples");
                         checked(tracer, "shade", what, hits.len(), got)?
                     } else {
                         Vec::new()
+                    };
+                    // The environment's part likewise.
+                    let environment = match env_samples.filter(|_| env_on) {
+                        Some(samples) => {
+                            let keys: Vec<u64> =
+                                gathered.iter().flat_map(|g| g.3.iter().copied()).collect();
+                            let got = tracer.environment_light(&hits, &keys, samples);
+                            checked(tracer, "shade", what, hits.len(), got)?
+                        }
+                        None => Vec::new(),
                     };
                     let (mut at, mut lit) = (0, 0);
                     let spans: Vec<(Gathered<'_>, &[bool], Given<'_>)> = gathered
@@ -493,11 +561,10 @@ pub fn shade_chunk(
                             let n = g.1.rays.len();
                             at += n;
                             let hits = g.0.iter().flatten().filter(|g| g.is_hit()).count();
-                            let d = shades.then(|| {
-                                lit += hits;
-                                &direct[lit - hits..lit]
-                            });
-                            (g, &blocked[at - n..at], d)
+                            lit += hits;
+                            let d = shades.then(|| &direct[lit - hits..lit]);
+                            let e = env_on.then(|| &environment[lit - hits..lit]);
+                            (g, &blocked[at - n..at], (d, e))
                         })
                         .collect();
                     let done: Vec<Batch> = spans
@@ -600,6 +667,9 @@ pub struct ShadeCast {
     pub shadow_rays: bool,
     /// It computed the lights' part of direct shading ([`TraceExecutor::direct_light`]).
     pub direct_light: bool,
+    /// It computed the environment's part of direct shading
+    /// ([`TraceExecutor::environment_light`]).
+    pub environment_light: bool,
 }
 
 /// An executor's answer `got` for `expected` items of stage `stage` (what each answer is:
@@ -665,6 +735,7 @@ pub fn trace_and_shade(
         primary: backend.clone(),
         shadow: CPU.to_string(),
         direct_light: CPU.to_string(),
+        environment_light: CPU.to_string(),
     };
     let mut counts = TraceCounts::default();
     let mut gbuf = Vec::new();
@@ -736,6 +807,9 @@ pub fn trace_and_shade(
             if on_executor.direct_light {
                 casters.direct_light.clone_from(&backend);
             }
+            if on_executor.environment_light {
+                casters.environment_light.clone_from(&backend);
+            }
             times.add(Stage::Shade, &t);
             progress(counts.primary.min(total), total);
         }
@@ -760,4 +834,6 @@ pub struct Casters {
     pub shadow: String,
     /// The lights' part of direct shading (BRDF, falloff, their shadow rays).
     pub direct_light: String,
+    /// The environment's part of direct shading (its estimator, its shadow rays).
+    pub environment_light: String,
 }

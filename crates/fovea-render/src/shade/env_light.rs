@@ -54,8 +54,24 @@ pub const DEFAULT_ENV_SAMPLES: u32 = 4;
 /// Most environment rays per shading sample.
 pub const MAX_ENV_SAMPLES: u32 = 256;
 
-/// Salt of the environment rays' random numbers (keeps them apart from the path tracer's).
-const ENV_SALT: u64 = 0x656E_765F_6C69_6768;
+/// The estimator's constants, named so another executor of it (the GPU's
+/// `environment_light` pass, `fovea-gpu`) uploads these values instead of deriving its own.
+pub mod env_constants {
+    /// Salt of the environment rays' random numbers (keeps them apart from the path tracer's).
+    pub const ENV_SALT: u64 = 0x656E_765F_6C69_6768;
+    /// The R2 sequence's steps (Roberts 2018: `1/φ₂` and `1/φ₂²`, `φ₂` the plastic number).
+    pub const R2_ALPHAS: [f64; 2] = [0.754_877_666_246_692_7, 0.569_840_290_998_053_2];
+    /// A random number is the top `RANDOM_BITS` bits of a [`fovea_core::math::mix64`] state
+    /// over `2^RANDOM_BITS`.
+    pub const RANDOM_BITS: u32 = 24;
+    /// Rec. 709 luminance weights of linear RGB (the lobe weights).
+    pub const LUMINANCE: [f32; 3] = [0.2126, 0.7152, 0.0722];
+    /// GGX `α²` is taken at least this large when sampling.
+    pub const GGX_A2_FLOOR: f32 = 1e-8;
+    /// The largest random number below 1 a sampler takes (`1 − ε`).
+    pub const BELOW_ONE: f32 = 1.0 - f32::EPSILON;
+}
+use env_constants::*;
 
 /// Rank of each texel of a 4×4 tile (`[j % 4][i % 4]`) in its tile's stratified sequence:
 /// the Bayer matrix, so every 2×2 block of a tile also spreads its ranks (module header).
@@ -155,17 +171,16 @@ pub fn unoccluded_estimate(world: &World, g: &GSample) -> Vec3 {
 /// The `i`-th point of the R2 sequence shifted by `shift` (wrapped to `[0, 1)²`).
 #[inline]
 fn r2_shifted(i: u32, shift: [f32; 2]) -> [f32; 2] {
-    const A1: f64 = 0.754_877_666_246_692_7;
-    const A2: f64 = 0.569_840_290_998_053_2;
-    let x = (0.5 + i as f64 * A1 + shift[0] as f64).fract() as f32;
-    let y = (0.5 + i as f64 * A2 + shift[1] as f64).fract() as f32;
-    [x.min(1.0 - f32::EPSILON), y.min(1.0 - f32::EPSILON)]
+    let [a1, a2] = R2_ALPHAS;
+    let x = (0.5 + i as f64 * a1 + shift[0] as f64).fract() as f32;
+    let y = (0.5 + i as f64 * a2 + shift[1] as f64).fract() as f32;
+    [x.min(BELOW_ONE), y.min(BELOW_ONE)]
 }
 
 /// Luminance of linear Rec. 709 RGB.
 #[inline]
 fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+    LUMINANCE[0] * c.x + LUMINANCE[1] * c.y + LUMINANCE[2] * c.z
 }
 
 /// The BRDF side of the estimator: cosine-weighted and GGX sampling mixed by the lobes'
@@ -198,7 +213,7 @@ impl BrdfSampler {
             v: g.to_eye,
             tangent,
             bitangent,
-            a2: (a * a).max(1e-8),
+            a2: (a * a).max(GGX_A2_FLOOR),
             q_spec,
         }
     }
@@ -207,7 +222,7 @@ impl BrdfSampler {
     /// GGX direction points below the surface.
     fn sample(&self, u: [f32; 2]) -> Option<Vec3> {
         if u[0] >= self.q_spec {
-            let u0 = ((u[0] - self.q_spec) / (1.0 - self.q_spec)).min(1.0 - f32::EPSILON);
+            let u0 = ((u[0] - self.q_spec) / (1.0 - self.q_spec)).min(BELOW_ONE);
             return Some(cosine_hemisphere(self.n, u0, u[1]));
         }
         let u0 = u[0] / self.q_spec;
@@ -276,7 +291,7 @@ pub(crate) fn environment_rays(
     let mut rng = fovea_core::math::mix64((key >> 4) ^ ENV_SALT);
     let mut next = || {
         rng = fovea_core::math::mix64(rng);
-        (rng >> 40) as f32 / (1u64 << 24) as f32
+        (rng >> (64 - RANDOM_BITS)) as f32 / (1u64 << RANDOM_BITS) as f32
     };
     let shift_map = [next(), next()];
     let shift_brdf = [next(), next()];

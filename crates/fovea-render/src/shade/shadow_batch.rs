@@ -49,22 +49,26 @@ pub struct ShadowRays {
 impl ShadowRays {
     /// The shadow rays of direct shading with `env_light` of the batch `gs` (misses have
     /// none; `keys[s]` seeds sample `s`'s environment rays, see [`super::texel_key`]),
-    /// counted in `counts` (`shadow`, `environment`). Without `lights` only the environment's
-    /// (for an executor that computes the lights' part,
-    /// [`crate::pipeline::TraceExecutor::direct_light`]; sum with [`Self::shade_given_direct`]).
+    /// counted in `counts` (`shadow`, `environment`). Without `lights` no light's rays (for
+    /// an executor that computes the lights' part,
+    /// [`crate::pipeline::TraceExecutor::direct_light`]; sum with [`Self::shade_given`]),
+    /// without `environment` no environment ray (for one that computes the environment's
+    /// part, [`crate::pipeline::TraceExecutor::environment_light`]).
     pub fn gather(
         world: &World,
         gs: &[&GSample],
         keys: &[u64],
         env_light: EnvLight,
-        lights: bool,
+        (lights, environment): (bool, bool),
         counts: &mut RayCounts,
     ) -> Self {
         let mut out = Self::default();
         if lights {
             out.push_lights(world, gs, counts);
         }
-        out.push_environment(world, gs, keys, env_light, counts);
+        if environment {
+            out.push_environment(world, gs, keys, env_light, counts);
+        }
         out
     }
 
@@ -130,6 +134,14 @@ impl ShadowRays {
         self.shade_given_direct(world, gs, env_light, &direct, blocked, out);
     }
 
+    /// The lights' part of each of the batch's `samples` samples, summed from the unoccluded
+    /// rays (`blocked`, as [`Self::rays`]).
+    pub fn light_sums(&self, blocked: &[bool], samples: usize) -> Vec<Vec3> {
+        let mut direct = vec![Vec3::ZERO; samples];
+        self.sum(Term::Light, blocked, &mut direct);
+        direct
+    }
+
     /// [`Self::shade`] with the lights' part of each sample given (`direct`, one per sample
     /// of the batch; e.g. computed by another executor) rather than summed from the rays.
     pub fn shade_given_direct(
@@ -141,9 +153,27 @@ impl ShadowRays {
         blocked: &[bool],
         out: &mut [Vec3],
     ) {
+        self.shade_given(world, gs, env_light, (direct, None), blocked, out);
+    }
+
+    /// [`Self::shade_given_direct`] with the environment's part of each sample given too
+    /// (`environment`, one per sample of the batch, for [`EnvLight::Occluded`]; e.g.
+    /// computed by another executor) rather than summed from the rays.
+    pub fn shade_given(
+        &self,
+        world: &World,
+        gs: &[&GSample],
+        env_light: EnvLight,
+        (direct, environment): (&[Vec3], Option<&[Vec3]>),
+        blocked: &[bool],
+        out: &mut [Vec3],
+    ) {
         let mut env = vec![Vec3::ZERO; gs.len()];
         match env_light {
-            EnvLight::Occluded { .. } => self.sum(Term::Environment, blocked, &mut env),
+            EnvLight::Occluded { .. } => match environment {
+                Some(given) => env.copy_from_slice(given),
+                None => self.sum(Term::Environment, blocked, &mut env),
+            },
             // No rays: the ambient term.
             EnvLight::Unshadowed => {
                 for (e, g) in env.iter_mut().zip(gs) {

@@ -71,6 +71,19 @@ impl Distribution1D {
         self.func_int
     }
 
+    /// The bin values (after the constant fallback): another executor's copy of the table.
+    pub fn values(&self) -> &[f32] {
+        &self.func
+    }
+
+    /// The `n + 1` cumulative values, `cdf[0] = 0`, `cdf[n] = 1`.
+    pub fn cdf(&self) -> &[f32] {
+        &self.cdf
+    }
+
+    /// The largest `x` [`Self::sample`] returns (`1 − ε/2`).
+    pub const X_MAX: f32 = 1.0 - f32::EPSILON / 2.0;
+
     /// Bin holding `x ∈ [0, 1]` (clamped).
     #[inline]
     fn bin(&self, x: f32) -> usize {
@@ -98,7 +111,7 @@ impl Distribution1D {
         } else {
             0.0
         };
-        let x = ((o as f32 + du) / n as f32).min(1.0 - f32::EPSILON / 2.0);
+        let x = ((o as f32 + du) / n as f32).min(Self::X_MAX);
         (x, self.func[o] / self.func_int, o)
     }
 
@@ -156,6 +169,16 @@ impl Distribution2D {
             conditional,
             marginal: Distribution1D::new(&row_int),
         }
+    }
+
+    /// The distributions along `u`, one per row.
+    pub fn conditionals(&self) -> &[Distribution1D] {
+        &self.conditional
+    }
+
+    /// The distribution of rows.
+    pub fn marginal(&self) -> &Distribution1D {
+        &self.marginal
     }
 
     /// Samples `u ∈ [0, 1)²`: `((u, v), p(u, v))`.

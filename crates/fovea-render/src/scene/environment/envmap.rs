@@ -239,6 +239,31 @@ impl EnvMap {
         self.world_from_map
     }
 
+    /// The world-to-map rotation (the transpose of [`Self::world_from_map`]).
+    pub fn map_from_world(&self) -> Mat3 {
+        self.map_from_world
+    }
+
+    /// The factor every pixel is multiplied by on lookup.
+    pub fn scale(&self) -> f32 {
+        self.scale
+    }
+
+    /// The pixels, linear radiance before [`Self::scale`], row-major from the top row.
+    pub fn pixels(&self) -> &[Vec3] {
+        &self.data.pixels
+    }
+
+    /// The sampling distribution over image coordinates (module header).
+    pub fn distribution(&self) -> &Distribution2D {
+        &self.data.distribution
+    }
+
+    /// `cos(π j / h)` for `j = 0..=h`: the rows' edges (exactly 1 and −1 at the poles).
+    pub fn cos_edges(&self) -> &[f32] {
+        &self.data.cos_edge
+    }
+
     /// Bilinear radiance at image coordinates `uv` (wraps in `u`, clamps in `v`).
     pub fn lookup(&self, uv: Vec2) -> Vec3 {
         let d = &*self.data;
