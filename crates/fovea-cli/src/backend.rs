@@ -1,7 +1,8 @@
 //! `fovea render --backend cpu|gpu|auto` (issue 18, docs/gpu.md): which executor runs which
 //! stage of the frame. Today the GPU casts every method's rays — the trace stage's primary
-//! rays (closest hits through a BVH, `fovea_gpu::GpuTracer`) and the shade stage's shadow rays
-//! — and computes the lights' part of direct shading (the BRDF, the lights' falloff, their
+//! rays (generated there from their screen points, polar or screen-aligned, and their closest
+//! hits found through a BVH, `fovea_gpu::GpuTracer`) and the shade stage's shadow rays — and
+//! computes the lights' part of direct shading (the BRDF, the lights' falloff, their
 //! shadow rays: `GpuTracer::direct_light_timed`) and the environment's (its MIS estimator
 //! with the CPU's random numbers, its shadow rays: `GpuTracer::environment_light_timed`),
 //! while the surfaces stay on the CPU; it runs the sample-space AA filter (FXAA with the polar seam,
@@ -252,7 +253,7 @@ impl Backend {
 }
 
 /// Resolves `--backend` for a one-eye frame of `mapping` of `world`: on the GPU, every
-/// method's primary and shadow rays, and polar methods' reconstruction. The largest single GPU
+/// method's primary rays (generated there) and shadow rays, and polar methods' reconstruction. The largest single GPU
 /// buffer the frame needs (the triangles, or a polar frame's texels, [`polar_texel_bytes`]) is
 /// checked against the adapter before anything runs.
 pub fn resolve(
@@ -464,6 +465,22 @@ impl GpuTraceExecutor {
             .collect()
     }
 
+    /// The generated rays' directions and hits in the renderer's types.
+    fn generated_hits(
+        out: Vec<fovea_gpu::ray_generation::GeneratedHit>,
+    ) -> Vec<(glam::Vec3, Option<fovea_render::bvh::Hit>)> {
+        out.into_iter()
+            .map(|(dir, h)| {
+                let hit = h.map(|h| fovea_render::bvh::Hit {
+                    t: h.t,
+                    tri: h.tri,
+                    bary: glam::Vec2::from(h.bary),
+                });
+                (glam::Vec3::from(dir), hit)
+            })
+            .collect()
+    }
+
     /// Adds one call's times to a frame's: the stages call the tracer once per chunk of the
     /// frame's texels, and the frame's figures are the sums over its calls (a reader takes
     /// them once per frame).
@@ -553,17 +570,35 @@ impl TraceExecutor for GpuTraceExecutor {
             .closest_hits_polar_timed(&cam, &polar)
             .map_err(|e| e.to_string())?;
         Self::add(&self.times, t);
-        Ok(out
-            .into_iter()
-            .map(|(dir, h)| {
-                let hit = h.map(|h| fovea_render::bvh::Hit {
-                    t: h.t,
-                    tri: h.tri,
-                    bary: glam::Vec2::from(h.bary),
-                });
-                (glam::Vec3::from(dir), hit)
+        Ok(Self::generated_hits(out))
+    }
+
+    fn closest_hits_screen(
+        &mut self,
+        camera: &fovea_render::camera::EyeCamera,
+        points: &[fovea_core::units::ScreenPoint],
+    ) -> std::result::Result<Vec<(glam::Vec3, Option<fovea_render::bvh::Hit>)>, String> {
+        let cam = fovea_gpu::RayGenCamera::new(
+            camera.position.into(),
+            [camera.forward.into(), camera.right.into(), camera.up.into()],
+            camera.focal_px(),
+            camera.principal_point_px(),
+            [0.0, 0.0],
+        );
+        // Rounded to f32 as `EyeCamera::ray` rounds them.
+        let screen: Vec<fovea_gpu::GpuScreenRay> = points
+            .iter()
+            .map(|p| fovea_gpu::GpuScreenRay {
+                x_px: p.x_px as f32,
+                y_px: p.y_px as f32,
             })
-            .collect())
+            .collect();
+        let (out, t) = self
+            .gpu
+            .closest_hits_screen_timed(&cam, &screen)
+            .map_err(|e| e.to_string())?;
+        Self::add(&self.times, t);
+        Ok(Self::generated_hits(out))
     }
 
     fn shades_direct_light(&self) -> bool {

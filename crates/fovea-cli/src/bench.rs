@@ -216,9 +216,9 @@ fn print_backend(requested: BackendArg, p: &Preflight) {
     };
     match &p.adapter {
         Some(adapter) => println!(
-            "backend: GPU: {adapter}{emulated}; every method casts its primary and shadow rays \
-             and computes its direct light on it, polar methods reconstruct on it, every other \
-             stage on the CPU"
+            "backend: GPU: {adapter}{emulated}; every method generates and casts its primary \
+             rays, casts its shadow rays and computes its direct light on it, polar methods \
+             reconstruct on it, every other stage on the CPU"
         ),
         None => println!("backend: {}: every stage on the CPU", p.describe),
     }

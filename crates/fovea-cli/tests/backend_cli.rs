@@ -85,8 +85,9 @@ fn cpu_backend_reports_every_stage_on_the_cpu() {
     }
 }
 
-/// A screen-aligned method (Guenter's, reconstructed on the CPU) on the GPU: its primary and
-/// shadow rays are cast there, its reconstruction stays on the CPU, and the stats say so.
+/// A screen-aligned method (Guenter's, reconstructed on the CPU) on the GPU: its primary rays
+/// are generated and cast there, its shadow rays cast there, its reconstruction stays on the
+/// CPU, and the stats say so.
 #[cfg(feature = "gpu")]
 #[test]
 fn gpu_backend_casts_a_screen_aligned_methods_rays() {
@@ -102,8 +103,9 @@ fn gpu_backend_casts_a_screen_aligned_methods_rays() {
     }
     let s = stats(dir.path(), "g");
     assert_eq!(s["frame"]["trace_backend"], "gpu");
-    // A screen-aligned buffer's rays come from the CPU's inverse mapping.
-    assert_eq!(s["frame"]["ray_generation_backend"], "cpu");
+    // A screen-aligned buffer's rays are generated there too (from the CPU mapping's points).
+    assert_eq!(s["frame"]["ray_generation_backend"], "gpu");
+    assert_eq!(s["backend"]["rays"]["generation"], "gpu");
     assert_eq!(s["frame"]["shadow_backend"], "gpu");
     assert_eq!(s["frame"]["direct_light_backend"], "gpu");
     assert_eq!(s["frame"]["reconstruct_backend"], "cpu");
@@ -111,8 +113,8 @@ fn gpu_backend_casts_a_screen_aligned_methods_rays() {
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         stdout.contains(
-            "primary rays on the GPU, shadow rays on the GPU, direct light on the GPU, \
-             environment light on the GPU, every other stage"
+            "ray generation on the GPU, primary rays on the GPU, shadow rays on the GPU, \
+             direct light on the GPU, environment light on the GPU, every other stage"
         ),
         "{stdout}"
     );
@@ -168,7 +170,7 @@ fn gpu_backend_tone_maps_the_8_bit_output() {
 /// built-in scene and (where `../shared/scenes` is present) the classroom at 320×180, full
 /// resolution, VaFR, KFR and Weier, without and with the gather DOF filter — luma PSNR ≥ 40 dB
 /// and mean ꟻLIP ≤ 0.01 (`fovea_eval::metrics`, at the display's pixels per degree). Today
-/// the GPU casts every primary and shadow ray, computes the lights' part of direct shading
+/// the GPU generates and casts every primary ray, casts every shadow ray, computes the lights' part of direct shading
 /// and reconstructs the polar methods; the environment's estimator, AA and DOF run on the
 /// CPU in both frames.
 #[cfg(feature = "gpu")]
@@ -219,9 +221,17 @@ fn gpu_frames_are_the_cpu_frames_method_by_method() {
                 }
                 let cpu = run("cpu");
                 let s = stats(dir.path(), &format!("{name}-gpu"));
-                for stage in ["trace", "shadow", "direct_light", "environment_light"] {
+                // Every method's primary rays are generated there, screen-aligned or polar.
+                for stage in [
+                    "ray_generation",
+                    "trace",
+                    "shadow",
+                    "direct_light",
+                    "environment_light",
+                ] {
                     assert_eq!(s["frame"][format!("{stage}_backend")], "gpu", "{name}");
                 }
+                assert_eq!(s["backend"]["rays"]["generation"], "gpu", "{name}");
                 // The gather DOF (the eye's CoC map and the filter) runs on the GPU too; a
                 // frame without a filter has none on the GPU.
                 let dof_on = if dof == "gather" { "gpu" } else { "cpu" };

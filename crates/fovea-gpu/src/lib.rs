@@ -23,8 +23,10 @@
 //! * [`environment_light`]: the renderer's environment light (its MIS estimator, the same
 //!   random numbers), shadow rays through the same BVH
 //!   ([`GpuTracer::environment_light_timed`], [`GpuEnvironment`]).
-//! * [`ray_generation`]: a polar buffer's primary rays generated from their polar
-//!   coordinates and traced ([`GpuTracer::closest_hits_polar_timed`]).
+//! * [`ray_generation`]: primary rays generated from their screen points and traced — a polar
+//!   buffer's from their polar coordinates ([`GpuTracer::closest_hits_polar_timed`]), a
+//!   screen-aligned buffer's from the points themselves
+//!   ([`GpuTracer::closest_hits_screen_timed`]).
 //! * [`dof`]: the signed CoC map from depth with the eye model and the scatter-as-gather
 //!   depth-of-field filter ([`GpuDof`]).
 //! * [`tonemap`]: exposure, tone curve and 8-bit sRGB encoding ([`GpuToneMap`]).
@@ -73,7 +75,7 @@ pub use dof::{DofTimes, GpuDof};
 pub use environment_light::{EnvironmentLight, GpuEnvironment};
 pub use error::{GpuError, Result};
 pub use mapping::{Direction, GpuMapping};
-pub use ray_generation::{GpuPolarRay, RayGenCamera};
+pub use ray_generation::{GpuPolarRay, GpuScreenRay, RayGenCamera};
 pub use reconstruct::{GpuReconstructor, ReconstructTimes};
 pub use sample_aa::{GpuSampleAa, SampleAaTimes, SampleFilter};
 pub use tonemap::GpuToneMap;

@@ -1,18 +1,35 @@
-//! Primary rays of a polar buffer generated on the GPU (`shaders/ray_generation.wgsl`, part of
-//! the trace module): each ray goes up as the polar coordinates of its screen point around the
-//! mapping's centre — 8 bytes instead of a 32-byte ray — and the shader places the point
-//! (VaFR Eq. 11), builds the pinhole camera's ray through it and traces it, returning the hit
-//! and the direction it cast.
+//! Primary rays generated on the GPU (`shaders/ray_generation.wgsl`, part of the trace
+//! module): each ray goes up as its screen point — 8 bytes instead of a 32-byte ray — the
+//! shader builds the pinhole camera's ray through it and traces it, returning the hit and the
+//! direction it cast.
 //!
-//! The radii and angles are the CPU mapping's (`fovea_core::mapping::Ring::polar`, f64, once
-//! per column of the buffer); the camera's vectors, focal lengths, the centre relative to the
-//! principal point and 2π are uploaded in [`RayGenCamera`], so the shader derives nothing.
+//! * A polar buffer's ray ([`GpuTracer::closest_hits_polar_timed`]) goes as the polar
+//!   coordinates of its point around the mapping's centre, and the shader places the point
+//!   (VaFR Eq. 11). The radii and angles are the CPU mapping's
+//!   (`fovea_core::mapping::Ring::polar`, f64, once per column of the buffer).
+//! * A screen-aligned buffer's ray (full resolution, Guenter's layers, the inset, Weier's
+//!   sparse set: [`GpuTracer::closest_hits_screen_timed`]) goes as its screen point, the CPU
+//!   mapping's `inverse` (f64) rounded to f32 — as `EyeCamera::ray` rounds it, so the shader
+//!   starts from the CPU's own numbers. An f32 keeps 24 bits: at 11,520 px (the widest
+//!   display preset's neighbourhood) its step is 2⁻¹⁰ ≈ 0.001 px.
+//!
+//! The camera's vectors, focal lengths, the coordinates' origin relative to the principal
+//! point and 2π are uploaded in [`RayGenCamera`], so the shader derives nothing.
+//!
+//! Why the screen points are uploaded rather than generated on the device from the pixel grid
+//! (which would spare the upload at full resolution): which rays exist — the texels the
+//! mapping shades, those not `known` from reprojection, the plan's per-texel patterns and
+//! per-column counts, the jitter, and which points map onto the screen — is decided once, by
+//! the CPU's plan, for every method; a device-side grid would repeat those rules in WGSL for
+//! one method, and its f32 sums `i + offset + jitter` would not be the CPU's f64 ones rounded.
+//! The upload is 8 bytes a ray, a quarter of a traced ray's.
 
 use bytemuck::{Pod, Zeroable};
 
 use crate::error::{GpuError, Result};
 use crate::trace::{
-    DirectLightModel, GpuHit, GpuTracer, HitGpu, ScenePass, TraceTimes, TraceUniform, MISS,
+    DirectLightModel, GpuHit, GpuTracer, HitGpu, SceneBuffers, ScenePass, TraceTimes, TraceUniform,
+    MISS,
 };
 use crate::transfer::batch_len;
 
@@ -35,15 +52,18 @@ pub struct RayGenCamera {
     /// Unit up vector (screen −y).
     pub up: [f32; 3],
     _pad0: f32,
-    /// The rings' centre minus the principal point, pixels.
+    /// The origin of the rays' coordinates minus the principal point, pixels: the rings'
+    /// centre for polar rays, the screen's `(0, 0)` for screen rays.
     pub centre: [f32; 2],
     _pad1: [f32; 2],
 }
 
 impl RayGenCamera {
     /// The block of a pinhole camera at `origin` with unit `forward`, `right`, `up`, focal
-    /// lengths `focal_px`, principal point `principal_px` and the rings around `centre_px`
-    /// (screen pixels; subtracted here in f64).
+    /// lengths `focal_px`, principal point `principal_px` and the rays' coordinates around
+    /// `centre_px` (screen pixels; subtracted here in f64): the rings' centre for
+    /// [`GpuTracer::closest_hits_polar_timed`], `[0.0, 0.0]` for
+    /// [`GpuTracer::closest_hits_screen_timed`].
     pub fn new(
         origin: [f32; 3],
         [forward, right, up]: [[f32; 3]; 3],
@@ -88,13 +108,23 @@ pub struct GpuPolarRay {
     pub turn: f32,
 }
 
-/// A generated ray's unit direction and its closest hit (`None`: a miss).
-pub type PolarHit = ([f32; 3], Option<GpuHit>);
+/// A primary ray as `closest_hit_screen` reads it: its screen point, pixels.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuScreenRay {
+    /// Screen x, pixels.
+    pub x_px: f32,
+    /// Screen y, pixels (down).
+    pub y_px: f32,
+}
 
-/// What the shader writes per ray (`PolarHit`).
+/// A generated ray's unit direction and its closest hit (`None`: a miss).
+pub type GeneratedHit = ([f32; 3], Option<GpuHit>);
+
+/// What the shader writes per ray (`GeneratedHit`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-struct PolarHitGpu {
+struct GeneratedHitGpu {
     hit: HitGpu,
     dir: [f32; 3],
     _pad: f32,
@@ -102,20 +132,68 @@ struct PolarHitGpu {
 
 /// The WGSL name and the Rust size of the per-ray output record (`tests/shaders.rs` compares
 /// them with naga).
-pub const POLAR_HIT_STRUCT: (&str, usize) = ("PolarHit", std::mem::size_of::<PolarHitGpu>());
+pub const GENERATED_HIT_STRUCT: (&str, usize) =
+    ("GeneratedHit", std::mem::size_of::<GeneratedHitGpu>());
 
-const IN_BYTES: u64 = std::mem::size_of::<GpuPolarRay>() as u64;
-const OUT_BYTES: u64 = std::mem::size_of::<PolarHitGpu>() as u64;
+const OUT_BYTES: u64 = std::mem::size_of::<GeneratedHitGpu>() as u64;
 
 impl GpuTracer {
-    /// Generates the primary ray of each of `rays` through `camera` and traces it: the unit
-    /// direction it was cast along and its closest hit (`None`: a miss), and where the time
-    /// went. A non-finite camera or ray is an input error naming it, before any work.
+    /// Generates the primary ray of each of `rays` (polar coordinates around the camera
+    /// block's centre) through `camera` and traces it: the unit direction it was cast along
+    /// and its closest hit (`None`: a miss), and where the time went. A non-finite camera or
+    /// ray is an input error naming it, before any work.
     pub fn closest_hits_polar_timed(
         &self,
         camera: &RayGenCamera,
         rays: &[GpuPolarRay],
-    ) -> Result<(Vec<PolarHit>, TraceTimes)> {
+    ) -> Result<(Vec<GeneratedHit>, TraceTimes)> {
+        let bad = rays
+            .iter()
+            .position(|r| !(r.r_px.is_finite() && r.turn.is_finite() && r.r_px >= 0.0));
+        if let Some(k) = bad {
+            return Err(GpuError::Input(format!(
+                "polar ray {k} is not a finite point ({:?})",
+                rays[k]
+            )));
+        }
+        self.generate(camera, rays, |s| &s.polar, |r| polar_offset(camera, r))
+    }
+
+    /// Generates the primary ray through each screen point of `rays` (pixels; the camera
+    /// block's centre is the screen's origin, `RayGenCamera::new(…, [0.0, 0.0])`) and traces
+    /// it, as [`closest_hits_polar_timed`](Self::closest_hits_polar_timed).
+    pub fn closest_hits_screen_timed(
+        &self,
+        camera: &RayGenCamera,
+        rays: &[GpuScreenRay],
+    ) -> Result<(Vec<GeneratedHit>, TraceTimes)> {
+        if let Some(k) = rays
+            .iter()
+            .position(|r| !(r.x_px.is_finite() && r.y_px.is_finite()))
+        {
+            return Err(GpuError::Input(format!(
+                "screen ray {k} is not a finite point ({:?})",
+                rays[k]
+            )));
+        }
+        self.generate(
+            camera,
+            rays,
+            |s| &s.screen,
+            |r| [camera.centre[0] + r.x_px, camera.centre[1] + r.y_px],
+        )
+    }
+
+    /// Runs `rays` (checked finite) through the ray-generation entry point `pipeline` of the
+    /// scene in batches; `offset` is the shader's point relative to the principal point, for
+    /// a scene without triangles (every ray misses without a dispatch).
+    fn generate<R: Pod>(
+        &self,
+        camera: &RayGenCamera,
+        rays: &[R],
+        pipeline: impl Fn(&SceneBuffers) -> &wgpu::ComputePipeline,
+        offset: impl Fn(&R) -> [f32; 2],
+    ) -> Result<(Vec<GeneratedHit>, TraceTimes)> {
         let t = std::time::Instant::now();
         let mut times = TraceTimes::default();
         if !camera.is_finite() {
@@ -123,25 +201,19 @@ impl GpuTracer {
                 "the ray-generation camera has a non-finite or zero field: {camera:?}"
             )));
         }
-        if let Some(k) = rays
-            .iter()
-            .position(|r| !(r.r_px.is_finite() && r.turn.is_finite() && r.r_px >= 0.0))
-        {
-            return Err(GpuError::Input(format!(
-                "polar ray {k} is not a finite point ({:?})",
-                rays[k]
-            )));
-        }
         let Some(scene) = &self.scene else {
             // No triangles: every ray misses; the directions still come from the camera.
             times.total_ms = t.elapsed().as_secs_f64() * 1e3;
             return Ok((
-                rays.iter().map(|r| (direction(camera, r), None)).collect(),
+                rays.iter()
+                    .map(|r| (direction(camera, offset(r)), None))
+                    .collect(),
                 times,
             ));
         };
         let ctx = &self.ctx;
-        let batch = batch_len(ctx, IN_BYTES.max(OUT_BYTES));
+        let in_bytes = std::mem::size_of::<R>() as u64;
+        let batch = batch_len(ctx, in_bytes.max(OUT_BYTES));
         let mut out = Vec::with_capacity(rays.len());
         for chunk in rays.chunks(batch) {
             let what = format!("generating and tracing {} primary rays", chunk.len());
@@ -149,7 +221,7 @@ impl GpuTracer {
             let block = TraceUniform::new(chunk.len(), 0, DirectLightModel::zeroed());
             let (raw, ms) = self.run_scene_pass(
                 scene,
-                &scene.polar,
+                pipeline(scene),
                 ScenePass {
                     what: &what,
                     block,
@@ -164,7 +236,7 @@ impl GpuTracer {
             )?;
             times.add_batch(ms);
             out.extend(
-                bytemuck::cast_slice::<u8, PolarHitGpu>(&raw)
+                bytemuck::cast_slice::<u8, GeneratedHitGpu>(&raw)
                     .iter()
                     .take(chunk.len())
                     .map(|h| {
@@ -182,14 +254,18 @@ impl GpuTracer {
     }
 }
 
-/// The shader's direction of `ray` through `camera`, on the CPU (f32 `cos`/`sin`, for a
-/// scene without triangles, where nothing is dispatched).
-fn direction(camera: &RayGenCamera, ray: &GpuPolarRay) -> [f32; 3] {
+/// The shader's point of `ray` relative to the principal point, on the CPU (f32 `cos`/`sin`).
+fn polar_offset(camera: &RayGenCamera, ray: &GpuPolarRay) -> [f32; 2] {
     let (s, c) = (ray.turn * camera.rad_per_turn).sin_cos();
-    let (x, y) = (
+    [
         camera.centre[0] + ray.r_px * c,
         camera.centre[1] + ray.r_px * s,
-    );
+    ]
+}
+
+/// The shader's direction through the point `[x, y]` pixels from the principal point, on the
+/// CPU (for a scene without triangles, where nothing is dispatched).
+fn direction(camera: &RayGenCamera, [x, y]: [f32; 2]) -> [f32; 3] {
     let (a, b) = (x / camera.fx, y / camera.fy);
     let d: [f32; 3] =
         std::array::from_fn(|k| camera.forward[k] + a * camera.right[k] - b * camera.up[k]);

@@ -9,8 +9,8 @@
 //! the built-in scene). The tree's depth is checked against the shader's stack before upload
 //! ([`GpuError::Input`] when deeper), so the traversal never drops a subtree.
 //!
-//! What this does not do yet: generate the rays from the frame plan or shade on the GPU; the
-//! caller hands rays in and gets hits back.
+//! Here the caller hands whole rays in and gets hits back; [`crate::ray_generation`] builds
+//! the primary rays on the device from their screen points instead.
 
 use bytemuck::{Pod, Zeroable};
 use obvhs::bvh2::builder::build_bvh2_from_tris;
@@ -24,10 +24,11 @@ use crate::shaders::ShaderSource;
 use crate::transfer::{batch_len, run_1d, run_1d_at, upload};
 
 /// The module: `closest_hit` and `any_hit`, `direct_light` (`shaders/direct_light.wgsl`,
-/// appended: it walks the same BVH; see [`crate::direct_light`]), `closest_hit_polar`
-/// (`shaders/ray_generation.wgsl`, appended; see [`crate::ray_generation`]), and
-/// `environment_light` and `mix64_check` (`shaders/environment_light.wgsl`, appended; see
-/// [`crate::environment_light`]), [`TraceUniform`] at binding 0.
+/// appended: it walks the same BVH; see [`crate::direct_light`]), `closest_hit_polar` and
+/// `closest_hit_screen` (`shaders/ray_generation.wgsl`, appended; see
+/// [`crate::ray_generation`]), and `environment_light` and `mix64_check`
+/// (`shaders/environment_light.wgsl`, appended; see [`crate::environment_light`]),
+/// [`TraceUniform`] at binding 0.
 pub const SHADER: ShaderSource = ShaderSource {
     file: "trace.wgsl",
     source: concat!(
@@ -42,6 +43,7 @@ pub const SHADER: ShaderSource = ShaderSource {
         "any_hit",
         "direct_light",
         "closest_hit_polar",
+        "closest_hit_screen",
         "environment_light",
         "mix64_check",
     ],
@@ -232,6 +234,7 @@ pub(crate) struct SceneBuffers {
     any: wgpu::ComputePipeline,
     pub(crate) direct: wgpu::ComputePipeline,
     pub(crate) polar: wgpu::ComputePipeline,
+    pub(crate) screen: wgpu::ComputePipeline,
     pub(crate) environment: wgpu::ComputePipeline,
 }
 
@@ -327,9 +330,19 @@ impl GpuTracer {
             },
         )?;
         // `closest_hit`, `any_hit`, `direct_light`, `closest_hit_polar`,
-        // `environment_light`, `mix64_check`: the order of the module's entry points.
+        // `closest_hit_screen`, `environment_light`, `mix64_check`: the order of the module's
+        // entry points.
         let mut pipelines = pipelines.into_iter();
-        let (Some(closest), Some(any), Some(direct), Some(polar), Some(environment), Some(hash)) = (
+        let (
+            Some(closest),
+            Some(any),
+            Some(direct),
+            Some(polar),
+            Some(screen),
+            Some(environment),
+            Some(hash),
+        ) = (
+            pipelines.next(),
             pipelines.next(),
             pipelines.next(),
             pipelines.next(),
@@ -338,8 +351,9 @@ impl GpuTracer {
             pipelines.next(),
         ) else {
             return Err(GpuError::Input(
-                "the trace module lacks one of its six entry points (closest_hit, any_hit, \
-                 direct_light, closest_hit_polar, environment_light, mix64_check)"
+                "the trace module lacks one of its seven entry points (closest_hit, any_hit, \
+                 direct_light, closest_hit_polar, closest_hit_screen, environment_light, \
+                 mix64_check)"
                     .into(),
             ));
         };
@@ -351,6 +365,7 @@ impl GpuTracer {
             any,
             direct,
             polar,
+            screen,
             environment,
         };
         Ok(Self {

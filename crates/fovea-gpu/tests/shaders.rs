@@ -122,7 +122,8 @@ fn the_ray_generation_records_match_their_rust_structs() {
             std::mem::size_of::<fovea_gpu::RayGenCamera>(),
         ),
         ("PolarRay", std::mem::size_of::<fovea_gpu::GpuPolarRay>()),
-        fovea_gpu::ray_generation::POLAR_HIT_STRUCT,
+        ("ScreenRay", std::mem::size_of::<fovea_gpu::GpuScreenRay>()),
+        fovea_gpu::ray_generation::GENERATED_HIT_STRUCT,
     ] {
         assert_eq!(
             struct_span(&shader, name),

@@ -120,10 +120,10 @@ pub struct FrameStats {
     /// The backend that cast the primary rays: `cpu`, or the name of the
     /// [`trace_shade::TraceExecutor`] in the frame's context (`gpu`).
     pub trace_backend: String,
-    /// The backend that generated the primary rays (their screen points through the inverse
-    /// mapping, and the camera's rays): `cpu`, or the [`trace_shade::TraceExecutor`]'s name
-    /// where it generates a polar buffer's rays itself
-    /// ([`trace_shade::TraceExecutor::generates_rays`]).
+    /// The backend that generated the primary rays (the camera's rays through their screen
+    /// points, which the CPU's plan and mapping place): `cpu`, or the
+    /// [`trace_shade::TraceExecutor`]'s name where it generates them itself — every method's,
+    /// polar or screen-aligned ([`trace_shade::TraceExecutor::generates_rays`]).
     pub ray_generation_backend: String,
     /// The backend that cast the shade stage's shadow rays (lights and environment): `cpu`,
     /// or the [`trace_shade::TraceExecutor`]'s name where it cast them (direct shading, one

@@ -96,10 +96,23 @@ pub trait TraceExecutor: Send {
             self.backend()
         ))
     }
-    /// Whether it generates a polar buffer's primary rays itself
-    /// ([`Self::closest_hits_polar`]); if not, they come to [`Self::closest_hits`].
+    /// Whether it generates the primary rays itself — a polar buffer's
+    /// ([`Self::closest_hits_polar`]) and a screen-aligned one's
+    /// ([`Self::closest_hits_screen`]); if not, they come to [`Self::closest_hits`].
     fn generates_rays(&self) -> bool {
         false
+    }
+    /// Generates the primary ray through each screen point of `points` (pixels; an executor
+    /// may round them to f32, as [`EyeCamera::ray`] does) through `camera`, and returns its
+    /// unit direction and its closest hit. Called only when [`Self::generates_rays`]. An
+    /// error is one line saying what to do.
+    fn closest_hits_screen(
+        &mut self,
+        camera: &EyeCamera,
+        points: &[ScreenPoint],
+    ) -> std::result::Result<Vec<(Vec3, Option<Hit>)>, String> {
+        let _ = (camera, points);
+        Err(format!("{} does not generate rays", self.backend()))
     }
     /// Generates the primary ray of each of `rays` — the screen point `r_px` from `centre`
     /// at `turn` turns (+x towards +y), through `camera` — and returns its unit direction
@@ -175,7 +188,9 @@ pub fn ray_starts(plan: &FramePlan, chunk: Chunk<'_>, starts: &mut Vec<u32>) {
 /// onto the screen; `None` for the others.
 ///
 /// With `tracer` the closest hits come from it (one batch per chunk) and the surfaces are
-/// interpolated here; without, each ray is cast on the CPU.
+/// interpolated here — from the rays' screen points, or a polar buffer's polar coordinates,
+/// when it generates the rays itself ([`TraceExecutor::generates_rays`]); without, each ray
+/// is cast on the CPU.
 #[allow(clippy::too_many_arguments)]
 pub fn trace_chunk(
     world: &World,
@@ -233,7 +248,8 @@ pub fn trace_chunk(
             spread / (n as f32).sqrt()
         })
     };
-    let ray_of = |r: u32| -> Option<(Ray, f32)> {
+    // Ray `r`'s screen point and cone.
+    let point_of = |r: u32| -> Option<(ScreenPoint, f32)> {
         let (i, j, ray, o) = slot(r)?;
         let v = j as f64 + o[1] + jitter[1];
         let p = match &rings {
@@ -244,8 +260,9 @@ pub fn trace_chunk(
                 v,
             })?,
         };
-        Some((camera.ray(p), spread_of(i, &|| Some(p))?))
+        Some((p, spread_of(i, &|| Some(p))?))
     };
+    let ray_of = |r: u32| point_of(r).map(|(p, spread)| (camera.ray(p), spread));
     // A polar buffer on an executor that generates rays: each ray goes as its polar
     // coordinates, and comes back with the direction it was cast along.
     let tracer = match (tracer, &rings) {
@@ -263,32 +280,18 @@ pub fn trace_chunk(
             let batch: Vec<PolarRay> = polar.iter().flatten().map(|&(r, _)| r).collect();
             let got = tracer.closest_hits_polar(camera, rings.centre(), &batch);
             let answers = checked(tracer, "trace", ("hits", "rays"), batch.len(), got)?;
-            let mut answers = answers.into_iter();
-            let traced: Vec<Option<(f32, Vec3, Option<Hit>)>> = polar
-                .into_iter()
-                .map(|p| {
-                    let (_, spread) = p?;
-                    let (dir, hit) = answers.next()?;
-                    Some((spread, dir, hit))
-                })
-                .collect();
-            traced
-                .into_par_iter()
-                .map(|r| {
-                    r.map(|(spread, dir, hit)| {
-                        let ray = Ray {
-                            origin: camera.position,
-                            dir,
-                            t_min: 0.0,
-                            t_max: f32::INFINITY,
-                        };
-                        match hit {
-                            Some(hit) => surface(world, &ray, &hit, spread),
-                            None => GSample::miss(dir),
-                        }
-                    })
-                })
-                .collect_into_vec(gbuf);
+            generated_gbuf(world, camera, polar, answers, gbuf);
+            return Ok(());
+        }
+        // A screen-aligned buffer on an executor that generates rays: each ray goes as its
+        // screen point.
+        (Some(tracer), None) if tracer.generates_rays() => {
+            let points: Vec<Option<(ScreenPoint, f32)>> =
+                (0..total).into_par_iter().map(point_of).collect();
+            let batch: Vec<ScreenPoint> = points.iter().flatten().map(|&(p, _)| p).collect();
+            let got = tracer.closest_hits_screen(camera, &batch);
+            let answers = checked(tracer, "trace", ("hits", "rays"), batch.len(), got)?;
+            generated_gbuf(world, camera, points, answers, gbuf);
             return Ok(());
         }
         (tracer, _) => tracer,
@@ -337,6 +340,44 @@ pub fn trace_chunk(
         })
         .collect_into_vec(gbuf);
     Ok(())
+}
+
+/// The G-buffer of a chunk whose rays another executor generated: `rays` holds each ray of
+/// the chunk as sent (with its cone; `None` where the texel is not traced), `answers` the
+/// direction each sent ray was cast along and its closest hit, in order.
+fn generated_gbuf<R: Send>(
+    world: &World,
+    camera: &EyeCamera,
+    rays: Vec<Option<(R, f32)>>,
+    answers: Vec<(Vec3, Option<Hit>)>,
+    gbuf: &mut Vec<Option<GSample>>,
+) {
+    let mut answers = answers.into_iter();
+    let traced: Vec<Option<(f32, Vec3, Option<Hit>)>> = rays
+        .into_iter()
+        .map(|r| {
+            let (_, spread) = r?;
+            let (dir, hit) = answers.next()?;
+            Some((spread, dir, hit))
+        })
+        .collect();
+    traced
+        .into_par_iter()
+        .map(|r| {
+            r.map(|(spread, dir, hit)| {
+                let ray = Ray {
+                    origin: camera.position,
+                    dir,
+                    t_min: 0.0,
+                    t_max: f32::INFINITY,
+                };
+                match hit {
+                    Some(hit) => surface(world, &ray, &hit, spread),
+                    None => GSample::miss(dir),
+                }
+            })
+        })
+        .collect_into_vec(gbuf);
 }
 
 /// Primary rays cast together by [`trace_chunk`] on the CPU (one
@@ -723,9 +764,8 @@ pub fn trace_and_shade(
     let backend = tracer
         .as_ref()
         .map_or(CPU.to_string(), |t| t.backend().to_string());
-    // A polar buffer's rays are generated where they are cast when the executor can.
-    let generated = tracer.as_ref().is_some_and(|t| t.generates_rays())
-        && plan.mapping().polar_layout().is_some();
+    // The primary rays are generated where they are cast when the executor can.
+    let generated = tracer.as_ref().is_some_and(|t| t.generates_rays());
     let mut casters = Casters {
         ray_generation: if generated {
             backend.clone()
