@@ -349,7 +349,8 @@ impl GpuTracer {
             pipelines.next(),
             pipelines.next(),
             pipelines.next(),
-        ) else {
+        )
+        else {
             return Err(GpuError::Input(
                 "the trace module lacks one of its seven entry points (closest_hit, any_hit, \
                  direct_light, closest_hit_polar, closest_hit_screen, environment_light, \
