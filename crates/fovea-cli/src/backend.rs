@@ -453,6 +453,20 @@ struct GpuTraceExecutor {
 
 #[cfg(feature = "gpu")]
 impl GpuTraceExecutor {
+    /// `camera` as the ray-generation shader reads it, screen points measured from `origin_px`.
+    fn ray_gen_camera(
+        camera: &fovea_render::camera::EyeCamera,
+        origin_px: [f64; 2],
+    ) -> fovea_gpu::RayGenCamera {
+        fovea_gpu::RayGenCamera::new(
+            camera.position.into(),
+            [camera.forward.into(), camera.right.into(), camera.up.into()],
+            camera.focal_px(),
+            camera.principal_point_px(),
+            origin_px,
+        )
+    }
+
     /// The rays in the GPU's layout.
     fn gpu_rays(rays: &[fovea_render::bvh::Ray]) -> Vec<fovea_gpu::GpuRay> {
         rays.iter()
@@ -551,13 +565,7 @@ impl TraceExecutor for GpuTraceExecutor {
         centre: fovea_core::units::ScreenPoint,
         rays: &[fovea_render::pipeline::PolarRay],
     ) -> std::result::Result<Vec<(glam::Vec3, Option<fovea_render::bvh::Hit>)>, String> {
-        let cam = fovea_gpu::RayGenCamera::new(
-            camera.position.into(),
-            [camera.forward.into(), camera.right.into(), camera.up.into()],
-            camera.focal_px(),
-            camera.principal_point_px(),
-            [centre.x_px, centre.y_px],
-        );
+        let cam = Self::ray_gen_camera(camera, [centre.x_px, centre.y_px]);
         let polar: Vec<fovea_gpu::GpuPolarRay> = rays
             .iter()
             .map(|r| fovea_gpu::GpuPolarRay {
@@ -578,13 +586,7 @@ impl TraceExecutor for GpuTraceExecutor {
         camera: &fovea_render::camera::EyeCamera,
         points: &[fovea_core::units::ScreenPoint],
     ) -> std::result::Result<Vec<(glam::Vec3, Option<fovea_render::bvh::Hit>)>, String> {
-        let cam = fovea_gpu::RayGenCamera::new(
-            camera.position.into(),
-            [camera.forward.into(), camera.right.into(), camera.up.into()],
-            camera.focal_px(),
-            camera.principal_point_px(),
-            [0.0, 0.0],
-        );
+        let cam = Self::ray_gen_camera(camera, [0.0, 0.0]);
         // Rounded to f32 as `EyeCamera::ray` rounds them.
         let screen: Vec<fovea_gpu::GpuScreenRay> = points
             .iter()
