@@ -97,6 +97,18 @@ fn the_polar_table_segment_matches_its_rust_struct() {
 }
 
 /// The size in bytes of WGSL struct `name` of `shader`'s module, as naga lays it out.
+/// Each `(name, size)`: the WGSL struct `name` of `shader` spans the Rust twin's `size` bytes.
+fn assert_struct_sizes(shader: &ShaderSource, structs: &[(&str, usize)]) {
+    for &(name, rust_size) in structs {
+        assert_eq!(
+            struct_span(shader, name),
+            rust_size,
+            "{}: WGSL {name}",
+            shader.file
+        );
+    }
+}
+
 fn struct_span(shader: &ShaderSource, name: &str) -> usize {
     let (module, _) = validate(shader);
     let ty = module
@@ -116,22 +128,18 @@ fn the_ray_generation_records_match_their_rust_structs() {
     // The camera block and the per-ray records of `ray_generation.wgsl` (appended to the trace
     // module): a size mismatch would misread every field or every ray after the first.
     let shader = fovea_gpu::trace::SHADER;
-    for (name, rust_size) in [
-        (
-            "RayGenCamera",
-            std::mem::size_of::<fovea_gpu::RayGenCamera>(),
-        ),
-        ("PolarRay", std::mem::size_of::<fovea_gpu::GpuPolarRay>()),
-        ("ScreenRay", std::mem::size_of::<fovea_gpu::GpuScreenRay>()),
-        fovea_gpu::ray_generation::GENERATED_HIT_STRUCT,
-    ] {
-        assert_eq!(
-            struct_span(&shader, name),
-            rust_size,
-            "{}: WGSL {name}",
-            shader.file
-        );
-    }
+    assert_struct_sizes(
+        &shader,
+        &[
+            (
+                "RayGenCamera",
+                std::mem::size_of::<fovea_gpu::RayGenCamera>(),
+            ),
+            ("PolarRay", std::mem::size_of::<fovea_gpu::GpuPolarRay>()),
+            ("ScreenRay", std::mem::size_of::<fovea_gpu::GpuScreenRay>()),
+            fovea_gpu::ray_generation::GENERATED_HIT_STRUCT,
+        ],
+    );
 }
 
 #[test]
@@ -139,20 +147,16 @@ fn the_environment_light_records_match_their_rust_structs() {
     // The environment's block and the surface samples of `environment_light.wgsl` and
     // `direct_light.wgsl` (appended to the trace module).
     let shader = fovea_gpu::trace::SHADER;
-    for (name, rust_size) in [
-        (
-            "EnvParams",
-            std::mem::size_of::<fovea_gpu::environment_light::EnvUniform>(),
-        ),
-        ("Surface", std::mem::size_of::<fovea_gpu::GpuSurface>()),
-    ] {
-        assert_eq!(
-            struct_span(&shader, name),
-            rust_size,
-            "{}: WGSL {name}",
-            shader.file
-        );
-    }
+    assert_struct_sizes(
+        &shader,
+        &[
+            (
+                "EnvParams",
+                std::mem::size_of::<fovea_gpu::environment_light::EnvUniform>(),
+            ),
+            ("Surface", std::mem::size_of::<fovea_gpu::GpuSurface>()),
+        ],
+    );
 }
 
 #[test]

@@ -345,7 +345,7 @@ pub fn trace_chunk(
 /// The G-buffer of a chunk whose rays another executor generated: `rays` holds each ray of
 /// the chunk as sent (with its cone; `None` where the texel is not traced), `answers` the
 /// direction each sent ray was cast along and its closest hit, in order.
-fn generated_gbuf<R: Send>(
+fn generated_gbuf<R>(
     world: &World,
     camera: &EyeCamera,
     rays: Vec<Option<(R, f32)>>,
