@@ -26,6 +26,7 @@ use std::sync::{Arc, Mutex};
 use anyhow::Result;
 use serde::Serialize;
 
+#[cfg(feature = "gpu")]
 use fovea_core::mapping::FoveationMapping;
 use fovea_post::tonemap::ToneMapExecutor;
 use fovea_render::pipeline::{
@@ -252,19 +253,16 @@ impl Backend {
     }
 }
 
-/// Resolves `--backend` for a one-eye frame of `mapping` of `world`: on the GPU, every
-/// method's primary rays (generated there) and shadow rays, and polar methods' reconstruction. The largest single GPU
-/// buffer the frame needs (the triangles, or a polar frame's texels, [`polar_texel_bytes`]) is
-/// checked against the adapter before anything runs.
-pub fn resolve(
-    requested: BackendArg,
-    mapping: &dyn FoveationMapping,
-    world: &World,
-) -> Result<Backend> {
+/// Resolves `--backend` for the frames of `world`: on the GPU, every method's primary rays
+/// (generated there) and shadow rays, and polar methods' reconstruction. The largest GPU
+/// buffer every frame needs (the triangles) is checked against the adapter before anything
+/// runs; a polar buffer too large for it (KFR at 8K on lavapipe) is reconstructed on the CPU,
+/// frame by frame (`GpuReconstructor::fits`), and the frame's stats say so.
+pub fn resolve(requested: BackendArg, world: &World) -> Result<Backend> {
     if requested == BackendArg::Cpu {
         return Ok(Backend::cpu(requested, "asked for"));
     }
-    gpu(requested, world, polar_texel_bytes(mapping))
+    gpu(requested, world)
 }
 
 /// The error of `--backend gpu` in a build without the `gpu` feature.
@@ -339,7 +337,7 @@ pub fn preflight(requested: BackendArg) -> Result<Preflight> {
 }
 
 #[cfg(not(feature = "gpu"))]
-fn gpu(requested: BackendArg, _world: &World, _frame_bytes: u64) -> Result<Backend> {
+fn gpu(requested: BackendArg, _world: &World) -> Result<Backend> {
     if requested == BackendArg::Gpu {
         anyhow::bail!(NO_GPU_FEATURE);
     }
@@ -350,14 +348,14 @@ fn gpu(requested: BackendArg, _world: &World, _frame_bytes: u64) -> Result<Backe
 }
 
 #[cfg(feature = "gpu")]
-fn gpu(requested: BackendArg, world: &World, frame_bytes: u64) -> Result<Backend> {
+fn gpu(requested: BackendArg, world: &World) -> Result<Backend> {
     use fovea_gpu::{BackendChoice, GpuDof, GpuReconstructor, GpuRequest, GpuTracer, Resolved};
     let choice = match requested {
         BackendArg::Gpu => BackendChoice::Gpu,
         _ => BackendChoice::Auto,
     };
-    // The largest binding: the polar texels, or the triangles.
-    let bytes = frame_bytes.max(world.tris.len() as u64 * fovea_gpu::trace::TRIANGLE_BYTES);
+    // The largest binding every frame needs: the triangles.
+    let bytes = world.tris.len() as u64 * fovea_gpu::trace::TRIANGLE_BYTES;
     let request = GpuRequest {
         storage_binding_bytes: bytes,
         buffer_bytes: bytes,
@@ -674,7 +672,9 @@ impl ReconstructExecutor for GpuExecutor {
     }
 
     fn supports(&self, mapping: &dyn FoveationMapping) -> bool {
-        fovea_gpu::GpuReconstructor::supports(mapping)
+        // A buffer too large for the device (KFR at 8K on lavapipe) is reconstructed on the
+        // CPU; the frame's stats say so.
+        fovea_gpu::GpuReconstructor::supports(mapping) && self.gpu.fits(mapping)
     }
 
     fn reconstruct_into(
@@ -857,22 +857,5 @@ impl ToneMapExecutor for GpuToneExecutor {
             sum.total_ms += t.elapsed().as_secs_f64() * 1e3;
         }
         Ok(bytes)
-    }
-}
-
-/// Bytes of the largest GPU buffer a polar frame's reconstruction needs: its texels, 16 bytes
-/// each, every column padded by two rows (`fovea_post::inverse_map::PolarColumns`).
-fn polar_texel_bytes(mapping: &dyn FoveationMapping) -> u64 {
-    match mapping.polar_layout() {
-        Some(layout) => {
-            let h = mapping.buffers().first().map_or(0, |b| b.height);
-            layout
-                .rows
-                .iter()
-                .map(|&r| u64::from(r.min(h).max(1)) + 2)
-                .sum::<u64>()
-                * 16
-        }
-        None => 0,
     }
 }

@@ -263,14 +263,14 @@ impl BenchExecutors for BenchBackend {
     fn install(
         &mut self,
         world: &World,
-        plan: &FramePlan,
+        _plan: &FramePlan,
         ctx: &mut FrameContext,
     ) -> fovea_eval::Result<()> {
         self.times = None;
         if self.requested == BackendArg::Cpu {
             return Ok(());
         }
-        let mut backend = crate::backend::resolve(self.requested, plan.mapping(), world)
+        let mut backend = crate::backend::resolve(self.requested, world)
             .map_err(|e| EvalError::Scene(format!("{e:#}")))?;
         self.times = Some(ExecutorTimes {
             reconstruct: backend.times.clone(),

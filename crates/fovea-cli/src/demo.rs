@@ -104,11 +104,9 @@ pub fn run(args: DemoArgs) -> Result<()> {
         None,
     )?;
     let middle = args.frames as usize / 2;
-    // Which executors cast the primary rays and reconstruct (`--backend`), decided on the
-    // first frame's plan before any frame is rendered.
-    let first = FramePlan::new(&world, &camera, &settings, &seq.eyes[0], [0.0, 0.0])?;
-    let mut backend = crate::backend::resolve(args.backend, first.mapping(), &world)?;
-    drop(first);
+    // Which executors cast the primary rays and reconstruct (`--backend`), decided before
+    // any frame is rendered.
+    let mut backend = crate::backend::resolve(args.backend, &world)?;
     if !args.quiet {
         println!("backend: {}", backend.describe);
     }

@@ -350,7 +350,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     // Which executors run the trace and reconstruct stages; refused here, before any ray is
     // traced.
-    let mut backend = crate::backend::resolve(args.backend, plan.mapping(), world)?;
+    let mut backend = crate::backend::resolve(args.backend, world)?;
     let pb = progress_bar(args.quiet, method.name());
     let mut ctx = FrameContext::new();
     backend.install(&mut ctx);
@@ -577,11 +577,8 @@ fn run_stereo(
         EyeState::fixating(world, &lc, lg, dof)?,
         EyeState::fixating(world, &rc, rg, dof)?,
     ];
-    // Which executors run both eyes' trace and reconstruct stages (`--backend`), decided on
-    // the left eye's plan (both eyes use one method), before any ray is traced.
-    let left_plan = FramePlan::new(world, &lc, &settings, &eyes[0], [0.0, 0.0])?;
-    let mut backend = crate::backend::resolve(args.backend, left_plan.mapping(), world)?;
-    drop(left_plan);
+    // Which executors run both eyes' stages (`--backend`), decided before any ray is traced.
+    let mut backend = crate::backend::resolve(args.backend, world)?;
     let mut ctx = FrameContext::new();
     backend.install(&mut ctx);
     let pb = progress_bar(args.quiet, mode.name());

@@ -258,11 +258,12 @@ pub fn run(args: SequenceArgs) -> Result<()> {
         AccommodationParams::default(),
         pairs.as_deref(),
     )?;
-    // Which executors cast the primary rays and reconstruct (`--backend`), decided on the
-    // first frame's plan, before anything is written; frames of another backend differ in
-    // the last bits, so the backend is part of what a resumed folder must match.
-    let first = FramePlan::new(world, &seq.cameras[0], &settings, &seq.eyes[0], [0.0, 0.0])?;
-    let mut backend = crate::backend::resolve(args.backend, first.mapping(), world)?;
+    // The first frame's plan, checked before anything is written (settings no frame can
+    // have fail here). Which executors cast the primary rays and reconstruct (`--backend`)
+    // is decided here too; frames of another backend differ in the last bits, so the
+    // backend is part of what a resumed folder must match.
+    FramePlan::new(world, &seq.cameras[0], &settings, &seq.eyes[0], [0.0, 0.0])?;
+    let mut backend = crate::backend::resolve(args.backend, world)?;
     let backend_name = if backend.on_gpu() { "gpu" } else { "cpu" };
     // The settings the frames depend on: a folder rendered with others is not resumed.
     let method_name = choices::name(&args.method);

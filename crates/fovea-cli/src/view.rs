@@ -116,10 +116,7 @@ pub fn run(_args: ViewArgs) -> Result<()> {
 #[cfg(feature = "view")]
 pub fn run(args: ViewArgs) -> Result<()> {
     use anyhow::bail;
-    use fovea_core::mapping::Method;
-    use fovea_render::eye::EyeState;
     use fovea_render::pipeline::FrameSettings;
-    use fovea_render::plan::FramePlan;
     use fovea_viewer::controls::{EyesChoice, FocusChoice, PupilChoice, ViewMethod};
     use fovea_viewer::gaze_input::{GazeReplay, ReplayMode};
     use fovea_viewer::{GazeSource, Pose, ViewSettings, ViewerConfig};
@@ -184,14 +181,9 @@ pub fn run(args: ViewArgs) -> Result<()> {
         &base,
     )?;
 
-    // The GPU executors serve every polar method; resolved for VaFR's buffers at this display,
-    // so switching methods in the window keeps them (other methods run on the CPU).
-    let mut probe = base.clone();
-    probe.method = Method::Vafr;
-    probe.dof = None;
-    let eye = EyeState::looking_at(display.centre_gaze());
-    let plan = FramePlan::new(&prepared.world, &prepared.camera, &probe, &eye, [0.0, 0.0])?;
-    let mut backend = crate::backend::resolve(args.backend, plan.mapping(), &prepared.world)?;
+    // The GPU executors serve every method; switching methods in the window keeps them (a
+    // stage a device cannot take for a method runs on the CPU).
+    let mut backend = crate::backend::resolve(args.backend, &prepared.world)?;
     let cpu_path = !backend.on_gpu();
     let headless = args.frames.is_some();
     let scale = args

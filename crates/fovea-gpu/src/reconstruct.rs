@@ -161,6 +161,32 @@ impl GpuReconstructor {
         mapping.polar_layout().is_some() && mapping.buffers().len() == 1
     }
 
+    /// Bytes of texels [`Self::reconstruct_into`] uploads for `mapping`'s polar buffer (its
+    /// columns, each padded by one row on either side, [`TEXEL_BYTES`] a texel, as
+    /// `PolarTables` lays them out); `None` for a mapping that is not polar.
+    pub fn texel_bytes(mapping: &dyn FoveationMapping) -> Option<u64> {
+        let layout = mapping.polar_layout()?;
+        let height = mapping.buffers().first().map_or(0, |b| b.height);
+        let texels: u64 = layout
+            .rows
+            .iter()
+            .map(|&rows| u64::from(rows.min(height).max(1)) + 2)
+            .sum();
+        Some(texels * TEXEL_BYTES)
+    }
+
+    /// Whether `mapping`'s buffer fits this device: its texels ([`Self::texel_bytes`]) in one
+    /// storage binding. A caller that can fall back to the CPU asks this first (a KFR buffer
+    /// at 8K does not fit lavapipe's 128 MiB); [`Self::reconstruct_into`] checks every table
+    /// it uploads.
+    pub fn fits(&self, mapping: &dyn FoveationMapping) -> bool {
+        let limits = self.ctx.limits();
+        let binding = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size);
+        Self::supports(mapping) && Self::texel_bytes(mapping).is_some_and(|b| b <= binding)
+    }
+
     /// [`Self::reconstruct_into`] into new images.
     pub fn reconstruct(
         &self,

@@ -33,7 +33,8 @@ use fovea_core::units::ScreenPoint;
 use fovea_core::Image;
 use fovea_gpu::{GpuError, GpuReconstructor};
 use fovea_post::inverse_map::{
-    reconstruct_filtered, ReconstructFilter, SampleBuffers, ScreenFrame, COORD_TOLERANCE_TEXELS,
+    reconstruct_filtered, PolarTables, ReconstructFilter, SampleBuffers, ScreenFrame,
+    COORD_TOLERANCE_TEXELS,
 };
 use fovea_post::Rgb;
 
@@ -429,4 +430,35 @@ fn unsupported_and_inconsistent_inputs_are_errors() {
         .err()
         .unwrap();
     assert!(matches!(e, GpuError::Input(_)), "{e}");
+}
+
+/// What `GpuReconstructor::fits` weighs against the device's binding limit is what the pass
+/// uploads: the texels of `PolarTables`' padded columns, counted from the layout alone (no
+/// device needed). At 8K, KFR's buffer is over lavapipe's 128 MiB and VaFR's under it.
+#[test]
+fn texel_bytes_are_what_the_pass_uploads() {
+    for (name, method, preset, gx, gy) in cases() {
+        let d = DisplayProfile::preset(preset).unwrap();
+        let gaze = d
+            .gaze(gx * d.width_px as f64, gy * d.height_px as f64)
+            .unwrap();
+        let m = build(method, &d, gaze, &MappingConfig::default()).unwrap();
+        let bufs = random_buffers(m.as_ref(), 7);
+        let tables = PolarTables::new(m.as_ref(), &d, &bufs, ReconstructFilter::Bilinear).unwrap();
+        assert_eq!(
+            GpuReconstructor::texel_bytes(m.as_ref()),
+            Some(tables.columns.texels().len() as u64 * 16),
+            "{name}"
+        );
+    }
+    let d = DisplayProfile::preset("8k").unwrap();
+    let bytes = |method| {
+        let m = build(method, &d, d.centre_gaze(), &MappingConfig::default()).unwrap();
+        GpuReconstructor::texel_bytes(m.as_ref()).unwrap()
+    };
+    let lavapipe = 128 << 20;
+    assert!(bytes(Method::Kfr) > lavapipe, "{}", bytes(Method::Kfr));
+    assert!(bytes(Method::Vafr) < lavapipe, "{}", bytes(Method::Vafr));
+    let full = build(Method::Full, &d, d.centre_gaze(), &MappingConfig::default()).unwrap();
+    assert_eq!(GpuReconstructor::texel_bytes(full.as_ref()), None);
 }
