@@ -118,7 +118,8 @@ struct GpuColumn {
 /// Where the time of one GPU reconstruction went.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ReconstructTimes {
-    /// Building the tables on the CPU (lookup table, columns, prefilter), wall ms.
+    /// Building the tables on the CPU (lookup table, columns, prefilter; for Weier the mask),
+    /// wall ms.
     pub tables_ms: f64,
     /// Creating buffers, uploading, recording and submitting, wall ms.
     pub upload_ms: f64,
@@ -126,11 +127,12 @@ pub struct ReconstructTimes {
     /// GPU's work and the copy out).
     pub run_and_readback_ms: f64,
     /// The compute pass alone, from the device's timestamps (when it has
-    /// `TIMESTAMP_QUERY`), ms.
+    /// `TIMESTAMP_QUERY`), ms; for Weier the pull, push and depth passes together
+    /// ([`PullPushTimes`](crate::PullPushTimes) has them one by one).
     pub gpu_pass_ms: Option<f64>,
     /// All of the above, wall ms.
     pub total_ms: f64,
-    /// Bands of rows the screen was split into.
+    /// Bands of rows the screen was split into (1 for Weier).
     pub bands: u32,
 }
 

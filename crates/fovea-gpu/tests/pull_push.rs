@@ -236,4 +236,15 @@ fn weier_frames_reconstruct_as_on_the_cpu() {
         assert_agrees(&format!("weier gaze ({gx}, {gy})"), &a);
         assert_eq!(a.filled, (w * h) as usize - shaded);
     }
+    // Another mapping's buffers (VaFR's polar one) are not Weier's screen: a one-line error.
+    let gaze = d.gaze(720.0, 800.0).unwrap();
+    let weier = build(Method::Weier, &d, gaze, &MappingConfig::default()).unwrap();
+    let vafr = build(Method::Vafr, &d, gaze, &MappingConfig::default()).unwrap();
+    let wrong = SampleBuffers::random(vafr.as_ref(), 3).unwrap();
+    let e = gpu
+        .reconstruct(weier.as_ref(), &d, &wrong, ReconstructFilter::default())
+        .err()
+        .unwrap();
+    assert!(matches!(e, GpuError::Input(_)), "{e}");
+    assert!(!e.to_string().contains('\n'), "{e}");
 }
