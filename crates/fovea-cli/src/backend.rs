@@ -7,7 +7,9 @@
 //! with the CPU's random numbers, its shadow rays: `GpuTracer::environment_light_timed`),
 //! while the surfaces stay on the CPU; it runs the sample-space AA filter (FXAA with the polar seam,
 //! the 3×3 Gaussian; `fovea_gpu::GpuSampleAa`), the reconstruct stage's lookup of polar
-//! buffers (VaFR, KFR, LaFR, visual-polar, liu-hybrid; `fovea_gpu::GpuReconstructor`), and
+//! buffers (VaFR, KFR, LaFR, visual-polar, liu-hybrid; `fovea_gpu::GpuReconstructor`) and
+//! Weier's pull-push of its sparse screen samples (`fovea_gpu::GpuPullPush`; a screen whose
+//! pyramid exceeds the device's storage binding is reconstructed on the CPU), and
 //! the screen post's depth of field with the `gather` filter (the eye's CoC map and the
 //! scatter-as-gather filter, thin-lens or stabilised CoC; `fovea_gpu::GpuDof`). Every other
 //! stage runs on the CPU.
@@ -674,7 +676,8 @@ impl ReconstructExecutor for GpuExecutor {
     }
 
     fn supports(&self, mapping: &dyn FoveationMapping) -> bool {
-        fovea_gpu::GpuReconstructor::supports(mapping)
+        // A Weier frame whose pyramid exceeds the device's binding runs on the CPU.
+        fovea_gpu::GpuReconstructor::supports(mapping) && self.gpu.fits(mapping)
     }
 
     fn reconstruct_into(
