@@ -204,6 +204,41 @@ fn images_of_different_sizes_are_a_one_line_input_error() {
 }
 
 #[test]
+fn a_pyramid_larger_than_a_binding_is_refused_before_allocating() {
+    let Some(ctx) =
+        common::gpu_or_skip("a_pyramid_larger_than_a_binding_is_refused_before_allocating")
+    else {
+        return;
+    };
+    let gpu = GpuPullPush::new(&ctx).unwrap();
+    // A 1×N column's pyramid is ≈ 2N pixels: 144 MB of colour for N = 6 M, past lavapipe's
+    // 128 MiB binding while the screen itself (72 MB) is within it.
+    let (w, h) = (1u32, 6_000_000u32);
+    let limits = ctx.limits();
+    let binding = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size);
+    let fits = GpuPullPush::pyramid_bytes(w, h) <= binding;
+    assert_eq!(gpu.fits(w, h), fits);
+    let color = Image::new(w, h, [0.5f32; 3]).unwrap();
+    let depth = Image::new(w, h, 2.0f32).unwrap();
+    let mask = Image::new(w, h, true).unwrap();
+    match gpu.fill(&color, &depth, &mask) {
+        Ok((c, d, _)) => {
+            assert!(fits);
+            assert_eq!(c.data(), color.data());
+            assert_eq!(d.data(), depth.data());
+        }
+        Err(e) => {
+            assert!(!fits, "{e}");
+            assert!(matches!(e, GpuError::AdapterTooSmall { .. }), "{e}");
+            assert!(!e.to_string().contains('\n'), "{e}");
+            common::shout(&format!("[fovea-gpu] refused as expected: {e}"));
+        }
+    }
+}
+
+#[test]
 fn weier_frames_reconstruct_as_on_the_cpu() {
     let Some(ctx) = common::gpu_or_skip("weier_frames_reconstruct_as_on_the_cpu") else {
         return;
