@@ -7,7 +7,9 @@
 //! with the CPU's random numbers, its shadow rays: `GpuTracer::environment_light_timed`),
 //! while the surfaces stay on the CPU; it runs the sample-space AA filter (FXAA with the polar seam,
 //! the 3×3 Gaussian; `fovea_gpu::GpuSampleAa`), the reconstruct stage's lookup of polar
-//! buffers (VaFR, KFR, LaFR, visual-polar, liu-hybrid; `fovea_gpu::GpuReconstructor`), and
+//! buffers (VaFR, KFR, LaFR, visual-polar, liu-hybrid; `fovea_gpu::GpuReconstructor`) and
+//! Weier's pull-push of its sparse screen samples (`fovea_gpu::GpuPullPush`; a screen whose
+//! pyramid exceeds the device's storage binding is reconstructed on the CPU), and
 //! the screen post's depth of field with the `gather` filter (the eye's CoC map and the
 //! scatter-as-gather filter, thin-lens or stabilised CoC; `fovea_gpu::GpuDof`). Every other
 //! stage runs on the CPU.
@@ -672,8 +674,8 @@ impl ReconstructExecutor for GpuExecutor {
     }
 
     fn supports(&self, mapping: &dyn FoveationMapping) -> bool {
-        // A buffer too large for the device (KFR at 8K on lavapipe) is reconstructed on the
-        // CPU; the frame's stats say so.
+        // A frame too large for the device (KFR's texels at 8K on lavapipe, a Weier pyramid
+        // past one binding) is reconstructed on the CPU; the frame's stats say so.
         fovea_gpu::GpuReconstructor::supports(mapping) && self.gpu.fits(mapping)
     }
 

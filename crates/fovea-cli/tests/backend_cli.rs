@@ -171,7 +171,7 @@ fn gpu_backend_tone_maps_the_8_bit_output() {
 /// resolution, VaFR, KFR and Weier, without and with the gather DOF filter — luma PSNR ≥ 40 dB
 /// and mean ꟻLIP ≤ 0.01 (`fovea_eval::metrics`, at the display's pixels per degree). Today
 /// the GPU generates and casts every primary ray, casts every shadow ray, computes the lights' part of direct shading
-/// and reconstructs the polar methods; the environment's estimator, AA and DOF run on the
+/// and reconstructs the polar methods and Weier's (pull-push); the environment's estimator, AA and DOF run on the
 /// CPU in both frames.
 #[cfg(feature = "gpu")]
 #[test]
@@ -232,6 +232,14 @@ fn gpu_frames_are_the_cpu_frames_method_by_method() {
                     assert_eq!(s["frame"][format!("{stage}_backend")], "gpu", "{name}");
                 }
                 assert_eq!(s["backend"]["rays"]["generation"], "gpu", "{name}");
+                // The reconstruct stage: the polar lookup (VaFR, KFR) and Weier's pull-push
+                // on the GPU; full resolution's buffer is the screen (nothing to run).
+                let reconstruct_on = if method == "full" { "cpu" } else { "gpu" };
+                assert_eq!(s["frame"]["reconstruct_backend"], reconstruct_on, "{name}");
+                if method == "weier" {
+                    let t = &s["backend"]["gpu_reconstruct"];
+                    assert!(t["run_and_readback_ms"].is_number(), "{name}: {t}");
+                }
                 // The gather DOF (the eye's CoC map and the filter) runs on the GPU too; a
                 // frame without a filter has none on the GPU.
                 let dof_on = if dof == "gather" { "gpu" } else { "cpu" };

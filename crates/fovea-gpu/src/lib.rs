@@ -14,6 +14,9 @@
 //!   mappings on the GPU ([`GpuMapping`]).
 //! * [`reconstruct`]: polar sample buffers back to the screen, bilinear or footprint-filtered
 //!   ([`GpuReconstructor`]).
+//! * [`pull_push`]: Weier's screen-aligned reconstruction, pull-push hole filling of the
+//!   colour and the nearest shaded pixel's depth ([`GpuPullPush`]; [`GpuReconstructor`] runs
+//!   it for Weier's mapping).
 //! * [`sample_aa`]: FXAA (with the polar seam) and the 3×3 Gaussian inside sample buffers
 //!   ([`GpuSampleAa`]).
 //! * [`trace`]: closest hits and occlusion of ray batches through a BVH built by obvhs
@@ -59,6 +62,7 @@ pub mod dof;
 pub mod environment_light;
 pub mod error;
 pub mod mapping;
+pub mod pull_push;
 pub mod ray_generation;
 pub mod reconstruct;
 pub mod sample_aa;
@@ -75,6 +79,7 @@ pub use dof::{DofTimes, GpuDof};
 pub use environment_light::{EnvironmentLight, GpuEnvironment};
 pub use error::{GpuError, Result};
 pub use mapping::{Direction, GpuMapping};
+pub use pull_push::{GpuPullPush, PullPushTimes};
 pub use ray_generation::{GpuPolarRay, GpuScreenRay, RayGenCamera};
 pub use reconstruct::{GpuReconstructor, ReconstructTimes};
 pub use sample_aa::{GpuSampleAa, SampleAaTimes, SampleFilter};
@@ -88,6 +93,7 @@ pub const ALL_SHADERS: &[shaders::ShaderSource] = &[
     mapping::lafr::SHADER,
     mapping::polar_table::SHADER,
     reconstruct::SHADER,
+    pull_push::SHADER,
     sample_aa::FXAA_SHADER,
     sample_aa::GAUSSIAN_SHADER,
     trace::SHADER,

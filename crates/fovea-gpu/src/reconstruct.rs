@@ -1,6 +1,8 @@
 //! Polar reconstruction on the GPU: a polar sample buffer (VaFR, KFR/LMFR, LaFR,
 //! visual-polar) back to screen colour and depth (VaFR Sec. 3.4 / Eq. 10–11; the reconstruct
-//! stage of DESIGN.md), the twin of `fovea_post::inverse_map`'s polar loop.
+//! stage of DESIGN.md), the twin of `fovea_post::inverse_map`'s polar loop. Weier's sparse
+//! screen-aligned buffer goes to [`GpuPullPush`] instead (pull-push, Gortler et al. 1996;
+//! Weier et al. 2016), with the mask of `fovea_post::inverse_map::mask_of` as on the CPU.
 //!
 //! Split of the work:
 //!
@@ -29,14 +31,17 @@ use std::time::Instant;
 
 use bytemuck::{Pod, Zeroable};
 use fovea_core::display::DisplayProfile;
-use fovea_core::mapping::FoveationMapping;
+use fovea_core::mapping::{FoveationMapping, Method};
 use fovea_core::Image;
-use fovea_post::inverse_map::{PolarTables, ReconstructFilter, SampleBuffers, ScreenFrame};
+use fovea_post::inverse_map::{
+    mask_of, PolarTables, ReconstructFilter, SampleBuffers, ScreenFrame,
+};
 use fovea_post::Rgb;
 
 use crate::device::GpuContext;
 use crate::error::{GpuError, Result};
 use crate::mapping::vafr::split_f64;
+use crate::pull_push::GpuPullPush;
 use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
 use crate::timestamps::PassTimer;
 use crate::transfer::{read_buffers, upload};
@@ -113,7 +118,8 @@ struct GpuColumn {
 /// Where the time of one GPU reconstruction went.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ReconstructTimes {
-    /// Building the tables on the CPU (lookup table, columns, prefilter), wall ms.
+    /// Building the tables on the CPU (lookup table, columns, prefilter; for Weier the mask),
+    /// wall ms.
     pub tables_ms: f64,
     /// Creating buffers, uploading, recording and submitting, wall ms.
     pub upload_ms: f64,
@@ -121,18 +127,21 @@ pub struct ReconstructTimes {
     /// GPU's work and the copy out).
     pub run_and_readback_ms: f64,
     /// The compute pass alone, from the device's timestamps (when it has
-    /// `TIMESTAMP_QUERY`), ms.
+    /// `TIMESTAMP_QUERY`), ms; for Weier the pull, push and depth passes together
+    /// ([`PullPushTimes`](crate::PullPushTimes) has them one by one).
     pub gpu_pass_ms: Option<f64>,
     /// All of the above, wall ms.
     pub total_ms: f64,
-    /// Bands of rows the screen was split into.
+    /// Bands of rows the screen was split into (1 for Weier).
     pub bands: u32,
 }
 
-/// The polar reconstruction's pipeline on one device; reuse it from frame to frame.
+/// The reconstruction's pipelines on one device (the polar lookup and Weier's pull-push);
+/// reuse it from frame to frame.
 pub struct GpuReconstructor {
     ctx: GpuContext,
     pipeline: wgpu::ComputePipeline,
+    pull_push: GpuPullPush,
 }
 
 impl GpuReconstructor {
@@ -147,6 +156,7 @@ impl GpuReconstructor {
         Ok(Self {
             ctx: ctx.clone(),
             pipeline,
+            pull_push: GpuPullPush::new(ctx)?,
         })
     }
 
@@ -155,10 +165,12 @@ impl GpuReconstructor {
         &self.ctx
     }
 
-    /// Whether the pass can reconstruct `mapping`'s buffers: polar mappings (one buffer whose
-    /// columns are rings around the gaze: VaFR, KFR/LMFR, LaFR, visual-polar).
+    /// Whether the passes can reconstruct `mapping`'s buffers: polar mappings (one buffer
+    /// whose columns are rings around the gaze: VaFR, KFR/LMFR, LaFR, visual-polar) and
+    /// Weier's sparse screen-aligned buffer (pull-push).
     pub fn supports(mapping: &dyn FoveationMapping) -> bool {
-        mapping.polar_layout().is_some() && mapping.buffers().len() == 1
+        mapping.buffers().len() == 1
+            && (mapping.polar_layout().is_some() || mapping.method() == Method::Weier)
     }
 
     /// Bytes of texels [`Self::reconstruct_into`] uploads for `mapping`'s polar buffer (its
@@ -175,16 +187,26 @@ impl GpuReconstructor {
         Some(texels * TEXEL_BYTES)
     }
 
-    /// Whether `mapping`'s buffer fits this device: its texels ([`Self::texel_bytes`]) in one
-    /// storage binding. A caller that can fall back to the CPU asks this first (a KFR buffer
-    /// at 8K does not fit lavapipe's 128 MiB); [`Self::reconstruct_into`] checks every table
-    /// it uploads.
+    /// Whether `mapping`'s frame fits this device, for a caller that can fall back to the CPU:
+    /// Weier's pyramid within one storage binding ([`GpuPullPush::fits`]); a polar buffer's
+    /// texels ([`Self::texel_bytes`]) within one binding (a KFR buffer at 8K does not fit
+    /// lavapipe's 128 MiB; the screen is split into bands of rows and always fits).
+    /// [`Self::reconstruct_into`] checks every table it uploads.
     pub fn fits(&self, mapping: &dyn FoveationMapping) -> bool {
+        if !Self::supports(mapping) {
+            return false;
+        }
+        if mapping.method() == Method::Weier {
+            return mapping
+                .buffers()
+                .first()
+                .is_some_and(|b| self.pull_push.fits(b.width, b.height));
+        }
         let limits = self.ctx.limits();
         let binding = limits
             .max_storage_buffer_binding_size
             .min(limits.max_buffer_size);
-        Self::supports(mapping) && Self::texel_bytes(mapping).is_some_and(|b| b <= binding)
+        Self::texel_bytes(mapping).is_some_and(|b| b <= binding)
     }
 
     /// [`Self::reconstruct_into`] into new images.
@@ -239,10 +261,13 @@ impl GpuReconstructor {
         }
         if !Self::supports(mapping) {
             return Err(GpuError::Unsupported(format!(
-                "reconstructing {} buffers (the GPU reconstructs polar buffers only: vafr, kfr, \
-                 lafr, visual-polar)",
+                "reconstructing {} buffers (the GPU reconstructs polar buffers and Weier's: \
+                 vafr, kfr, lafr, visual-polar, weier)",
                 mapping.method()
             )));
+        }
+        if mapping.method() == Method::Weier {
+            return self.weier_into(mapping, buffers, color, depth);
         }
         let tables = PolarTables::new(mapping, display, buffers, filter)
             .map_err(|e| GpuError::Input(e.to_string()))?;
@@ -431,6 +456,47 @@ impl GpuReconstructor {
             gpu_pass_ms,
             total_ms: ms_since(t_start),
             bands: bands.len() as u32,
+        })
+    }
+}
+
+impl GpuReconstructor {
+    /// Weier's buffer (the screen, shaded where the mapping says) filled by pull-push, as
+    /// `fovea_post::inverse_map::reconstruct_into` does on the CPU. `tables_ms` is the mask,
+    /// `gpu_pass_ms` the pull, push and depth passes together.
+    fn weier_into(
+        &self,
+        mapping: &dyn FoveationMapping,
+        buffers: &SampleBuffers,
+        color: &mut Image<Rgb>,
+        depth: &mut Image<f32>,
+    ) -> Result<ReconstructTimes> {
+        let t_start = Instant::now();
+        let (w, h) = (color.width(), color.height());
+        let (Some(c), Some(d)) = (buffers.color.first(), buffers.depth.first()) else {
+            return Err(GpuError::Input("Weier's frame has no sample buffer".into()));
+        };
+        for (name, img) in [
+            ("colour", (c.width(), c.height())),
+            ("depth", (d.width(), d.height())),
+        ] {
+            if img != (w, h) {
+                return Err(GpuError::Input(format!(
+                    "Weier's {name} buffer is {}x{}, the screen {w}x{h}",
+                    img.0, img.1
+                )));
+            }
+        }
+        let mask = mask_of(mapping, w, h);
+        let tables_ms = ms_since(t_start);
+        let t = self.pull_push.fill_into(c, d, &mask, color, depth)?;
+        Ok(ReconstructTimes {
+            tables_ms,
+            upload_ms: t.upload_ms,
+            run_and_readback_ms: t.run_and_readback_ms,
+            gpu_pass_ms: t.gpu_passes_ms(),
+            total_ms: ms_since(t_start),
+            bands: 1,
         })
     }
 }

@@ -143,6 +143,18 @@ fn the_ray_generation_records_match_their_rust_structs() {
 }
 
 #[test]
+fn the_pull_push_block_matches_its_rust_struct() {
+    // One block per dispatch of `pull_push.wgsl`: a size mismatch would misread the levels.
+    assert_struct_sizes(
+        &fovea_gpu::pull_push::SHADER,
+        &[(
+            "PullPushParams",
+            std::mem::size_of::<fovea_gpu::pull_push::PullPushUniform>(),
+        )],
+    );
+}
+
+#[test]
 fn the_environment_light_records_match_their_rust_structs() {
     // The environment's block and the surface samples of `environment_light.wgsl` and
     // `direct_light.wgsl` (appended to the trace module).

@@ -214,6 +214,9 @@ pub fn reconstruct_into_with_kernel(
     layered(mapping, display, buffers, color, depth)
 }
 
+/// The largest ring [`nearest_fill_depth`] searches, pixels.
+pub const DEPTH_FILL_RADIUS_PX: u32 = 64;
+
 /// Which screen pixels a sparse screen-space mapping shades.
 pub fn mask_of(mapping: &dyn FoveationMapping, w: u32, h: u32) -> Image<bool> {
     let data: Vec<bool> = (0..h)
@@ -761,8 +764,10 @@ fn layered(
 }
 
 /// Fills unshaded depth pixels with the nearest shaded one found by a growing square search
-/// (bounded at 64 px; beyond, infinity).
-fn nearest_fill_depth(depth: &Image<f32>, mask: &Image<bool>) -> Result<Image<f32>> {
+/// (bounded at [`DEPTH_FILL_RADIUS_PX`]; beyond, infinity): rings of Chebyshev radius 1, 2, …,
+/// each visited row by row (top to bottom) and left to right, the first shaded pixel winning.
+/// Weier's reconstruction uses it for depth; `fovea-gpu` repeats the same order.
+pub fn nearest_fill_depth(depth: &Image<f32>, mask: &Image<bool>) -> Result<Image<f32>> {
     let (w, h) = (depth.width(), depth.height());
     let mut out = depth.clone();
     out.data_mut()
@@ -774,7 +779,7 @@ fn nearest_fill_depth(depth: &Image<f32>, mask: &Image<bool>) -> Result<Image<f3
                     continue;
                 }
                 *d = f32::INFINITY;
-                'search: for rad in 1i64..=64 {
+                'search: for rad in 1i64..=i64::from(DEPTH_FILL_RADIUS_PX) {
                     for dy in -rad..=rad {
                         for dx in -rad..=rad {
                             if dx.abs() != rad && dy.abs() != rad {
