@@ -45,15 +45,22 @@ pub struct TileOrder {
 }
 
 impl TileOrder {
-    /// Indices `j·width + i` of a `width × height` block, tile by tile (row-major inside a tile
-    /// and across tiles).
+    /// Indices `j·width + i` of a `width × height` block, tile by tile (row-major across
+    /// tiles), each tile in Morton (Z) order: any run of 4ⁿ consecutive texels that starts at
+    /// a multiple of 4ⁿ is a square block (the trace's 64-ray packets 8×8 texels, their 8-ray
+    /// groups 4×2) and every 2·4ⁿ a 2:1 block, so a batch's rays leave from nearby points. A
+    /// tile cut by the block's edge keeps the order of its texels inside the block.
     pub fn order(&self, width: usize, height: usize) -> Vec<u32> {
         let t = self.tile_px.max(1);
+        // Morton codes cover the smallest power-of-two square holding a tile.
+        let side = t.next_power_of_two();
         let mut order = Vec::with_capacity(width * height);
         for tj in (0..height).step_by(t) {
             for ti in (0..width).step_by(t) {
-                for j in tj..(tj + t).min(height) {
-                    for i in ti..(ti + t).min(width) {
+                for code in 0..side * side {
+                    let (di, dj) = morton_decode(code);
+                    let (i, j) = (ti + di, tj + dj);
+                    if di < t && dj < t && i < width && j < height {
                         order.push((j * width + i) as u32);
                     }
                 }
@@ -67,6 +74,22 @@ impl TileOrder {
     pub fn rows_per_chunk(&self, width: u32, rays_per_texel: u32) -> usize {
         (self.chunk_samples / (width.max(1) as usize * rays_per_texel.max(1) as usize)).max(1)
     }
+}
+
+/// The column and row of Morton code `code`: its even bits are the column's, its odd bits the
+/// row's.
+fn morton_decode(code: usize) -> (usize, usize) {
+    let compact = |mut v: usize| {
+        let mut out = 0;
+        let mut bit = 0;
+        while v != 0 {
+            out |= (v & 1) << bit;
+            v >>= 2;
+            bit += 1;
+        }
+        out
+    };
+    (compact(code), compact(code >> 1))
 }
 
 /// One eye's frame, decided.
@@ -515,6 +538,28 @@ mod tests {
         assert_eq!(t.rows_per_chunk(100, 1), 10);
         assert_eq!(t.rows_per_chunk(100, 4), 2);
         assert_eq!(t.rows_per_chunk(5000, 1), 1);
+    }
+
+    #[test]
+    fn a_full_tile_is_visited_in_square_blocks() {
+        let t = TileOrder {
+            tile_px: 16,
+            chunk_samples: 1 << 10,
+        };
+        let (w, h) = (40usize, 33usize);
+        let o = t.order(w, h);
+        // The first tile is whole: every aligned run of 64 texels is an 8×8 block, of 8 a 4×2
+        // block, of 4 a 2×2 block.
+        for (run, bw, bh) in [(64, 8, 8), (8, 4, 2), (4, 2, 2)] {
+            for block in o[..256].chunks(run) {
+                let xs = block.iter().map(|&k| k as usize % w);
+                let ys = block.iter().map(|&k| k as usize / w);
+                let (x0, x1) = (xs.clone().min().unwrap(), xs.max().unwrap());
+                let (y0, y1) = (ys.clone().min().unwrap(), ys.max().unwrap());
+                assert_eq!((x1 - x0 + 1, y1 - y0 + 1), (bw, bh), "{block:?}");
+            }
+        }
+        assert_eq!(morton_decode(0b11_1001), (0b101, 0b110));
     }
 
     #[test]
