@@ -256,7 +256,8 @@ impl Backend {
 }
 
 /// Resolves `--backend` for the frames of `world`: on the GPU, every method's primary rays
-/// (generated there) and shadow rays, and polar methods' reconstruction. The largest GPU
+/// (generated there), shadow rays, direct and environment light, AA, polar methods' and
+/// Weier's reconstruction, the gather DOF and the tone map. The largest GPU
 /// buffer every frame needs (the triangles) is checked against the adapter before anything
 /// runs; a polar buffer too large for it (KFR at 8K on lavapipe) is reconstructed on the CPU,
 /// frame by frame (`GpuReconstructor::fits`), and the frame's stats say so.

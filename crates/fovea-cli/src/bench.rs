@@ -93,9 +93,10 @@ pub struct BenchArgs {
     /// Timed repetitions of each binocular mode (alternating Dup and Rep; medians reported).
     #[arg(long, default_value_t = 3)]
     pub stereo_reps: u32,
-    /// Which executor runs the stages a GPU can run (every method's primary and shadow rays,
-    /// full resolution's included, and the reconstruction of polar methods; every other stage
-    /// stays on the CPU, labelled per stage): cpu, gpu (an error when there is no adapter or the build
+    /// Which executor runs the stages a GPU can run (every method's ray generation, primary
+    /// and shadow rays, full resolution's included, direct and environment light, sample-space
+    /// AA and the reconstruction of polar methods and Weier's; every other stage stays on the
+    /// CPU, labelled per stage): cpu, gpu (an error when there is no adapter or the build
     /// lacks the `gpu` feature) or auto. GPU figures are the passes' timestamps; on a CPU
     /// device (lavapipe) they are labelled CPU-emulated.
     #[arg(long, value_enum, ignore_case = true, default_value_t = BackendArg::Cpu)]
@@ -217,8 +218,9 @@ fn print_backend(requested: BackendArg, p: &Preflight) {
     match &p.adapter {
         Some(adapter) => println!(
             "backend: GPU: {adapter}{emulated}; every method generates and casts its primary \
-             rays, casts its shadow rays and computes its direct light on it, polar methods \
-             reconstruct on it, every other stage on the CPU"
+             rays, casts its shadow rays, computes its direct and environment light and \
+             anti-aliases on it, polar methods and Weier reconstruct on it, every other stage \
+             on the CPU"
         ),
         None => println!("backend: {}: every stage on the CPU", p.describe),
     }

@@ -106,9 +106,10 @@ pub struct RenderArgs {
     /// buffer to the right eye and trace only the holes, VaFR_Rep).
     #[arg(long, value_enum, ignore_case = true, default_value_t = Stereo::Rep)]
     pub stereo: Stereo,
-    /// Which executor runs the stages a GPU can run (today every method's primary and shadow
-    /// rays, the lights' part of direct shading, and the reconstruct stage of polar methods;
-    /// surfaces, the environment's estimator and every other stage run on the CPU): cpu, gpu (any adapter, lavapipe included; an error without one) or auto (a
+    /// Which executor runs the stages a GPU can run (every method's ray generation, primary
+    /// and shadow rays, direct and environment light, sample-space AA, the reconstruct stage of
+    /// polar methods and Weier, the gather DOF and the PNG's tone map; the plan, surfaces and
+    /// every other stage run on the CPU): cpu, gpu (any adapter, lavapipe included; an error without one) or auto (a
     /// hardware GPU when there is one, else the CPU). The GPU needs a fovea built with
     /// `--features gpu`.
     #[arg(long, value_enum, ignore_case = true, default_value_t = BackendArg::Auto)]

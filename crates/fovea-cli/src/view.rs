@@ -47,8 +47,9 @@ pub struct ViewArgs {
     pub dof: DofArgs,
     #[command(flatten)]
     pub exposure: ExposureArgs,
-    /// Which executor renders: cpu, gpu or auto (the primary rays and the reconstruction of
-    /// polar methods on a hardware GPU when there is one, as `fovea render --backend`).
+    /// Which executor renders: cpu, gpu or auto (the stages `fovea render --backend` runs on
+    /// a GPU, on a hardware GPU when there is one: rays, lights, AA, reconstruction, gather
+    /// DOF, the tone map).
     #[arg(long, value_enum, ignore_case = true, default_value_t = BackendArg::Auto)]
     pub backend: BackendArg,
     /// One eye, or both side by side (V switches).
