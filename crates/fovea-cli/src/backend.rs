@@ -728,6 +728,11 @@ impl DofExecutor for GpuDofExecutor {
         filter == fovea_post::dof::FilterKind::Gather && fovea_gpu::GpuDof::supports_coc(coc_model)
     }
 
+    fn fits(&self, width_px: u32, height_px: u32) -> bool {
+        // A frame too large for the device (8K on lavapipe) is filtered on the CPU.
+        self.gpu.fits(width_px, height_px)
+    }
+
     fn depth_of_field(
         &mut self,
         filter: fovea_post::dof::FilterKind,

@@ -181,6 +181,24 @@ impl GpuDof {
         &self.ctx
     }
 
+    /// Whether an image of `width × height` pixels fits this device: its depth-of-field planes
+    /// ([`PLANE_BYTES`] a pixel) and colour (12 bytes a pixel) each in one storage binding, and
+    /// its rows and columns within one dispatch. A caller that can fall back to the CPU asks
+    /// this first (an 8K frame's planes, 531 MB, do not fit lavapipe's 128 MiB); the passes
+    /// check the same before allocating ([`GpuError::AdapterTooSmall`]).
+    pub fn fits(&self, width: u32, height: u32) -> bool {
+        let limits = self.ctx.limits();
+        let binding = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size);
+        let n = u64::from(width) * u64::from(height);
+        let groups = limits.max_compute_workgroups_per_dimension;
+        n * PLANE_BYTES <= binding
+            && n * 12 <= binding
+            && width.div_ceil(WORKGROUP_SIZE) <= groups
+            && height <= groups
+    }
+
     /// Whether the CoC pass evaluates `model` (thin lens and Eq. 13; Weier's tracking-aware
     /// CoC stays on the CPU).
     pub fn supports_coc(model: &CocModel) -> bool {

@@ -300,3 +300,40 @@ fn bad_input_is_a_typed_error() {
     ));
     assert!(!GpuDof::supports_coc(&weier.model));
 }
+
+/// `GpuDof::fits` says beforehand what the passes' own checks decide: a frame whose planes
+/// exceed one storage binding is `AdapterTooSmall` before anything is allocated, and `fits`
+/// is false for it; a small frame fits. The large frame is just over lavapipe's 128 MiB
+/// (4096×2100 × 16 bytes of planes); on a device with larger bindings both say it fits.
+#[test]
+fn fits_agrees_with_the_passes_checks() {
+    let Some(ctx) = common::gpu_or_skip("fits_agrees_with_the_passes_checks") else {
+        return;
+    };
+    let gpu = GpuDof::new(&ctx).unwrap();
+    assert!(gpu.fits(320, 180));
+    let (w, h) = (4096u32, 2100u32);
+    let limits = ctx.limits();
+    let binding = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size);
+    let over = u64::from(w) * u64::from(h) * fovea_gpu::dof::PLANE_BYTES > binding;
+    assert_eq!(gpu.fits(w, h), !over);
+    if over {
+        let color = Image::new(w, h, [0.5f32; 3]).unwrap();
+        let depth = Image::new(w, h, 1.0f32).unwrap();
+        let e = gpu
+            .coc_and_gather(
+                &ScatterAsGather::default(),
+                &params(CocModel::ThinLens),
+                Metres(1.0),
+                &color,
+                &depth,
+            )
+            .unwrap_err();
+        assert!(matches!(e, GpuError::AdapterTooSmall { .. }), "{e}");
+        assert!(!e.to_string().contains('\n'), "{e}");
+    } else {
+        common::shout("[fovea-gpu] fits_agrees_with_the_passes_checks: this adapter's bindings hold 4096×2100; only `fits` was checked");
+    }
+}

@@ -27,6 +27,8 @@ use fovea_render::world::World;
 struct Mock {
     calls: Arc<Mutex<Vec<(FilterKind, f64)>>>,
     fail: bool,
+    /// The largest image it takes, pixels (a device's binding limit).
+    max_pixels: u64,
 }
 
 impl DofExecutor for Mock {
@@ -36,6 +38,10 @@ impl DofExecutor for Mock {
 
     fn supports(&self, filter: FilterKind, coc_model: &CocModel) -> bool {
         filter == FilterKind::Gather && *coc_model == CocModel::ThinLens
+    }
+
+    fn fits(&self, width_px: u32, height_px: u32) -> bool {
+        u64::from(width_px) * u64::from(height_px) <= self.max_pixels
     }
 
     fn depth_of_field(
@@ -100,6 +106,7 @@ fn the_dof_executor_runs_what_it_supports_and_says_so() {
     let mock = |fail| Mock {
         calls: calls.clone(),
         fail,
+        max_pixels: u64::MAX,
     };
     // Gather with the thin lens: the executor, with the CPU path's focus; the same frame.
     let (c_cpu, coc_cpu, b_cpu) = frame(FilterKind::Gather, CocModel::ThinLens, None).unwrap();
@@ -121,6 +128,18 @@ fn the_dof_executor_runs_what_it_supports_and_says_so() {
         assert_eq!(b, "cpu", "{filter:?} {model:?}");
     }
     assert_eq!(calls.lock().unwrap().len(), 1);
+    // An executor that takes one pixel fewer than the frame's 96×80: the CPU filters it (the
+    // CPU's frame); one that takes exactly 96×80: the executor.
+    for (max_pixels, backend) in [(96 * 80 - 1, "cpu"), (96 * 80, "mock")] {
+        let small = Mock {
+            max_pixels,
+            ..mock(false)
+        };
+        let (c, _, b) = frame(FilterKind::Gather, CocModel::ThinLens, Some(small)).unwrap();
+        assert_eq!(b, backend, "{max_pixels}");
+        assert_eq!(c.data(), c_cpu.data());
+    }
+    assert_eq!(calls.lock().unwrap().len(), 2);
     // The executor's error is the frame's, on one line, naming the stage and backend.
     let e = frame(FilterKind::Gather, CocModel::ThinLens, Some(mock(true)))
         .unwrap_err()

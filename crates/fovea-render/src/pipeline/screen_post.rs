@@ -32,6 +32,12 @@ pub trait DofExecutor: Send {
     fn backend(&self) -> &str;
     /// Whether it runs `filter` (with its default parameters) on a CoC map of `coc_model`.
     fn supports(&self, filter: FilterKind, coc_model: &CocModel) -> bool;
+    /// Whether an image of `width_px × height_px` fits it (a device's storage limits); the
+    /// CPU filters the frames that do not. Every size, unless the executor says otherwise.
+    fn fits(&self, width_px: u32, height_px: u32) -> bool {
+        let _ = (width_px, height_px);
+        true
+    }
     /// The signed CoC map of `depth_m` with `coc` focused at `focus_m` metres, and `filter`
     /// applied to `color` with it: `(blurred, coc_px)`. An error is one line saying what to
     /// do.
@@ -83,7 +89,8 @@ pub fn depth_of_field(
         return Ok(None);
     };
     if let Some(kind) = d.filter {
-        if let Some(ex) = executor.filter(|e| e.supports(kind, &d.coc_model)) {
+        let (w, h) = (color.width(), color.height());
+        if let Some(ex) = executor.filter(|e| e.supports(kind, &d.coc_model) && e.fits(w, h)) {
             let params = coc_params(d, camera);
             let (blurred, coc) = ex
                 .depth_of_field(kind, &params, focus_m, color, depth)
