@@ -258,8 +258,8 @@ pub fn run(args: SequenceArgs) -> Result<()> {
         AccommodationParams::default(),
         pairs.as_deref(),
     )?;
-    // The first frame's plan, checked before anything is written (settings no frame can
-    // have fail here). Which executors cast the primary rays and reconstruct (`--backend`)
+    // The first frame's plan, checked before anything is written (settings that no frame
+    // can have fail here). Which executors cast the primary rays and reconstruct (`--backend`)
     // is decided here too; frames of another backend differ in the last bits, so the
     // backend is part of what a resumed folder must match.
     FramePlan::new(world, &seq.cameras[0], &settings, &seq.eyes[0], [0.0, 0.0])?;

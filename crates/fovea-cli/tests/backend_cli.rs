@@ -169,10 +169,10 @@ fn gpu_backend_tone_maps_the_8_bit_output() {
 /// The frame of `--backend gpu` against the frame of `--backend cpu`, as issue 18 asks: the
 /// built-in scene and (where `../shared/scenes` is present) the classroom at 320×180, full
 /// resolution, VaFR, KFR and Weier, without and with the gather DOF filter — luma PSNR ≥ 40 dB
-/// and mean ꟻLIP ≤ 0.01 (`fovea_eval::metrics`, at the display's pixels per degree). Today
-/// the GPU generates and casts every primary ray, casts every shadow ray, computes the lights' part of direct shading
-/// and reconstructs the polar methods and Weier's (pull-push); the environment's estimator, AA and DOF run on the
-/// CPU in both frames.
+/// and mean ꟻLIP ≤ 0.01 (`fovea_eval::metrics`, at the display's pixels per degree). The GPU
+/// generates and casts every primary ray, casts every shadow ray, computes direct and
+/// environment light, runs the AA filter, reconstructs the polar methods and Weier's
+/// (pull-push) and runs the gather DOF; each is asserted from the frame's stats.
 #[cfg(feature = "gpu")]
 #[test]
 fn gpu_frames_are_the_cpu_frames_method_by_method() {
