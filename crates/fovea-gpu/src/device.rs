@@ -330,6 +330,16 @@ impl GpuContext {
         Ok(())
     }
 
+    /// The largest storage binding a buffer can have on this device, bytes: the smaller of
+    /// `max_storage_buffer_binding_size` and `max_buffer_size` (what
+    /// [`Self::check_storage_binding`] accepts).
+    pub fn max_binding_bytes(&self) -> u64 {
+        self.inner
+            .limits
+            .max_storage_buffer_binding_size
+            .min(self.inner.limits.max_buffer_size)
+    }
+
     /// [`GpuError::AdapterTooSmall`] when a storage binding of `bytes` exceeds the device's
     /// limits; call before allocating.
     pub fn check_storage_binding(&self, what: &str, bytes: u64) -> Result<()> {

@@ -188,9 +188,7 @@ impl GpuDof {
     /// check the same before allocating ([`GpuError::AdapterTooSmall`]).
     pub fn fits(&self, width: u32, height: u32) -> bool {
         let limits = self.ctx.limits();
-        let binding = limits
-            .max_storage_buffer_binding_size
-            .min(limits.max_buffer_size);
+        let binding = self.ctx.max_binding_bytes();
         let n = u64::from(width) * u64::from(height);
         let groups = limits.max_compute_workgroups_per_dimension;
         n * PLANE_BYTES <= binding

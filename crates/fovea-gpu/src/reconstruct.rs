@@ -34,7 +34,7 @@ use fovea_core::display::DisplayProfile;
 use fovea_core::mapping::{FoveationMapping, Method};
 use fovea_core::Image;
 use fovea_post::inverse_map::{
-    mask_of, PolarTables, ReconstructFilter, SampleBuffers, ScreenFrame,
+    mask_of, PolarColumns, PolarTables, ReconstructFilter, SampleBuffers, ScreenFrame,
 };
 use fovea_post::Rgb;
 
@@ -174,17 +174,12 @@ impl GpuReconstructor {
     }
 
     /// Bytes of texels [`Self::reconstruct_into`] uploads for `mapping`'s polar buffer (its
-    /// columns, each padded by one row on either side, [`TEXEL_BYTES`] a texel, as
-    /// `PolarTables` lays them out); `None` for a mapping that is not polar.
+    /// columns, each padded by one row on either side, [`TEXEL_BYTES`] a texel:
+    /// `PolarColumns::texel_count`); `None` for a mapping that is not polar.
     pub fn texel_bytes(mapping: &dyn FoveationMapping) -> Option<u64> {
         let layout = mapping.polar_layout()?;
         let height = mapping.buffers().first().map_or(0, |b| b.height);
-        let texels: u64 = layout
-            .rows
-            .iter()
-            .map(|&rows| u64::from(rows.min(height).max(1)) + 2)
-            .sum();
-        Some(texels * TEXEL_BYTES)
+        Some(PolarColumns::texel_count(&layout, height) * TEXEL_BYTES)
     }
 
     /// Whether `mapping`'s frame fits this device, for a caller that can fall back to the CPU:
@@ -202,11 +197,7 @@ impl GpuReconstructor {
                 .first()
                 .is_some_and(|b| self.pull_push.fits(b.width, b.height));
         }
-        let limits = self.ctx.limits();
-        let binding = limits
-            .max_storage_buffer_binding_size
-            .min(limits.max_buffer_size);
-        Self::texel_bytes(mapping).is_some_and(|b| b <= binding)
+        Self::texel_bytes(mapping).is_some_and(|b| b <= self.ctx.max_binding_bytes())
     }
 
     /// [`Self::reconstruct_into`] into new images.
@@ -307,9 +298,7 @@ impl GpuReconstructor {
             texels.len() as u64 * TEXEL_BYTES,
         )?;
         let row_bytes = w as u64 * OUT_BYTES;
-        let binding = limits
-            .max_storage_buffer_binding_size
-            .min(limits.max_buffer_size);
+        let binding = self.ctx.max_binding_bytes();
         // One row must fit, and a band may not exceed the dispatch's workgroups in y.
         self.ctx
             .check_storage_binding("one screen row of the reconstruction", row_bytes)?;

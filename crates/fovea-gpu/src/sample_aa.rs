@@ -261,9 +261,7 @@ impl GpuSampleAa {
             }
         };
         let limits = self.ctx.limits();
-        let binding = limits
-            .max_storage_buffer_binding_size
-            .min(limits.max_buffer_size);
+        let binding = self.ctx.max_binding_bytes();
         u64::from(w) * u64::from(h) * RGB_BYTES <= binding
             && h <= limits.max_compute_workgroups_per_dimension
             && w.div_ceil(WORKGROUP_SIZE) <= limits.max_compute_workgroups_per_dimension

@@ -71,9 +71,7 @@ impl GpuToneMap {
             })?
             .ok_or_else(|| GpuError::Input("the tone-map module has no entry point".into()))?;
         let limits = ctx.limits();
-        let binding = limits
-            .max_storage_buffer_binding_size
-            .min(limits.max_buffer_size);
+        let binding = ctx.max_binding_bytes();
         let dispatch = u64::from(limits.max_compute_workgroups_per_dimension)
             * u64::from(GROUPS_PER_ROW)
             * u64::from(WORKGROUP_SIZE)

@@ -194,10 +194,7 @@ pub(crate) fn run_1d_at(
 /// [`WORKGROUP_SIZE`](crate::shaders::WORKGROUP_SIZE), and at most 2²² (at least 1).
 pub(crate) fn batch_len(ctx: &GpuContext, bytes_per_item: u64) -> usize {
     let limits = ctx.limits();
-    let by_binding = limits
-        .max_storage_buffer_binding_size
-        .min(limits.max_buffer_size)
-        / bytes_per_item.max(1);
+    let by_binding = ctx.max_binding_bytes() / bytes_per_item.max(1);
     let by_dispatch =
         limits.max_compute_workgroups_per_dimension as u64 * crate::shaders::WORKGROUP_SIZE as u64;
     by_binding.min(by_dispatch).clamp(1, 1 << 22) as usize

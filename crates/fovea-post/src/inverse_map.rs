@@ -463,6 +463,22 @@ pub struct PolarColumns {
 }
 
 impl PolarColumns {
+    /// Texels stored for a column of `rows` rows in a buffer `buffer_height` rows high: its
+    /// rows (at least one, at most the buffer's) and the two copied rows around them.
+    fn stored_rows(rows: u32, buffer_height: u32) -> u32 {
+        rows.min(buffer_height).max(1) + 2
+    }
+
+    /// How many texels [`PolarTables::columns`] holds for a buffer of `layout` that is
+    /// `buffer_height` rows high (what a GPU executor uploads; counted without the buffer).
+    pub fn texel_count(layout: &fovea_core::mapping::PolarLayout, buffer_height: u32) -> u64 {
+        layout
+            .rows
+            .iter()
+            .map(|&rows| u64::from(Self::stored_rows(rows, buffer_height)))
+            .sum()
+    }
+
     /// The columns of `color` and `depth`; with `rows_per_px`, each column's colour boxed
     /// along its rows to the pixel's width first ([`box_along_column`]).
     fn new(
@@ -481,7 +497,7 @@ impl PolarColumns {
                 rows: rows.max(1),
                 period: if rows == 0 { 0.0 } else { period as f32 },
             });
-            base += rows.max(1) + 2;
+            base += Self::stored_rows(rows, bh);
         }
         // Zeroed by the operating system (lazily, page by page), then every texel written once.
         let mut texels = crate::alloc::zeroed::<[f32; 4]>(base as usize);

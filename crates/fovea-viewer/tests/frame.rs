@@ -38,6 +38,12 @@ fn request(view: ViewSettings, display: &DisplayProfile, pose: Pose) -> FrameReq
     }
 }
 
+/// A renderer of `world` with `base` settings on the CPU (no executors, the CPU tone map), 63 mm
+/// between the eyes.
+fn cpu_renderer(world: World, base: FrameSettings) -> FrameRenderer {
+    FrameRenderer::new(world, base, 0.063, Executors::default(), None).unwrap()
+}
+
 fn vafr(scale: f32) -> ViewSettings {
     ViewSettings::new(ViewMethod::Method(Method::Vafr), None, scale)
 }
@@ -56,7 +62,7 @@ fn the_full_scale_frame_is_the_pipelines_frame() {
     )
     .unwrap();
     let want = to_srgb8(&want.color, 0.0, ToneCurve::Reinhard);
-    let mut r = FrameRenderer::new(world, base, 0.063, Executors::default(), None).unwrap();
+    let mut r = cpu_renderer(world, base);
     let f = r.render(&request(vafr(1.0), &display, pose)).unwrap();
     assert_eq!((f.id, f.width, f.height), (7, 192, 160));
     let got: Vec<u8> = f
@@ -71,14 +77,7 @@ fn the_full_scale_frame_is_the_pipelines_frame() {
 #[test]
 fn a_reduced_scale_caps_vafr_at_the_reduced_displays_nyquist_rate() {
     let (world, display, pose) = setup();
-    let mut r = FrameRenderer::new(
-        world,
-        FrameSettings::new(Method::Vafr),
-        0.063,
-        Executors::default(),
-        None,
-    )
-    .unwrap();
+    let mut r = cpu_renderer(world, FrameSettings::new(Method::Vafr));
     let full = r.render(&request(vafr(1.0), &display, pose)).unwrap();
     let half = r.render(&request(vafr(0.5), &display, pose)).unwrap();
     assert_eq!((half.width, half.height), (96, 80));
@@ -105,14 +104,7 @@ fn a_reduced_scale_caps_vafr_at_the_reduced_displays_nyquist_rate() {
 fn both_eyes_lights_and_ab_reach_the_frame() {
     let (world, display, pose) = setup();
     let lights = world.lights.len();
-    let mut r = FrameRenderer::new(
-        world,
-        FrameSettings::new(Method::Kfr),
-        0.063,
-        Executors::default(),
-        None,
-    )
-    .unwrap();
+    let mut r = cpu_renderer(world, FrameSettings::new(Method::Kfr));
     let mut v = ViewSettings::new(ViewMethod::Method(Method::Kfr), None, 1.0);
     v.eyes = EyesChoice::Both;
     let both = r.render(&request(v.clone(), &display, pose)).unwrap();
@@ -143,14 +135,7 @@ fn both_eyes_lights_and_ab_reach_the_frame() {
 #[test]
 fn a_bad_setting_is_an_error_not_a_panic() {
     let (world, display, pose) = setup();
-    let mut r = FrameRenderer::new(
-        world,
-        FrameSettings::new(Method::Vafr),
-        0.063,
-        Executors::default(),
-        None,
-    )
-    .unwrap();
+    let mut r = cpu_renderer(world, FrameSettings::new(Method::Vafr));
     let mut v = vafr(1.0);
     v.dof = Some(fovea_post::dof::FilterKind::Gather);
     v.pupil = fovea_viewer::controls::PupilChoice::Mm(40.0);
