@@ -125,7 +125,13 @@ run)
   for lights in 1 12; do
     step "bench both eyes, $lights light(s)" -- "$bin/fovea" bench --backend gpu "${scene_args[@]}" \
       --eyes both --stereo-reps 2 --lights "$lights" --res 8k,retinal --methods vafr \
-      --bvh-rays 0 --json
+      --bvh-rays 0 --lockstep on --json
+  done
+  # Both eyes in one submission against the eyes in turn (`--lockstep`), side by side.
+  for lockstep in off on; do
+    step "bench both eyes, 1 light, --lockstep $lockstep" -- "$bin/fovea" bench --backend gpu \
+      "${scene_args[@]}" --eyes both --stereo-reps 3 --lights 1 --res 8k --methods vafr \
+      --bvh-rays 0 --lockstep "$lockstep" --json
   done
   echo "gpu-bench: $failed step(s) failed; report in $report" | tee -a "$report"
   [ "$failed" = 0 ]

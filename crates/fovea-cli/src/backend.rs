@@ -20,6 +20,9 @@
 //! * `auto` (default): a hardware adapter when there is one, the CPU otherwise; a one-line
 //!   notice says which and why.
 //!
+//! Both eyes of a Dup pair can render at the same time on one device, their passes in shared
+//! submissions (`--lockstep`, [`Backend::second_eye`], `fovea_render::pipeline::lockstep`).
+//!
 //! The GPU path is compiled with the CLI's `gpu` feature (off by default: wgpu is a long
 //! build). Without it `gpu` says how to rebuild and `auto` is the CPU.
 
@@ -32,11 +35,11 @@ use serde::Serialize;
 use fovea_core::mapping::FoveationMapping;
 use fovea_post::tonemap::ToneMapExecutor;
 use fovea_render::pipeline::{
-    AaExecutor, DofExecutor, Executors, FrameContext, ReconstructExecutor, TraceExecutor,
+    AaExecutor, DofExecutor, Executors, FrameContext, Lockstep, ReconstructExecutor, TraceExecutor,
 };
 use fovea_render::world::World;
 
-use crate::choices::BackendArg;
+use crate::choices::{BackendArg, LockstepArg};
 
 /// The GPU reconstruction's own times of the last frame (ms), as JSON.
 #[derive(Clone, Copy, Debug, Default, Serialize)]
@@ -145,6 +148,11 @@ pub struct Backend {
     pub environment_times: Arc<Mutex<Option<GpuTraceMs>>>,
     /// The adapter is a CPU device (lavapipe, llvmpipe, WARP): its times are CPU-emulated.
     pub cpu_emulated: bool,
+    /// The right eye's executors for a binocular frame rendered in lockstep with the left's
+    /// ([`Backend::second_eye`]): on the GPU, second handles to the same device objects.
+    pub second: Option<Executors>,
+    /// The device the executors share, where both eyes' submissions meet.
+    pub device: Option<Arc<dyn SharedDevice>>,
 }
 
 impl Backend {
@@ -173,6 +181,8 @@ impl Backend {
             direct_times: Arc::default(),
             environment_times: Arc::default(),
             cpu_emulated: false,
+            second: None,
+            device: None,
         }
     }
 
@@ -191,6 +201,29 @@ impl Backend {
         if !executors.is_empty() {
             ctx.set_executors(executors);
         }
+    }
+
+    /// The right eye's context of a binocular frame whose eyes render in lockstep, its
+    /// executors installed, and the device where both eyes' submissions meet; `None` on the
+    /// CPU (the eyes render one after the other) or when `lockstep` is off (`auto`: on a
+    /// hardware GPU only).
+    pub fn second_eye(
+        &mut self,
+        lockstep: LockstepArg,
+    ) -> Option<(FrameContext, Arc<dyn Lockstep + Send + Sync>)> {
+        let on = match lockstep {
+            LockstepArg::On => true,
+            LockstepArg::Off => false,
+            LockstepArg::Auto => !self.cpu_emulated,
+        };
+        if !on {
+            return None;
+        }
+        let device = self.device.as_ref()?.lockstep();
+        let executors = self.second.take()?;
+        let mut ctx = FrameContext::new();
+        ctx.set_executors(executors);
+        Some((ctx, device))
     }
 
     /// Moves the GPU executors, if any, out (e.g. to the viewer's frame contexts).
@@ -251,6 +284,33 @@ impl Backend {
             "dof": frame.dof_backend,
             "cpu_emulated": self.cpu_emulated,
             "gpu_bvh": self.gpu_bvh,
+            "gpu_submissions": self.device.as_ref().map(|d| d.submissions()),
+        })
+    }
+}
+
+/// The device the GPU executors share: where the submissions of both eyes rendered in
+/// lockstep meet (`fovea_render::pipeline::lockstep`), and how its submissions went.
+pub trait SharedDevice: Send + Sync {
+    /// Submissions so far, as JSON: `submissions` (`Queue::submit` calls), `joint` (those
+    /// that carried both eyes' work), `posted` (the passes' own submissions).
+    fn submissions(&self) -> serde_json::Value;
+    /// The device as the pipeline's meeting point of both eyes' submissions.
+    fn lockstep(&self) -> Arc<dyn Lockstep + Send + Sync>;
+}
+
+#[cfg(feature = "gpu")]
+impl SharedDevice for fovea_gpu::GpuContext {
+    fn lockstep(&self) -> Arc<dyn Lockstep + Send + Sync> {
+        Arc::new(self.clone())
+    }
+
+    fn submissions(&self) -> serde_json::Value {
+        let c = self.submission_counts();
+        serde_json::json!({
+            "submissions": c.submissions,
+            "joint": c.joint,
+            "posted": c.posted,
         })
     }
 }
@@ -385,14 +445,17 @@ fn gpu(requested: BackendArg, world: &World) -> Result<Backend> {
     let shadow_times = Arc::new(Mutex::new(None));
     let direct_times = Arc::new(Mutex::new(None));
     let environment_times = Arc::new(Mutex::new(None));
-    let environment = fovea_gpu::GpuEnvironment::new(&ctx, &world.scene.environment)?;
+    let environment = Arc::new(fovea_gpu::GpuEnvironment::new(
+        &ctx,
+        &world.scene.environment,
+    )?);
     let dof_times = Arc::new(Mutex::new(None));
     let executor = GpuExecutor {
-        gpu: GpuReconstructor::new(&ctx)?,
+        gpu: Arc::new(GpuReconstructor::new(&ctx)?),
         times: times.clone(),
     };
     let dof = GpuDofExecutor {
-        gpu: GpuDof::new(&ctx)?,
+        gpu: Arc::new(GpuDof::new(&ctx)?),
         times: dof_times.clone(),
     };
     let tone_times = Arc::new(Mutex::new(None));
@@ -402,8 +465,29 @@ fn gpu(requested: BackendArg, world: &World) -> Result<Backend> {
     };
     let aa_times = Arc::new(Mutex::new(None));
     let anti_aliaser = GpuAaExecutor {
-        gpu: fovea_gpu::GpuSampleAa::new(&ctx)?,
+        gpu: Arc::new(fovea_gpu::GpuSampleAa::new(&ctx)?),
         times: aa_times.clone(),
+    };
+    let tracer = GpuTraceExecutor {
+        gpu: Arc::new(tracer),
+        fingerprint: world.tris_fingerprint,
+        times: trace_times.clone(),
+        shadow_times: shadow_times.clone(),
+        direct_times: direct_times.clone(),
+        environment,
+        environment_times: environment_times.clone(),
+    };
+    // The right eye's executors in lockstep: second handles to the same device objects.
+    let second = Executors {
+        tracer: Some(Box::new(tracer.clone())),
+        reconstructor: Some(Box::new(executor.clone())),
+        dof: Some(Box::new(dof.clone())),
+        // Its own AA: the filter keeps the tables of the last grid it ran, and each eye's
+        // grid follows its own gaze.
+        anti_aliaser: Some(Box::new(GpuAaExecutor {
+            gpu: Arc::new(fovea_gpu::GpuSampleAa::new(&ctx)?),
+            times: aa_times.clone(),
+        })),
     };
     Ok(Backend {
         requested,
@@ -413,15 +497,9 @@ fn gpu(requested: BackendArg, world: &World) -> Result<Backend> {
         anti_aliaser: Some(Box::new(anti_aliaser)),
         tone_map: Some(Box::new(tone_map)),
         tone_times,
-        tracer: Some(Box::new(GpuTraceExecutor {
-            gpu: tracer,
-            fingerprint: world.tris_fingerprint,
-            times: trace_times.clone(),
-            shadow_times: shadow_times.clone(),
-            direct_times: direct_times.clone(),
-            environment,
-            environment_times: environment_times.clone(),
-        })),
+        tracer: Some(Box::new(tracer)),
+        second: Some(second),
+        device: Some(Arc::new(ctx)),
         dof: Some(Box::new(dof)),
         gpu_bvh: Some(gpu_bvh),
         times,
@@ -437,8 +515,9 @@ fn gpu(requested: BackendArg, world: &World) -> Result<Backend> {
 
 /// `fovea_gpu::GpuTracer` as the pipeline's trace executor, for the world it was built from.
 #[cfg(feature = "gpu")]
+#[derive(Clone)]
 struct GpuTraceExecutor {
-    gpu: fovea_gpu::GpuTracer,
+    gpu: Arc<fovea_gpu::GpuTracer>,
     fingerprint: u64,
     /// The primary rays' times.
     times: Arc<Mutex<Option<GpuTraceMs>>>,
@@ -447,7 +526,7 @@ struct GpuTraceExecutor {
     /// The direct-light passes' times.
     direct_times: Arc<Mutex<Option<GpuTraceMs>>>,
     /// The world's environment on the device.
-    environment: fovea_gpu::GpuEnvironment,
+    environment: Arc<fovea_gpu::GpuEnvironment>,
     /// The environment-light passes' times.
     environment_times: Arc<Mutex<Option<GpuTraceMs>>>,
 }
@@ -663,8 +742,9 @@ impl TraceExecutor for GpuTraceExecutor {
 
 /// `fovea_gpu::GpuReconstructor` as the pipeline's reconstruct executor.
 #[cfg(feature = "gpu")]
+#[derive(Clone)]
 struct GpuExecutor {
-    gpu: fovea_gpu::GpuReconstructor,
+    gpu: Arc<fovea_gpu::GpuReconstructor>,
     times: Arc<Mutex<Option<GpuReconstructMs>>>,
 }
 
@@ -709,8 +789,9 @@ impl ReconstructExecutor for GpuExecutor {
 /// `fovea_gpu::GpuDof` as the pipeline's depth-of-field executor: the gather filter (its
 /// default parameters, as `FilterKind::Gather` builds it) on the GPU's own CoC map.
 #[cfg(feature = "gpu")]
+#[derive(Clone)]
 struct GpuDofExecutor {
-    gpu: fovea_gpu::GpuDof,
+    gpu: Arc<fovea_gpu::GpuDof>,
     times: Arc<Mutex<Option<GpuDofMs>>>,
 }
 
@@ -774,8 +855,9 @@ impl DofExecutor for GpuDofExecutor {
 /// `fovea_gpu::GpuSampleAa` as the pipeline's AA executor (FXAA and the Gaussian, on rect and
 /// polar grids).
 #[cfg(feature = "gpu")]
+#[derive(Clone)]
 struct GpuAaExecutor {
-    gpu: fovea_gpu::GpuSampleAa,
+    gpu: Arc<fovea_gpu::GpuSampleAa>,
     /// The frame's AA times, summed over its layers until taken.
     times: Arc<Mutex<Option<GpuAaMs>>>,
 }

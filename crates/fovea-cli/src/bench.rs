@@ -26,7 +26,7 @@ use fovea_render::world::World;
 use fovea_render::RenderError;
 
 use crate::backend::{GpuDofMs, GpuReconstructMs, GpuTraceMs, Preflight};
-use crate::choices::{BackendArg, EnvLightChoice, Eyes, Shading};
+use crate::choices::{BackendArg, EnvLightChoice, Eyes, LockstepArg, Shading};
 use crate::common::{display_of, thousands, FrameOptions, MethodOptions};
 use crate::dof_args::EyeArgs;
 use crate::render::{memory_limit, progress_bar, shading, EnvLightArgs};
@@ -101,6 +101,13 @@ pub struct BenchArgs {
     /// device (lavapipe) they are labelled CPU-emulated.
     #[arg(long, value_enum, ignore_case = true, default_value_t = BackendArg::Cpu)]
     pub backend: BackendArg,
+    /// With a GPU backend, the binocular Dup frame: on renders both eyes at the same time,
+    /// each eye's device work waiting for the other's so that both go to the GPU in one
+    /// submission; off renders them one after the other; auto (default): on for a hardware
+    /// GPU, off on a CPU-emulated one (lavapipe), where it measured slower. Rep always
+    /// renders them in turn.
+    #[arg(long, value_enum, ignore_case = true, default_value_t = LockstepArg::Auto)]
+    pub lockstep: LockstepArg,
     /// Print JSON only.
     #[arg(long)]
     pub json: bool,
@@ -180,7 +187,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         &mut loaded,
         &args.scene,
         &params,
-        &mut BenchBackend::new(args.backend, &preflight),
+        &mut BenchBackend::new(args.backend, &preflight, args.lockstep),
         args.quiet || args.json,
         (!args.json).then_some(args.backend != BackendArg::Cpu),
     )?;
@@ -234,11 +241,18 @@ struct BenchBackend {
     requested: BackendArg,
     /// The installed executors' per-frame times (`None` while the CPU runs every stage).
     times: Option<ExecutorTimes>,
+    /// Whether a binocular Dup frame renders its eyes in lockstep (`--lockstep`).
+    lockstep: LockstepArg,
+    /// The right eye's context in lockstep, from the last [`BenchExecutors::install`].
+    second: Option<(
+        FrameContext,
+        Arc<dyn fovea_render::pipeline::Lockstep + Send + Sync>,
+    )>,
 }
 
 impl BenchBackend {
     /// The CPU unless the preflight found a GPU for `requested`.
-    fn new(requested: BackendArg, preflight: &Preflight) -> Self {
+    fn new(requested: BackendArg, preflight: &Preflight, lockstep: LockstepArg) -> Self {
         Self {
             requested: if preflight.adapter.is_some() {
                 requested
@@ -246,6 +260,8 @@ impl BenchBackend {
                 BackendArg::Cpu
             },
             times: None,
+            lockstep,
+            second: None,
         }
     }
 }
@@ -284,7 +300,17 @@ impl BenchExecutors for BenchBackend {
             aa: backend.aa_times.clone(),
         });
         backend.install(ctx);
+        self.second = backend.second_eye(self.lockstep);
         Ok(())
+    }
+
+    fn second_eye(
+        &mut self,
+    ) -> Option<(
+        FrameContext,
+        Arc<dyn fovea_render::pipeline::Lockstep + Send + Sync>,
+    )> {
+        self.second.take()
     }
 
     fn pass_ms(&mut self) -> BTreeMap<String, f64> {
@@ -360,7 +386,7 @@ pub fn measure_on(
     preflight: &Preflight,
     quiet: bool,
 ) -> Result<BenchResult> {
-    let mut executors = BenchBackend::new(requested, preflight);
+    let mut executors = BenchBackend::new(requested, preflight, LockstepArg::Auto);
     measure_with(loaded, scene, params, &mut executors, quiet, None)
 }
 

@@ -195,6 +195,17 @@ pub enum BackendArg {
     Auto,
 }
 
+/// `--lockstep`: whether both eyes of a Dup pair render at the same time on a GPU, their
+/// passes in shared submissions (`fovea_render::pipeline::lockstep`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum LockstepArg {
+    /// On a hardware GPU; off on a CPU-emulated device (lavapipe), whose "device" is the
+    /// cores that run the eyes' CPU work, where it measured slower (docs/gpu.md).
+    Auto,
+    On,
+    Off,
+}
+
 /// `--stereo`: how the second eye is made.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Stereo {

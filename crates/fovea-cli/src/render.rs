@@ -17,7 +17,8 @@ use fovea_render::plan::FramePlan;
 use fovea_render::shade::{EnvLight, ShadingMode, DEFAULT_ENV_SAMPLES};
 
 use crate::choices::{
-    Aa, BackendArg, EnvLightChoice, Eyes, Headset, MethodChoice, Shading, Stereo, Switch, Tonemap,
+    Aa, BackendArg, EnvLightChoice, Eyes, Headset, LockstepArg, MethodChoice, Shading, Stereo,
+    Switch, Tonemap,
 };
 use crate::common::{thousands, DisplayArgs, FrameOptions, MethodOptions};
 use crate::dof_args::DofArgs;
@@ -114,6 +115,13 @@ pub struct RenderArgs {
     /// `--features gpu`.
     #[arg(long, value_enum, ignore_case = true, default_value_t = BackendArg::Auto)]
     pub backend: BackendArg,
+    /// With --eyes both --stereo dup on a GPU: on renders both eyes at the same time, each
+    /// eye's device work waiting for the other's so that both go to the GPU in one
+    /// submission (the JSON's backend.gpu_submissions counts them); off renders them one
+    /// after the other; auto (default): on for a hardware GPU, off on a CPU-emulated one
+    /// (lavapipe), where it measured slower. The frames are the same either way.
+    #[arg(long, value_enum, ignore_case = true, default_value_t = LockstepArg::Auto)]
+    pub lockstep: LockstepArg,
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
@@ -570,7 +578,7 @@ fn run_stereo(
     tone: ToneCurve,
     lod_stats: Option<fovea_render::lod::LodStats>,
 ) -> Result<()> {
-    use fovea_render::stereo::{fixating_eyes, render_stereo_in};
+    use fovea_render::stereo::{fixating_eyes, render_stereo_in, SecondEye};
     let display = &prepared.camera.display;
     let (target, [(lc, lg), (rc, rg)]) = fixating_eyes(world, &prepared.rig, display, &gaze)?;
     let dof = settings.dof.as_ref();
@@ -582,9 +590,16 @@ fn run_stereo(
     let mut backend = crate::backend::resolve(args.backend, world)?;
     let mut ctx = FrameContext::new();
     backend.install(&mut ctx);
+    // Dup on a GPU: the right eye in a context of its own, both eyes at the same time.
+    let mut second = backend.second_eye(args.lockstep);
+    let pair = second.as_mut().map(|(ctx, device)| SecondEye {
+        ctx,
+        lockstep: &**device,
+    });
     let pb = progress_bar(args.quiet, mode.name());
     let frame = render_stereo_in(
         &mut ctx,
+        pair,
         world,
         &lc,
         &rc,
@@ -630,7 +645,9 @@ fn run_stereo(
         "lod": lod_stats,
         "left": frame.left.stats,
         "right": frame.right.stats,
-        // Both eyes ran on the same executors; the GPU's times are summed over both eyes.
+        // Whether the eyes rendered at the same time, their device work in shared submissions.
+        "lockstep": second.is_some(),
+        // Both eyes ran on the same device; the GPU's times are summed over both eyes.
         "backend": backend.json(&frame.left.stats),
     });
     std::fs::write(&stats_path, serde_json::to_string_pretty(&json)? + "\n")

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use anyhow::Result;
 use clap::{Args, ValueEnum};
 
-use crate::choices::{BackendArg, Eyes, MethodChoice};
+use crate::choices::{BackendArg, Eyes, LockstepArg, MethodChoice};
 use crate::common::{DisplayArgs, FrameOptions, MethodOptions};
 use crate::dof_args::DofArgs;
 use crate::exposure_args::ExposureArgs;
@@ -55,6 +55,12 @@ pub struct ViewArgs {
     /// One eye, or both side by side (V switches).
     #[arg(long, value_enum, ignore_case = true, default_value_t = Eyes::One)]
     pub eyes: Eyes,
+    /// Both eyes on a GPU: on renders them at the same time, each eye's device work waiting
+    /// for the other's so that both go to the GPU in one submission; off renders them one
+    /// after the other; auto (default): on for a hardware GPU, off on a CPU-emulated one
+    /// (lavapipe), where it measured slower.
+    #[arg(long, value_enum, ignore_case = true, default_value_t = LockstepArg::Auto)]
+    pub lockstep: LockstepArg,
     /// Render scale of the display, 0.05 to 1 (default: 1 on the GPU and headless; 0.5 on
     /// the CPU path, which refines a still view to full scale).
     #[arg(long)]
@@ -258,6 +264,12 @@ pub fn run(args: ViewArgs) -> Result<()> {
         shots_dir: args.shots.clone(),
         frames_out: args.frames_out.clone(),
         record: args.record.clone(),
+        second_eye: backend.second_eye(args.lockstep).map(|(mut ctx, device)| {
+            fovea_viewer::SecondEyeExecutors {
+                executors: ctx.take_executors(),
+                lockstep: device,
+            }
+        }),
         executors: backend.take_executors(),
         tone_map: backend.tone_map.take(),
         backend: backend.describe.clone(),

@@ -513,6 +513,58 @@ fn gpu_backend_renders_both_eyes() {
     }
 }
 
+/// `--eyes both --stereo dup --lockstep on` on the GPU renders the eyes in lockstep: every
+/// submission while both eyes render carries both eyes' work, each pass is submitted once,
+/// and the frames are those of the eyes rendered one after the other (`--lockstep off`),
+/// byte for byte.
+#[cfg(feature = "gpu")]
+#[test]
+fn gpu_lockstep_submits_both_eyes_together_and_changes_no_pixel() {
+    let dir = tempfile::tempdir().unwrap();
+    let both = ["--method", "vafr", "--eyes", "both", "--stereo", "dup"];
+    let mut counts = Vec::new();
+    for lockstep in ["on", "off"] {
+        let args = [&both[..], &["--backend", "gpu", "--lockstep", lockstep]].concat();
+        let out = render(dir.path(), lockstep, &args, &[]);
+        if !gpu_ran(&out, "gpu_lockstep_submits_both_eyes_together") {
+            return;
+        }
+        let s = stats(dir.path(), lockstep);
+        assert_eq!(s["lockstep"], lockstep == "on", "{s}");
+        let n = &s["backend"]["gpu_submissions"];
+        let get = |k: &str| n[k].as_u64().unwrap_or_else(|| panic!("{k}: {s}"));
+        counts.push((get("submissions"), get("joint"), get("posted")));
+    }
+    let (on, off) = (counts[0], counts[1]);
+    // One after the other: each pass its own submission.
+    assert_eq!(off.0, off.2, "off: {off:?}");
+    assert_eq!(off.1, 0, "off: {off:?}");
+    // In lockstep: the same passes, every one submitted once; a joint submission carries two.
+    assert_eq!(on.2, off.2, "the same passes: on {on:?}, off {off:?}");
+    assert_eq!(on.0 + on.1, on.2, "each pass submitted once: {on:?}");
+    // Both eyes' passes but the last few of the eye with more went together.
+    assert!(
+        on.1 >= 1 && on.1 * 2 + 8 >= on.2,
+        "joint submissions: {on:?}"
+    );
+    let (a, b) = (
+        std::fs::read(dir.path().join("on.exr")).unwrap(),
+        std::fs::read(dir.path().join("off.exr")).unwrap(),
+    );
+    assert!(a == b, "the lockstep frame differs from the sequential one");
+    // The default (auto): lockstep on a hardware GPU, not on a CPU-emulated one.
+    let out = render(
+        dir.path(),
+        "auto",
+        &[&both[..], &["--backend", "gpu"]].concat(),
+        &[],
+    );
+    assert!(gpu_ran(&out, "gpu_lockstep_submits_both_eyes_together"));
+    let s = stats(dir.path(), "auto");
+    let emulated = s["backend"]["cpu_emulated"].as_bool().unwrap();
+    assert_eq!(s["lockstep"], !emulated, "{s}");
+}
+
 /// `fovea sequence --backend`: the folder records where its frames were made, and a sequence
 /// on the GPU writes the CPU's frames within 8-bit rounding of the render test's bounds.
 fn sequence(dir: &Path, name: &str, backend: &str) -> std::process::Output {
@@ -641,7 +693,16 @@ fn cpu_bench_reports_every_stage_on_the_cpu_and_no_gpu_passes() {
 #[test]
 fn bench_gpu_times_both_eyes_on_the_gpu() {
     let out = bench(
-        &["--backend", "gpu", "--eyes", "both", "--stereo-reps", "1"],
+        &[
+            "--backend",
+            "gpu",
+            "--eyes",
+            "both",
+            "--stereo-reps",
+            "1",
+            "--lockstep",
+            "on",
+        ],
         &[],
     );
     if !gpu_ran(&out, "bench_gpu_times_both_eyes_on_the_gpu") {
@@ -652,6 +713,7 @@ fn bench_gpu_times_both_eyes_on_the_gpu() {
     assert_eq!(rows.len(), 1, "{j}");
     let row = &rows[0];
     assert_eq!(row["trace_backend"], "gpu", "{row}");
+    assert_eq!(row["dup_lockstep"], true, "{row}");
     for mode in ["dup_device_pass_ms", "rep_device_pass_ms"] {
         for pass in ["trace", "direct_light", "reconstruct"] {
             let ms = row[mode][pass].as_f64().unwrap_or(f64::NAN);

@@ -296,7 +296,7 @@ fn gpu_view_runs_both_eyes_on_the_gpu() {
         let out = fovea()
             .args(["view", "--res", "320x180", "--lights", "2", "-q"])
             .args(["--method", "vafr", "--eyes", "both", "--frames", "1"])
-            .args(["--backend", backend, "--gaze-csv"])
+            .args(["--backend", backend, "--lockstep", "on", "--gaze-csv"])
             .arg(&csv)
             .arg("--screenshot")
             .arg(&shot)
@@ -318,6 +318,8 @@ fn gpu_view_runs_both_eyes_on_the_gpu() {
     let stats: serde_json::Value =
         serde_json::from_slice(&std::fs::read(gpu.with_extension("json")).unwrap()).unwrap();
     assert_eq!(stats["eyes"], "both");
+    // On the GPU both eyes render at the same time (`--lockstep on`).
+    assert_eq!(stats["lockstep"], true, "{stats}");
     for k in 0..2 {
         let f = &stats["frames"][k];
         assert_eq!(f["trace_backend"], "gpu", "eye {k}: {f}");

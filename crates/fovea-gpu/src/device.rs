@@ -161,6 +161,7 @@ struct Inner {
     limits: wgpu::Limits,
     features: wgpu::Features,
     health: Arc<Mutex<Health>>,
+    gate: crate::lockstep::SubmissionGate,
 }
 
 /// An open GPU device and its queue, with the adapter it runs on. Cheap to clone (shared).
@@ -268,6 +269,7 @@ impl GpuContext {
                 limits,
                 features,
                 health,
+                gate: Default::default(),
             }),
         })
     }
@@ -299,6 +301,20 @@ impl GpuContext {
     /// The wgpu queue.
     pub fn queue(&self) -> &wgpu::Queue {
         &self.inner.queue
+    }
+
+    /// Submits a pass's command buffers to the queue — with the other eye's in one
+    /// submission while both eyes render in lockstep ([`crate::lockstep`]). Every pass of
+    /// this crate submits through here.
+    pub fn submit(&self, buffers: impl IntoIterator<Item = wgpu::CommandBuffer>) {
+        self.inner
+            .gate
+            .submit(&self.inner.queue, buffers.into_iter().collect());
+    }
+
+    /// The device's submission gate.
+    pub(crate) fn gate(&self) -> &crate::lockstep::SubmissionGate {
+        &self.inner.gate
     }
 
     /// [`GpuError::DeviceLost`] once the device is lost, or an error recorded outside every
@@ -432,6 +448,26 @@ fn backend_names(backends: wgpu::Backends) -> String {
         "searched: no backend built into this binary".to_string()
     } else {
         format!("searched: {}", names.join(", "))
+    }
+}
+
+impl GpuContext {
+    /// How this device's submissions went so far: how many, how many carried both eyes'
+    /// work, how many the passes posted.
+    pub fn submission_counts(&self) -> crate::lockstep::SubmissionCounts {
+        self.gate().counts()
+    }
+}
+
+/// The device as the meeting point of both eyes' submissions
+/// (`fovea_render::pipeline::lockstep`; [`crate::lockstep`]).
+impl fovea_render::pipeline::Lockstep for GpuContext {
+    fn enter(&self) {
+        self.gate().enter();
+    }
+
+    fn leave(&self) {
+        self.gate().leave(self.queue());
     }
 }
 

@@ -475,7 +475,7 @@ impl GpuDof {
             if let Some(timer) = &timer {
                 timer.resolve(&mut encoder);
             }
-            self.ctx.queue().submit([encoder.finish()]);
+            self.ctx.submit([encoder.finish()]);
             (readbacks, timer)
         })?;
         let upload_ms = ms_since(t_upload);

@@ -412,7 +412,7 @@ impl GpuPullPush {
             for timer in timers.iter().flatten() {
                 timer.resolve(&mut encoder);
             }
-            self.ctx.queue().submit([encoder.finish()]);
+            self.ctx.submit([encoder.finish()]);
             (colour_read, depth_read, timers)
         })?;
         let upload_ms = ms_since(t_start);

@@ -20,7 +20,7 @@
 //! alignment table (4 bytes: two rows of at most 65535) must each fit one storage binding,
 //! checked before anything is allocated ([`GpuError::AdapterTooSmall`]).
 
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use bytemuck::{Pod, Zeroable};
@@ -218,7 +218,7 @@ pub struct GpuSampleAa {
     fxaa_luma: wgpu::ComputePipeline,
     fxaa: wgpu::ComputePipeline,
     gaussian: wgpu::ComputePipeline,
-    tables: Mutex<Option<GridTables>>,
+    tables: Mutex<Option<Arc<GridTables>>>,
 }
 
 impl GpuSampleAa {
@@ -281,14 +281,20 @@ impl GpuSampleAa {
         if w == 0 || h == 0 {
             return Ok((out, SampleAaTimes::default()));
         }
-        // The grid's tables, reused while the layout stays the same.
-        let mut cache = self.tables.lock().unwrap_or_else(|e| e.into_inner());
-        if !cache.as_ref().is_some_and(|t| t.is_for(grid, (w, h))) {
-            *cache = Some(GridTables::new(grid, (w, h))?);
-        }
-        let tables = cache
-            .as_ref()
-            .ok_or_else(|| GpuError::Input("the AA grid's tables could not be prepared".into()))?;
+        // The grid's tables, reused while the layout stays the same. The lock is not held
+        // while the pass runs: its submission may wait for the other eye's
+        // (`crate::lockstep`).
+        let tables = {
+            let mut cache = self.tables.lock().unwrap_or_else(|e| e.into_inner());
+            match cache.as_ref().filter(|t| t.is_for(grid, (w, h))) {
+                Some(t) => t.clone(),
+                None => {
+                    let t = Arc::new(GridTables::new(grid, (w, h))?);
+                    *cache = Some(t.clone());
+                    t
+                }
+            }
+        };
         let tables_ms = ms_since(t_start);
 
         let t_upload = Instant::now();
@@ -428,10 +434,10 @@ impl GpuSampleAa {
             if let Some(timer) = &timer {
                 timer.resolve(&mut encoder);
             }
-            self.ctx.queue().submit([encoder.finish()]);
+            self.ctx.submit([encoder.finish()]);
             (read, timer)
         })?;
-        drop(cache);
+        drop(tables);
         let upload_ms = ms_since(t_upload);
 
         let t_run = Instant::now();

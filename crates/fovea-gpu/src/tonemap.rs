@@ -218,7 +218,7 @@ impl GpuToneMap {
                 pass.dispatch_workgroups(x, rows as u32, 1);
             }
             encoder.copy_buffer_to_buffer(&out, 0, &read, 0, bytes);
-            self.ctx.queue().submit([encoder.finish()]);
+            self.ctx.submit([encoder.finish()]);
             read
         })?;
         let mut out = Vec::new();

@@ -173,7 +173,7 @@ pub(crate) fn run_1d_at(
         if let Some(timer) = &timer {
             timer.resolve(&mut encoder);
         }
-        ctx.queue().submit([encoder.finish()]);
+        ctx.submit([encoder.finish()]);
         (readback, timer)
     })?;
     let mut buffers = vec![&readback];

@@ -28,8 +28,8 @@ use crate::camera::{Eye, EyeCamera, HmdRig};
 use crate::error::{RenderError, Result};
 use crate::eye::EyeState;
 use crate::pipeline::{
-    render_planned, Frame, FrameContext, FrameInputs, FrameSettings, Prefill, Stage, StageTimes,
-    Stopwatch,
+    in_lockstep, render_planned, Frame, FrameContext, FrameInputs, FrameSettings, Lockstep,
+    Prefill, Stage, StageTimes, Stopwatch,
 };
 use crate::plan::FramePlan;
 use crate::world::World;
@@ -181,6 +181,7 @@ pub fn render_stereo(
     let mut ctx = FrameContext::new();
     render_stereo_in(
         &mut ctx,
+        None,
         world,
         left_camera,
         right_camera,
@@ -191,12 +192,26 @@ pub fn render_stereo(
     )
 }
 
-/// [`render_stereo`] in the caller's context: both eyes, one after the other, run through its
-/// executors (a GPU's tracer and reconstructor, [`FrameContext::set_tracer`]) and reuse its
-/// buffers; each eye's frame is taken out of it.
+/// The right eye's own context of a binocular frame whose eyes render at the same time
+/// ([`crate::pipeline::lockstep`]): its buffers, executors that share the device of the left
+/// context's, and where the two eyes' submissions meet.
+pub struct SecondEye<'a> {
+    /// The right eye's context (its executors run on the same device as the left's).
+    pub ctx: &'a mut FrameContext,
+    /// The device's meeting point for both eyes' submissions.
+    pub lockstep: &'a dyn Lockstep,
+}
+
+/// [`render_stereo`] in the caller's context: both eyes run through its executors (a GPU's
+/// tracer and reconstructor, [`FrameContext::set_tracer`]) and reuse its buffers; each eye's
+/// frame is taken out of it. Dup with a `second` eye's context renders the eyes at the same
+/// time, the right in that context, their device work in shared submissions
+/// ([`in_lockstep`]); otherwise, and always for Rep (whose right eye starts from the left
+/// eye's samples), one after the other.
 #[allow(clippy::too_many_arguments)]
 pub fn render_stereo_in(
     ctx: &mut FrameContext,
+    second: Option<SecondEye<'_>>,
     world: &World,
     left_camera: &EyeCamera,
     right_camera: &EyeCamera,
@@ -229,15 +244,45 @@ pub fn render_stereo_in(
         ctx.take_frame()
             .ok_or_else(|| RenderError::Unsupported("the eye's frame was not stored".into()))
     };
-    match mode {
-        StereoMode::Dup => {
+    match (mode, second) {
+        (
+            StereoMode::Dup,
+            Some(SecondEye {
+                ctx: right_ctx,
+                lockstep,
+            }),
+        ) => {
+            // Each eye plans and renders on its own thread.
+            let eye = |ctx: &mut FrameContext, camera: &EyeCamera, eye: &EyeState| {
+                let (plan, times) = plan_of(camera, eye, false)?;
+                render_planned(
+                    ctx,
+                    world,
+                    camera,
+                    &plan,
+                    FrameInputs::default(),
+                    times,
+                    progress,
+                )?;
+                ctx.take_frame().ok_or_else(|| {
+                    RenderError::Unsupported("the eye's frame was not stored".into())
+                })
+            };
+            let (l, r) = in_lockstep(
+                lockstep,
+                || eye(ctx, left_camera, &eyes[0]),
+                || eye(right_ctx, right_camera, &eyes[1]),
+            )?;
+            Ok(StereoFrame::new(mode, l, r, 0, 0, 0, t0, 0.0))
+        }
+        (StereoMode::Dup, None) => {
             let (lp, lt) = plan_of(left_camera, &eyes[0], false)?;
             let l = render(left_camera, &lp, lt, None)?;
             let (rp, rt) = plan_of(right_camera, &eyes[1], false)?;
             let r = render(right_camera, &rp, rt, None)?;
             Ok(StereoFrame::new(mode, l, r, 0, 0, 0, t0, 0.0))
         }
-        StereoMode::Rep => {
+        (StereoMode::Rep, _) => {
             let (lp, lt) = plan_of(left_camera, &eyes[0], true)?;
             let mut l = render(left_camera, &lp, lt, None)?;
             let samples = l

@@ -124,7 +124,11 @@ pub fn run(cfg: ViewerConfig) -> Result<Summary> {
             source: e,
         })?;
     }
-    let renderer = FrameRenderer::new(cfg.world, cfg.base, cfg.ipd_m, cfg.executors, cfg.tone_map)?;
+    let mut renderer =
+        FrameRenderer::new(cfg.world, cfg.base, cfg.ipd_m, cfg.executors, cfg.tone_map)?;
+    if let Some(second) = cfg.second_eye {
+        renderer.set_second_eye(second);
+    }
     let headless = cfg.frames.is_some();
     let worker = RenderWorker::start(renderer, cfg.cpu_path && !headless);
     let mut app = App {
@@ -488,6 +492,7 @@ impl App {
             },
             "exposure_stops": r.view.exposure_stops,
             "backend": frame.backend,
+            "lockstep": frame.lockstep,
             "wall_ms": frame.wall_ms,
             "lod": frame.lod,
             "frames": frame.stats,

@@ -20,8 +20,8 @@ use fovea_render::camera::EyeCamera;
 use fovea_render::eye::{EyeState, EyeTracker};
 use fovea_render::lod::{LodParams, LodScene, LodStats};
 use fovea_render::pipeline::{
-    render_planned, Executors, FrameContext, FrameInputs, FrameSettings, FrameStats, Stage,
-    StageTimes, Stopwatch,
+    in_lockstep, render_planned, Executors, FrameContext, FrameInputs, FrameSettings, FrameStats,
+    Lockstep, Stage, StageTimes, Stopwatch,
 };
 use fovea_render::plan::FramePlan;
 use fovea_render::scene::Light;
@@ -124,6 +124,17 @@ pub struct ViewFrame {
     pub wall_ms: f64,
     /// The executors that ran (`cpu`, or `gpu` for the primary rays / reconstruction).
     pub backend: String,
+    /// Whether both eyes rendered at the same time, their device work in shared submissions.
+    pub lockstep: bool,
+}
+
+/// The right eye's executors of a viewer whose eyes render at the same time, on the device of
+/// the left eye's, and that device's meeting point for both eyes' submissions.
+pub struct SecondEyeExecutors {
+    /// The right eye's executors.
+    pub executors: Executors,
+    /// Where both eyes' submissions meet.
+    pub lockstep: Arc<dyn Lockstep + Send + Sync>,
 }
 
 /// Renders requests with one world, reusing buffers and the temporal history from frame to
@@ -133,8 +144,11 @@ pub struct FrameRenderer {
     all_lights: Vec<Light>,
     base: FrameSettings,
     ipd_m: f32,
-    /// Each eye's buffers; the executors stay in the first's between frames.
+    /// Each eye's buffers; the executors stay in the first's between frames (in lockstep
+    /// each eye keeps its own).
     ctx: [FrameContext; 2],
+    /// Where both eyes' submissions meet when they render at the same time.
+    lockstep: Option<Arc<dyn Lockstep + Send + Sync>>,
     /// The display encoding's executor, if not the CPU.
     tone_map: Option<Box<dyn ToneMapExecutor>>,
     tracker: EyeTracker,
@@ -163,11 +177,20 @@ impl FrameRenderer {
             base,
             ipd_m,
             ctx,
+            lockstep: None,
             tracker: EyeTracker::new(Default::default())?,
             last_eye: None,
             accumulator: None,
             lod: None,
         })
+    }
+
+    /// Renders both eyes at the same time from now on, the right eye on `second`'s
+    /// executors (on the same device as the left's), their device work in shared
+    /// submissions.
+    pub fn set_second_eye(&mut self, second: SecondEyeExecutors) {
+        self.ctx[1].set_executors(second.executors);
+        self.lockstep = Some(second.lockstep);
     }
 
     /// The world.
@@ -275,30 +298,61 @@ impl FrameRenderer {
                 )?;
                 let (_, pair) =
                     fovea_render::stereo::fixating_eyes(world, &rig, &display, &eye.gaze)?;
-                for (k, (cam, gaze)) in pair.into_iter().enumerate() {
-                    let mut e = eye;
-                    e.gaze = gaze;
-                    let plan = FramePlan::new(world, &cam, &settings, &e, [0.0, 0.0])?;
-                    // The executors go to this eye's context and come back, error or not.
-                    if k > 0 {
-                        let executors = self.ctx[0].take_executors();
-                        self.ctx[k].set_executors(executors);
+                if let Some(lockstep) = &self.lockstep {
+                    // Each eye plans and renders on its own thread, in its own context.
+                    let [(lc, lg), (rc, rg)] = pair;
+                    let [left, right] = &mut self.ctx;
+                    let settings = &settings;
+                    let one = |ctx: &mut FrameContext,
+                               cam: &EyeCamera,
+                               gaze: Gaze,
+                               times: StageTimes|
+                     -> fovea_render::Result<()> {
+                        let mut e = eye;
+                        e.gaze = gaze;
+                        let plan = FramePlan::new(world, cam, settings, &e, [0.0, 0.0])?;
+                        render_planned(
+                            ctx,
+                            world,
+                            cam,
+                            &plan,
+                            FrameInputs::default(),
+                            times,
+                            &|_, _| {},
+                        )?;
+                        Ok(())
+                    };
+                    in_lockstep(
+                        &**lockstep,
+                        || one(left, &lc, lg, times),
+                        || one(right, &rc, rg, StageTimes::default()),
+                    )?;
+                } else {
+                    for (k, (cam, gaze)) in pair.into_iter().enumerate() {
+                        let mut e = eye;
+                        e.gaze = gaze;
+                        let plan = FramePlan::new(world, &cam, &settings, &e, [0.0, 0.0])?;
+                        // The executors go to this eye's context and come back, error or not.
+                        if k > 0 {
+                            let executors = self.ctx[0].take_executors();
+                            self.ctx[k].set_executors(executors);
+                        }
+                        let rendered = render_planned(
+                            &mut self.ctx[k],
+                            world,
+                            &cam,
+                            &plan,
+                            FrameInputs::default(),
+                            if k == 0 { times } else { StageTimes::default() },
+                            &|_, _| {},
+                        )
+                        .map(|_| ());
+                        if k > 0 {
+                            let executors = self.ctx[k].take_executors();
+                            self.ctx[0].set_executors(executors);
+                        }
+                        rendered?;
                     }
-                    let rendered = render_planned(
-                        &mut self.ctx[k],
-                        world,
-                        &cam,
-                        &plan,
-                        FrameInputs::default(),
-                        if k == 0 { times } else { StageTimes::default() },
-                        &|_, _| {},
-                    )
-                    .map(|_| ());
-                    if k > 0 {
-                        let executors = self.ctx[k].take_executors();
-                        self.ctx[0].set_executors(executors);
-                    }
-                    rendered?;
                 }
             }
         }
@@ -357,6 +411,7 @@ impl FrameRenderer {
             lod: lod_stats,
             wall_ms: t0.elapsed_ms().0,
             backend,
+            lockstep: eyes == 2 && self.lockstep.is_some(),
         })
     }
 

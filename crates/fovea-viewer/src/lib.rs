@@ -30,7 +30,7 @@ use fovea_render::world::World;
 
 pub use controls::{ViewMethod, ViewSettings};
 pub use error::{Result, ViewerError};
-pub use frame::Pose;
+pub use frame::{Pose, SecondEyeExecutors};
 
 /// Where the gaze comes from.
 pub enum GazeSource {
@@ -80,6 +80,10 @@ pub struct ViewerConfig {
     pub executors: Executors,
     /// Executor of the display encoding (exposure, tone curve, 8-bit sRGB; the GPU's), if any.
     pub tone_map: Option<Box<dyn ToneMapExecutor>>,
+    /// Both eyes at the same time: the right eye's executors (on the device of `executors`)
+    /// and the device's meeting point for both eyes' submissions
+    /// (`fovea_render::pipeline::lockstep`); `None`: the eyes render in turn on `executors`.
+    pub second_eye: Option<SecondEyeExecutors>,
     /// Which backend renders, in words (the HUD shows it).
     pub backend: String,
     /// Whether the frames are rendered on the CPU (then a still view is refined from the

@@ -10,6 +10,7 @@
 //! timed frame is reported. Timing goes into the result, never into an assertion.
 
 use std::collections::BTreeMap;
+use std::sync::Arc;
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -29,12 +30,12 @@ use fovea_render::dof::{auto_focus_m, coc_params, px_per_degree, DofSettings, Fo
 use fovea_render::eye::EyeState;
 use fovea_render::pipeline::trace_shade::{SHADE_BATCH, TRACE_BATCH};
 use fovea_render::pipeline::{
-    render_planned, FrameContext, FrameInputs, FrameSettings, FrameStats, Stage, StageMs,
+    render_planned, FrameContext, FrameInputs, FrameSettings, FrameStats, Lockstep, Stage, StageMs,
     StageTimes, Stopwatch,
 };
 use fovea_render::plan::FramePlan;
 use fovea_render::scene::Light;
-use fovea_render::stereo::{fixating_eyes, render_stereo_in, StereoMode};
+use fovea_render::stereo::{fixating_eyes, render_stereo_in, SecondEye, StereoMode};
 use fovea_render::world::World;
 use glam::Vec3;
 
@@ -89,6 +90,13 @@ pub trait BenchExecutors {
     /// After each frame: the device's per-pass times of that frame, ms by pass name (e.g.
     /// `trace`, `reconstruct`); empty when nothing ran on a device.
     fn pass_ms(&mut self) -> BTreeMap<String, f64>;
+    /// After [`Self::install`]: the right eye's context of a binocular Dup frame rendered in
+    /// lockstep with the left's, its executors installed on the same device as `ctx`'s, and
+    /// the device's meeting point for both eyes' submissions; `None` (the default): the eyes
+    /// render one after the other.
+    fn second_eye(&mut self) -> Option<(FrameContext, Arc<dyn Lockstep + Send + Sync>)> {
+        None
+    }
 }
 
 /// Every stage on the CPU (what [`run`] uses).
@@ -309,6 +317,9 @@ pub struct StereoTiming {
     pub rep_device_pass_ms: BTreeMap<String, f64>,
     /// Where the left eye's primary rays were cast (`cpu` or the executor's name).
     pub trace_backend: String,
+    /// Whether Dup rendered both eyes at the same time, their device work in shared
+    /// submissions ([`fovea_render::pipeline::lockstep`]); Rep always renders them in turn.
+    pub dup_lockstep: bool,
 }
 
 /// Wall and CPU time of one timed piece of work, best of its repetitions.
@@ -963,7 +974,9 @@ fn steal_fraction(a: Option<(u64, u64)>, b: Option<(u64, u64)>) -> Option<f64> {
 /// Binocular frame of `method` on `display`, Dup and Rep alternately `reps` times, both eyes
 /// fixating the first surface under the centre of the cyclopean view; medians. Both modes
 /// render in one frame context holding `executors`' executors (installed for the left eye's
-/// first plan), so a device runs both eyes of every frame.
+/// first plan), so a device runs both eyes of every frame; Dup renders the right eye at the
+/// same time in a second context where the executors offer one
+/// ([`BenchExecutors::second_eye`]).
 #[allow(clippy::too_many_arguments)]
 fn time_stereo(
     world: &World,
@@ -982,6 +995,7 @@ fn time_stereo(
     let plan = FramePlan::new(world, &lc, &settings, &eyes[0], [0.0, 0.0])?;
     executors.install(world, &plan, &mut ctx)?;
     drop(plan);
+    let mut second = executors.second_eye();
     // Per mode: each rep's wall ms and device passes.
     type Reps = Vec<(f64, BTreeMap<String, f64>)>;
     let (mut dup, mut rep): (Reps, Reps) = (Vec::new(), Vec::new());
@@ -989,7 +1003,21 @@ fn time_stereo(
     let mut trace_backend = String::new();
     for _ in 0..reps {
         for mode in [StereoMode::Dup, StereoMode::Rep] {
-            let f = render_stereo_in(&mut ctx, world, &lc, &rc, &settings, eyes, mode, &|_, _| {})?;
+            let pair = second.as_mut().map(|(ctx, lockstep)| SecondEye {
+                ctx,
+                lockstep: &**lockstep,
+            });
+            let f = render_stereo_in(
+                &mut ctx,
+                pair,
+                world,
+                &lc,
+                &rc,
+                &settings,
+                eyes,
+                mode,
+                &|_, _| {},
+            )?;
             let passes = executors.pass_ms();
             trace_backend.clone_from(&f.left.stats.trace_backend);
             match mode {
@@ -1026,6 +1054,7 @@ fn time_stereo(
         dup_device_pass_ms,
         rep_device_pass_ms,
         trace_backend,
+        dup_lockstep: second.is_some(),
     })
 }
 

@@ -11,6 +11,9 @@
 //! | 7. screen post | [`screen_post`] | plan, screen | contrast, DOF, CoC |
 //! | 8. output | here | everything | [`Frame`], [`FrameStats`] |
 //!
+//! [`in_lockstep`] runs two eyes' scripts at the same time, their device work submitted
+//! together ([`lockstep`]).
+//!
 //! [`render_planned`] is the script; it reads the plan and writes into a [`FrameContext`]
 //! that keeps the buffers from frame to frame. [`render_frame`] and friends are the
 //! one-call forms for a single frame: they build the eye state, the plan and a context.
@@ -35,6 +38,7 @@ use crate::temporal::{TemporalAccumulator, TemporalStats};
 use crate::world::World;
 
 pub mod context;
+pub mod lockstep;
 pub mod reconstruct;
 pub mod sample_post;
 pub mod screen_post;
@@ -43,6 +47,7 @@ pub mod trace_shade;
 
 pub use context::{Executors, FrameContext};
 pub use fovea_core::mapping::footprint::sample_spread_rad;
+pub use lockstep::{in_lockstep, Lockstep};
 pub use reconstruct::ReconstructExecutor;
 pub use sample_post::AaExecutor;
 pub use screen_post::DofExecutor;
