@@ -592,10 +592,7 @@ fn run_stereo(
     backend.install(&mut ctx);
     // Dup on a GPU: the right eye in a context of its own, both eyes at the same time.
     let mut second = backend.second_eye(args.lockstep);
-    let pair = second.as_mut().map(|(ctx, device)| SecondEye {
-        ctx,
-        lockstep: &**device,
-    });
+    let pair = SecondEye::of(&mut second);
     let pb = progress_bar(args.quiet, mode.name());
     let frame = render_stereo_in(
         &mut ctx,

@@ -202,6 +202,19 @@ pub struct SecondEye<'a> {
     pub lockstep: &'a dyn Lockstep,
 }
 
+impl<'a> SecondEye<'a> {
+    /// The second eye of `pair` — a context and its device's meeting point, as a backend
+    /// offers them — if there is one.
+    pub fn of(
+        pair: &'a mut Option<(FrameContext, std::sync::Arc<dyn Lockstep + Send + Sync>)>,
+    ) -> Option<Self> {
+        pair.as_mut().map(|(ctx, lockstep)| SecondEye {
+            ctx,
+            lockstep: &**lockstep,
+        })
+    }
+}
+
 /// [`render_stereo`] in the caller's context: both eyes run through its executors (a GPU's
 /// tracer and reconstructor, [`FrameContext::set_tracer`]) and reuse its buffers; each eye's
 /// frame is taken out of it. Dup with a `second` eye's context renders the eyes at the same
@@ -231,10 +244,12 @@ pub fn render_stereo_in(
             times.add(Stage::Plan, &t);
             Ok((plan, times))
         };
-    let mut render = |camera: &EyeCamera,
-                      plan: &FramePlan,
-                      times: StageTimes,
-                      prefill: Option<&Prefill>|
+    // One eye's frame in `ctx`, taken out of it.
+    let render_in = |ctx: &mut FrameContext,
+                     camera: &EyeCamera,
+                     plan: &FramePlan,
+                     times: StageTimes,
+                     prefill: Option<&Prefill>|
      -> Result<Frame> {
         let inputs = FrameInputs {
             accumulator: None,
@@ -255,18 +270,7 @@ pub fn render_stereo_in(
             // Each eye plans and renders on its own thread.
             let eye = |ctx: &mut FrameContext, camera: &EyeCamera, eye: &EyeState| {
                 let (plan, times) = plan_of(camera, eye, false)?;
-                render_planned(
-                    ctx,
-                    world,
-                    camera,
-                    &plan,
-                    FrameInputs::default(),
-                    times,
-                    progress,
-                )?;
-                ctx.take_frame().ok_or_else(|| {
-                    RenderError::Unsupported("the eye's frame was not stored".into())
-                })
+                render_in(ctx, camera, &plan, times, None)
             };
             let (l, r) = in_lockstep(
                 lockstep,
@@ -277,14 +281,14 @@ pub fn render_stereo_in(
         }
         (StereoMode::Dup, None) => {
             let (lp, lt) = plan_of(left_camera, &eyes[0], false)?;
-            let l = render(left_camera, &lp, lt, None)?;
+            let l = render_in(ctx, left_camera, &lp, lt, None)?;
             let (rp, rt) = plan_of(right_camera, &eyes[1], false)?;
-            let r = render(right_camera, &rp, rt, None)?;
+            let r = render_in(ctx, right_camera, &rp, rt, None)?;
             Ok(StereoFrame::new(mode, l, r, 0, 0, 0, t0, 0.0))
         }
         (StereoMode::Rep, _) => {
             let (lp, lt) = plan_of(left_camera, &eyes[0], true)?;
-            let mut l = render(left_camera, &lp, lt, None)?;
+            let mut l = render_in(ctx, left_camera, &lp, lt, None)?;
             let samples = l
                 .samples
                 .take()
@@ -301,7 +305,7 @@ pub fn render_stereo_in(
             )?;
             let (prefill, cracks) = fill_cracks(rp.mapping(), prefill);
             let warp_ms = tw.elapsed().as_secs_f64() * 1e3;
-            let r = render(right_camera, &rp, rt, Some(&prefill))?;
+            let r = render_in(ctx, right_camera, &rp, rt, Some(&prefill))?;
             let holes = r.stats.rays_primary;
             Ok(StereoFrame::new(
                 mode, l, r, warped, cracks, holes, t0, warp_ms,

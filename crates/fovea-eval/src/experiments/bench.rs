@@ -1003,10 +1003,7 @@ fn time_stereo(
     let mut trace_backend = String::new();
     for _ in 0..reps {
         for mode in [StereoMode::Dup, StereoMode::Rep] {
-            let pair = second.as_mut().map(|(ctx, lockstep)| SecondEye {
-                ctx,
-                lockstep: &**lockstep,
-            });
+            let pair = SecondEye::of(&mut second);
             let f = render_stereo_in(
                 &mut ctx,
                 pair,
