@@ -90,7 +90,7 @@ mod tests {
     use super::*;
     use std::sync::Mutex;
 
-    /// Records who is registered, and the most registered at once.
+    /// Records who is registered.
     #[derive(Default)]
     struct Registry {
         lanes: Mutex<Vec<std::thread::ThreadId>>,
