@@ -32,7 +32,7 @@ struct GateState {
     /// Registered threads.
     lanes: Vec<ThreadId>,
     /// Posted, not yet submitted: each registered thread's command buffers (one post each).
-    pending: Vec<(ThreadId, Vec<wgpu::CommandBuffer>)>,
+    pending: Vec<Vec<wgpu::CommandBuffer>>,
     /// Counts up at every joint submission, so a waiting thread knows its post went.
     flushed: u64,
     counts: SubmissionCounts,
@@ -63,7 +63,7 @@ impl SubmissionGate {
             queue.submit(buffers);
             return;
         }
-        st.pending.push((me, buffers));
+        st.pending.push(buffers);
         if st.pending.len() >= st.lanes.len() {
             Self::flush(&mut st, queue);
             drop(st);
@@ -85,7 +85,7 @@ impl SubmissionGate {
             st.counts.joint += 1;
         }
         st.flushed += 1;
-        queue.submit(posts.into_iter().flat_map(|(_, b)| b));
+        queue.submit(posts.into_iter().flatten());
     }
 
     pub(crate) fn enter(&self) {
