@@ -5,7 +5,9 @@
 //! computes the lights' part of direct shading (the BRDF, the lights' falloff, their
 //! shadow rays: `GpuTracer::direct_light_timed`) and the environment's (its MIS estimator
 //! with the CPU's random numbers, its shadow rays: `GpuTracer::environment_light_timed`),
-//! while the surfaces stay on the CPU; it runs the sample-space AA filter (FXAA with the polar seam,
+//! and interpolates the surface at each primary hit from the scene's normals, UVs, materials
+//! and textures uploaded beside the BVH (`fovea_gpu::GpuSurfaces`; textures larger than a
+//! binding keep the surfaces on the CPU); it runs the sample-space AA filter (FXAA with the polar seam,
 //! the 3×3 Gaussian; `fovea_gpu::GpuSampleAa`), the reconstruct stage's lookup of polar
 //! buffers (VaFR, KFR, LaFR, visual-polar, liu-hybrid; `fovea_gpu::GpuReconstructor`) and
 //! Weier's pull-push of its sparse screen samples (`fovea_gpu::GpuPullPush`; a screen whose
@@ -129,6 +131,8 @@ pub struct Backend {
     pub tone_map: Option<Box<dyn ToneMapExecutor>>,
     /// The GPU's BVH, when it traces.
     pub gpu_bvh: Option<serde_json::Value>,
+    /// The scene's surfaces on the GPU (what was uploaded), or why they stay on the CPU.
+    pub gpu_surfaces: Option<serde_json::Value>,
     /// Filled by the executor after each frame.
     pub times: Arc<Mutex<Option<GpuReconstructMs>>>,
     /// Filled by the depth-of-field executor after each frame it ran.
@@ -170,6 +174,7 @@ impl Backend {
             tracer: None,
             dof: None,
             gpu_bvh: None,
+            gpu_surfaces: None,
             times: Arc::default(),
             dof_times: Arc::default(),
             anti_aliaser: None,
@@ -284,6 +289,8 @@ impl Backend {
             "dof": frame.dof_backend,
             "cpu_emulated": self.cpu_emulated,
             "gpu_bvh": self.gpu_bvh,
+            "surface": frame.surface_backend,
+            "gpu_surfaces": self.gpu_surfaces,
             "gpu_submissions": self.device.as_ref().map(|d| d.submissions()),
         })
     }
@@ -440,6 +447,28 @@ fn gpu(requested: BackendArg, world: &World) -> Result<Backend> {
         "depth": s.depth,
         "build_ms": s.build_ms,
     });
+    // The scene's normals, UVs, materials and textures beside the BVH, unless the device
+    // cannot hold them (the surfaces are then interpolated on the CPU, as the stats say).
+    let (surfaces, gpu_surfaces) = match fovea_gpu::GpuSurfaces::new(&tracer, world) {
+        Ok(surfaces) => {
+            let s = surfaces.stats();
+            let json = serde_json::json!({
+                "triangles": s.triangles,
+                "vertices": s.vertices,
+                "materials": s.materials,
+                "textures": s.textures,
+                "mip_levels": s.mip_levels,
+                "bytes": s.bytes,
+                "texel_bytes": s.texel_bytes,
+                "upload_ms": s.upload_ms,
+            });
+            (Some(Arc::new(surfaces)), json)
+        }
+        Err(
+            e @ (fovea_gpu::GpuError::AdapterTooSmall { .. } | fovea_gpu::GpuError::Unsupported(_)),
+        ) => (None, serde_json::json!({ "on_cpu_because": e.to_string() })),
+        Err(e) => return Err(e.into()),
+    };
     let times = Arc::new(Mutex::new(None));
     let trace_times = Arc::new(Mutex::new(None));
     let shadow_times = Arc::new(Mutex::new(None));
@@ -470,6 +499,7 @@ fn gpu(requested: BackendArg, world: &World) -> Result<Backend> {
     };
     let tracer = GpuTraceExecutor {
         gpu: Arc::new(tracer),
+        surfaces,
         fingerprint: world.tris_fingerprint,
         times: trace_times.clone(),
         shadow_times: shadow_times.clone(),
@@ -502,6 +532,7 @@ fn gpu(requested: BackendArg, world: &World) -> Result<Backend> {
         device: Some(Arc::new(ctx)),
         dof: Some(Box::new(dof)),
         gpu_bvh: Some(gpu_bvh),
+        gpu_surfaces: Some(gpu_surfaces),
         times,
         dof_times,
         aa_times,
@@ -518,6 +549,8 @@ fn gpu(requested: BackendArg, world: &World) -> Result<Backend> {
 #[derive(Clone)]
 struct GpuTraceExecutor {
     gpu: Arc<fovea_gpu::GpuTracer>,
+    /// The world's surfaces on the device (`None`: interpolated on the CPU).
+    surfaces: Option<Arc<fovea_gpu::GpuSurfaces>>,
     fingerprint: u64,
     /// The primary rays' times.
     times: Arc<Mutex<Option<GpuTraceMs>>>,
@@ -681,6 +714,62 @@ impl TraceExecutor for GpuTraceExecutor {
             .map_err(|e| e.to_string())?;
         Self::add(&self.times, t);
         Ok(Self::generated_hits(out))
+    }
+
+    fn interpolates_surfaces(&self) -> bool {
+        self.surfaces.is_some()
+    }
+
+    fn surfaces_polar(
+        &mut self,
+        camera: &fovea_render::camera::EyeCamera,
+        centre: fovea_core::units::ScreenPoint,
+        rays: &[fovea_render::pipeline::PolarRay],
+        spreads: &[f32],
+    ) -> std::result::Result<Vec<fovea_render::trace::GSample>, String> {
+        let surfaces = self.surfaces.as_ref().ok_or("no surfaces on the GPU")?;
+        let cam = Self::ray_gen_camera(camera, [centre.x_px, centre.y_px]);
+        let rays: Vec<fovea_gpu::GpuSurfaceRay> = rays
+            .iter()
+            .zip(spreads)
+            .map(|(r, &spread)| fovea_gpu::GpuSurfaceRay {
+                a: r.r_px as f32,
+                b: r.turn as f32,
+                spread,
+            })
+            .collect();
+        let (out, t) = self
+            .gpu
+            .surfaces_polar_timed(surfaces, &cam, &rays)
+            .map_err(|e| e.to_string())?;
+        Self::add(&self.times, t);
+        Ok(out)
+    }
+
+    fn surfaces_screen(
+        &mut self,
+        camera: &fovea_render::camera::EyeCamera,
+        points: &[fovea_core::units::ScreenPoint],
+        spreads: &[f32],
+    ) -> std::result::Result<Vec<fovea_render::trace::GSample>, String> {
+        let surfaces = self.surfaces.as_ref().ok_or("no surfaces on the GPU")?;
+        let cam = Self::ray_gen_camera(camera, [0.0, 0.0]);
+        // Rounded to f32 as `EyeCamera::ray` rounds them.
+        let rays: Vec<fovea_gpu::GpuSurfaceRay> = points
+            .iter()
+            .zip(spreads)
+            .map(|(p, &spread)| fovea_gpu::GpuSurfaceRay {
+                a: p.x_px as f32,
+                b: p.y_px as f32,
+                spread,
+            })
+            .collect();
+        let (out, t) = self
+            .gpu
+            .surfaces_screen_timed(surfaces, &cam, &rays)
+            .map_err(|e| e.to_string())?;
+        Self::add(&self.times, t);
+        Ok(out)
     }
 
     fn shades_direct_light(&self) -> bool {

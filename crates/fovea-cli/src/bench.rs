@@ -579,7 +579,7 @@ fn print_run(r: &BenchRun, labels: bool) {
         s.method,
         thousands(s.rays),
         st(Stage::Trace),
-        on(&s.trace_backend),
+        on(&format!("{}, surfaces {}", s.trace_backend, s.surface_backend)),
         st(Stage::Shade),
         on(&format!(
             "cpu, direct light {}, environment light {}, shadow rays {}",

@@ -108,9 +108,9 @@ pub struct RenderArgs {
     #[arg(long, value_enum, ignore_case = true, default_value_t = Stereo::Rep)]
     pub stereo: Stereo,
     /// Which executor runs the stages a GPU can run (every method's ray generation, primary
-    /// and shadow rays, direct and environment light, sample-space AA, the reconstruct stage of
-    /// polar methods and Weier, the gather DOF and the PNG's tone map; the plan, surfaces and
-    /// every other stage run on the CPU): cpu, gpu (any adapter, lavapipe included; an error without one) or auto (a
+    /// rays and their surfaces, shadow rays, direct and environment light, sample-space AA,
+    /// the reconstruct stage of polar methods and Weier, the gather DOF and the PNG's tone
+    /// map; the plan and every other stage run on the CPU): cpu, gpu (any adapter, lavapipe included; an error without one) or auto (a
     /// hardware GPU when there is one, else the CPU). The GPU needs a fovea built with
     /// `--features gpu`.
     #[arg(long, value_enum, ignore_case = true, default_value_t = BackendArg::Auto)]
@@ -667,7 +667,7 @@ fn run_stereo(
     Ok(())
 }
 
-/// "backend: GPU: <adapter> | primary rays on the GPU, shadow rays on the GPU, direct light on
+/// "backend: GPU: <adapter> | primary rays on the GPU, surfaces on the GPU, shadow rays on the GPU, direct light on
 /// the GPU, environment light on the GPU, aa on the GPU, reconstruct on the GPU, every other stage on the CPU", or "backend: CPU (<why>)": where a frame's stages
 /// ran.
 fn backend_line(
@@ -682,6 +682,7 @@ fn backend_line(
     let on_gpu: Vec<String> = [
         ("ray generation", &s.ray_generation_backend),
         ("primary rays", &s.trace_backend),
+        ("surfaces", &s.surface_backend),
         ("shadow rays", &s.shadow_backend),
         ("direct light", &s.direct_light_backend),
         ("environment light", &s.environment_light_backend),

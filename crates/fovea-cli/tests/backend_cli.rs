@@ -106,6 +106,13 @@ fn gpu_backend_casts_a_screen_aligned_methods_rays() {
     // A screen-aligned buffer's rays are generated there too (from the CPU mapping's points).
     assert_eq!(s["frame"]["ray_generation_backend"], "gpu");
     assert_eq!(s["backend"]["rays"]["generation"], "gpu");
+    // The surfaces at the hits are interpolated there: the built-in scene's textures (with
+    // their mips) fit lavapipe's 128 MiB binding.
+    assert_eq!(s["frame"]["surface_backend"], "gpu");
+    assert_eq!(s["backend"]["surface"], "gpu");
+    let up = &s["backend"]["gpu_surfaces"];
+    assert!(up["textures"].as_u64().unwrap() >= 1, "{up}");
+    assert!(up["mip_levels"].as_u64() > up["textures"].as_u64(), "{up}");
     assert_eq!(s["frame"]["shadow_backend"], "gpu");
     assert_eq!(s["frame"]["direct_light_backend"], "gpu");
     assert_eq!(s["frame"]["reconstruct_backend"], "cpu");
@@ -113,8 +120,9 @@ fn gpu_backend_casts_a_screen_aligned_methods_rays() {
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         stdout.contains(
-            "ray generation on the GPU, primary rays on the GPU, shadow rays on the GPU, \
-             direct light on the GPU, environment light on the GPU, every other stage"
+            "ray generation on the GPU, primary rays on the GPU, surfaces on the GPU, shadow \
+             rays on the GPU, direct light on the GPU, environment light on the GPU, every \
+             other stage"
         ),
         "{stdout}"
     );
@@ -406,9 +414,9 @@ fn gpu_backend_traces_and_reconstructs_on_the_gpu() {
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         stdout.contains(
-            "primary rays on the GPU, shadow rays on the GPU, direct light on the GPU, \
-             environment light on the GPU, aa on the GPU, reconstruct on the GPU, every other \
-             stage on the CPU"
+            "primary rays on the GPU, surfaces on the GPU, shadow rays on the GPU, direct \
+             light on the GPU, environment light on the GPU, aa on the GPU, reconstruct on the \
+             GPU, every other stage on the CPU"
         ),
         "{stdout}"
     );

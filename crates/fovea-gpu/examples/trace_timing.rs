@@ -1,7 +1,9 @@
 //! Times the GPU trace (`GpuTracer`: a binary BVH from obvhs walked in WGSL) against the CPU
 //! renderer's (obvhs' compressed wide BVH, rayon over all cores), side by side, on the primary
-//! rays of a display and the shadow rays from their hits to a point light; median of several
-//! runs after one warm-up each:
+//! rays of a display and the shadow rays from their hits to a point light, and the primary
+//! rays with the surface at each hit (the trace stage's G-buffer records: interpolated on the
+//! device by `GpuSurfaces`, or from the device's hits on the CPU, or all on the CPU); median
+//! of several runs after one warm-up each:
 //!
 //! ```sh
 //! XDG_RUNTIME_DIR=$(mktemp -d) cargo run --release -p fovea-gpu --example trace_timing \
@@ -24,6 +26,7 @@ use fovea_gpu::{GpuContext, GpuRay, GpuRequest, GpuTracer};
 use fovea_render::bvh::{Backend, Ray};
 use fovea_render::camera::EyeCamera;
 use fovea_render::scene::{builtin, CameraDesc, Scene};
+use fovea_render::trace::surface;
 use fovea_render::world::World;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -173,6 +176,91 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .collect();
     });
     row("shadow", "CPU", shadow.len(), t);
+    // Primary rays with the surface at each hit (the G-buffer records of the trace stage),
+    // generated from their screen points: interpolated on the device (`GpuSurfaces`), or hits
+    // from the device and surfaces interpolated on the CPU (rayon), or all on the CPU.
+    let surfaces = fovea_gpu::GpuSurfaces::new(&gpu, &world)?;
+    let block = fovea_gpu::RayGenCamera::new(
+        camera.position.into(),
+        [camera.forward.into(), camera.right.into(), camera.up.into()],
+        camera.focal_px(),
+        camera.principal_point_px(),
+        [0.0, 0.0],
+    );
+    let spread = 1.0 / camera.focal_px().0;
+    let points: Vec<ScreenPoint> = (0..display.height_px)
+        .flat_map(|y| (0..display.width_px).map(move |x| (x, y)))
+        .map(|(x, y)| ScreenPoint {
+            x_px: x as f64 + 0.5,
+            y_px: y as f64 + 0.5,
+        })
+        .collect();
+    let with_cones: Vec<fovea_gpu::GpuSurfaceRay> = points
+        .iter()
+        .map(|p| fovea_gpu::GpuSurfaceRay {
+            a: p.x_px as f32,
+            b: p.y_px as f32,
+            spread,
+        })
+        .collect();
+    let bare: Vec<fovea_gpu::GpuScreenRay> = points
+        .iter()
+        .map(|p| fovea_gpu::GpuScreenRay {
+            x_px: p.x_px as f32,
+            y_px: p.y_px as f32,
+        })
+        .collect();
+    let t = time(runs, || {
+        if let Err(e) = gpu.surfaces_screen_timed(&surfaces, &block, &with_cones) {
+            failed = Some(e);
+        }
+    });
+    row("primary + surfaces", "GPU", points.len(), t);
+    let t = time(runs, || {
+        match gpu.closest_hits_screen_timed(&block, &bare) {
+            Ok((hits, _)) => {
+                let _: Vec<_> = hits
+                    .par_iter()
+                    .map(|(dir, hit)| {
+                        let ray = Ray {
+                            origin: camera.position,
+                            dir: Vec3::from(*dir),
+                            t_min: 0.0,
+                            t_max: f32::INFINITY,
+                        };
+                        hit.map(|h| {
+                            let hit = fovea_render::bvh::Hit {
+                                t: h.t,
+                                tri: h.tri,
+                                bary: h.bary.into(),
+                            };
+                            surface(&world, &ray, &hit, spread)
+                        })
+                    })
+                    .collect();
+            }
+            Err(e) => failed = Some(e),
+        }
+    });
+    row(
+        "primary + surfaces",
+        "GPU hits, CPU surfaces",
+        points.len(),
+        t,
+    );
+    let t = time(runs, || {
+        let _: Vec<_> = points
+            .par_iter()
+            .map(|&p| {
+                let ray = camera.ray(p);
+                world
+                    .caster
+                    .intersect(&ray)
+                    .map(|h| surface(&world, &ray, &h, spread))
+            })
+            .collect();
+    });
+    row("primary + surfaces", "CPU", points.len(), t);
     match failed {
         Some(e) => Err(e.into()),
         None => Ok(()),

@@ -48,15 +48,6 @@ struct Light {
 const LIGHT_SPOT: u32 = 1u;
 const LIGHT_DIRECTIONAL: u32 = 2u;
 
-// glam's normalize_or_zero.
-fn normalize_or_zero(x: vec3<f32>) -> vec3<f32> {
-    let len = length(x);
-    if len > 0.0 && len < FAR {
-        return x * (1.0 / len);
-    }
-    return vec3<f32>(0.0);
-}
-
 // `brdf_cos`: GGX + Lambert times n·l for the unit direction `l` towards the light.
 fn brdf_cos(s: Surface, l: vec3<f32>) -> vec3<f32> {
     let n = s.normal;

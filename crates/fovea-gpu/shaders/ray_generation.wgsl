@@ -64,12 +64,17 @@ struct GeneratedHit {
 @group(0) @binding(7) var<storage, read> screen_rays: array<ScreenRay>;
 @group(0) @binding(8) var<storage, read_write> generated_hits: array<GeneratedHit>;
 
-// Traces the pinhole camera's ray through the point `p` pixels from the principal point
-// (screen +y down) into `generated_hits[i]`.
-fn trace_camera_ray(i: u32, p: vec2<f32>) {
+// The pinhole camera's ray through the point `p` pixels from the principal point (screen +y
+// down), unit direction (surface.wgsl too).
+fn camera_ray(p: vec2<f32>) -> Ray {
     let dir = normalize(camera.forward + (p.x / camera.fx) * camera.right - (p.y / camera.fy) * camera.up);
-    let ray = Ray(camera.origin, 0.0, dir, params.max_distance);
-    generated_hits[i] = GeneratedHit(traverse(ray, false), dir, 0.0);
+    return Ray(camera.origin, 0.0, dir, params.max_distance);
+}
+
+// Traces the camera's ray through `p` into `generated_hits[i]`.
+fn trace_camera_ray(i: u32, p: vec2<f32>) {
+    let ray = camera_ray(p);
+    generated_hits[i] = GeneratedHit(traverse(ray, false), ray.dir, 0.0);
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)

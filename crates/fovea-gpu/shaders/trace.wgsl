@@ -77,6 +77,15 @@ const FAR: f32 = 3.0e38;
 // the slab products stay finite for the scene sizes the loaders accept.
 const HUGE: f32 = 1.0e30;
 
+// glam's normalize_or_zero (direct_light.wgsl, surface.wgsl).
+fn normalize_or_zero(x: vec3<f32>) -> vec3<f32> {
+    let len = length(x);
+    if len > 0.0 && len < FAR {
+        return x * (1.0 / len);
+    }
+    return vec3<f32>(0.0);
+}
+
 fn safe_inverse(d: vec3<f32>) -> vec3<f32> {
     let tiny = abs(d) < vec3<f32>(1.0e-30);
     let big = select(vec3<f32>(HUGE), vec3<f32>(-HUGE), d < vec3<f32>(0.0));

@@ -30,6 +30,9 @@
 //!   buffer's from their polar coordinates ([`GpuTracer::closest_hits_polar_timed`]), a
 //!   screen-aligned buffer's from the points themselves
 //!   ([`GpuTracer::closest_hits_screen_timed`]).
+//! * [`surface`]: the scene's normals, UVs, materials and textures (with their mips) on the
+//!   device, and the G-buffer record of each generated ray's hit interpolated there
+//!   ([`GpuSurfaces`], [`GpuTracer::surfaces_polar_timed`]).
 //! * [`dof`]: the signed CoC map from depth with the eye model and the scatter-as-gather
 //!   depth-of-field filter ([`GpuDof`]).
 //! * [`tonemap`]: exposure, tone curve and 8-bit sRGB encoding ([`GpuToneMap`]).
@@ -68,6 +71,7 @@ pub mod ray_generation;
 pub mod reconstruct;
 pub mod sample_aa;
 pub mod shaders;
+pub mod surface;
 mod timestamps;
 pub mod tonemap;
 pub mod trace;
@@ -85,6 +89,7 @@ pub use pull_push::{GpuPullPush, PullPushTimes};
 pub use ray_generation::{GpuPolarRay, GpuScreenRay, RayGenCamera};
 pub use reconstruct::{GpuReconstructor, ReconstructTimes};
 pub use sample_aa::{GpuSampleAa, SampleAaTimes, SampleFilter};
+pub use surface::{GpuSurfaceRay, GpuSurfaces, SurfaceStats};
 pub use tonemap::GpuToneMap;
 pub use trace::{BvhStats, DirectLightModel, GpuHit, GpuRay, GpuTracer, TraceTimes};
 
@@ -99,6 +104,7 @@ pub const ALL_SHADERS: &[shaders::ShaderSource] = &[
     sample_aa::FXAA_SHADER,
     sample_aa::GAUSSIAN_SHADER,
     trace::SHADER,
+    surface::SHADER,
     dof::COC_SHADER,
     dof::GATHER_SHADER,
     tonemap::SHADER,

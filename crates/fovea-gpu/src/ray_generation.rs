@@ -135,8 +135,6 @@ struct GeneratedHitGpu {
 pub const GENERATED_HIT_STRUCT: (&str, usize) =
     ("GeneratedHit", std::mem::size_of::<GeneratedHitGpu>());
 
-const OUT_BYTES: u64 = std::mem::size_of::<GeneratedHitGpu>() as u64;
-
 impl GpuTracer {
     /// Generates the primary ray of each of `rays` (polar coordinates around the camera
     /// block's centre) through `camera` and traces it: the unit direction it was cast along
@@ -194,6 +192,37 @@ impl GpuTracer {
         pipeline: impl Fn(&SceneBuffers) -> &wgpu::ComputePipeline,
         offset: impl Fn(&R) -> [f32; 2],
     ) -> Result<(Vec<GeneratedHit>, TraceTimes)> {
+        self.generated(
+            camera,
+            rays,
+            |scene| Some((pipeline(scene), Vec::new())),
+            |r, _| (direction(camera, offset(r)), None),
+            |h: &GeneratedHitGpu| {
+                let hit = (h.hit.prim != MISS).then_some(GpuHit {
+                    t: h.hit.t,
+                    tri: h.hit.prim,
+                    bary: [h.hit.u, h.hit.v],
+                });
+                (h.dir, hit)
+            },
+        )
+    }
+
+    /// Runs `rays` (checked finite) through a ray-generation entry point in batches that fit
+    /// the device: `pass` gives the pipeline and the buffers already on the device for the
+    /// scene (`None`: no pass, as for a scene without triangles), `missed` the answer to a
+    /// ray without a pass (with its index), `answer` each ray's answer from the shader's
+    /// record `O` (at binding 8; the rays at 7, the camera at 6).
+    pub(crate) fn generated<'s, R: Pod, O: Pod, A>(
+        &'s self,
+        camera: &RayGenCamera,
+        rays: &[R],
+        pass: impl FnOnce(
+            &'s SceneBuffers,
+        ) -> Option<(&'s wgpu::ComputePipeline, Vec<(u32, &'s wgpu::Buffer)>)>,
+        missed: impl Fn(&R, usize) -> A,
+        answer: impl Fn(&O) -> A,
+    ) -> Result<(Vec<A>, TraceTimes)> {
         let t = std::time::Instant::now();
         let mut times = TraceTimes::default();
         if !camera.is_finite() {
@@ -201,27 +230,30 @@ impl GpuTracer {
                 "the ray-generation camera has a non-finite or zero field: {camera:?}"
             )));
         }
-        let Some(scene) = &self.scene else {
+        let Some((scene, (pipeline, resident))) = self
+            .scene
+            .as_ref()
+            .and_then(|scene| pass(scene).map(|p| (scene, p)))
+        else {
             // No triangles: every ray misses; the directions still come from the camera.
             times.total_ms = t.elapsed().as_secs_f64() * 1e3;
             return Ok((
-                rays.iter()
-                    .map(|r| (direction(camera, offset(r)), None))
-                    .collect(),
+                rays.iter().enumerate().map(|(i, r)| missed(r, i)).collect(),
                 times,
             ));
         };
         let ctx = &self.ctx;
         let in_bytes = std::mem::size_of::<R>() as u64;
-        let batch = batch_len(ctx, in_bytes.max(OUT_BYTES));
+        let out_bytes = std::mem::size_of::<O>() as u64;
+        let batch = batch_len(ctx, in_bytes.max(out_bytes));
         let mut out = Vec::with_capacity(rays.len());
         for chunk in rays.chunks(batch) {
             let what = format!("generating and tracing {} primary rays", chunk.len());
-            ctx.check_storage_binding(&what, chunk.len() as u64 * OUT_BYTES)?;
+            ctx.check_storage_binding(&what, chunk.len() as u64 * out_bytes)?;
             let block = TraceUniform::new(chunk.len(), 0, DirectLightModel::zeroed());
             let (raw, ms) = self.run_scene_pass(
                 scene,
-                pipeline(scene),
+                pipeline,
                 ScenePass {
                     what: &what,
                     block,
@@ -229,24 +261,17 @@ impl GpuTracer {
                         (6, bytemuck::bytes_of(camera), wgpu::BufferUsages::UNIFORM),
                         (7, bytemuck::cast_slice(chunk), wgpu::BufferUsages::STORAGE),
                     ],
-                    resident: &[],
+                    resident: &resident,
                     items: chunk.len(),
-                    out_bytes: OUT_BYTES,
+                    out_bytes,
                 },
             )?;
             times.add_batch(ms);
             out.extend(
-                bytemuck::cast_slice::<u8, GeneratedHitGpu>(&raw)
+                bytemuck::cast_slice::<u8, O>(&raw)
                     .iter()
                     .take(chunk.len())
-                    .map(|h| {
-                        let hit = (h.hit.prim != MISS).then_some(GpuHit {
-                            t: h.hit.t,
-                            tri: h.hit.prim,
-                            bary: [h.hit.u, h.hit.v],
-                        });
-                        (h.dir, hit)
-                    }),
+                    .map(&answer),
             );
         }
         times.total_ms = t.elapsed().as_secs_f64() * 1e3;
@@ -255,7 +280,7 @@ impl GpuTracer {
 }
 
 /// The shader's point of `ray` relative to the principal point, on the CPU (f32 `cos`/`sin`).
-fn polar_offset(camera: &RayGenCamera, ray: &GpuPolarRay) -> [f32; 2] {
+pub(crate) fn polar_offset(camera: &RayGenCamera, ray: &GpuPolarRay) -> [f32; 2] {
     let (s, c) = (ray.turn * camera.rad_per_turn).sin_cos();
     [
         camera.centre[0] + ray.r_px * c,
@@ -265,7 +290,7 @@ fn polar_offset(camera: &RayGenCamera, ray: &GpuPolarRay) -> [f32; 2] {
 
 /// The shader's direction through the point `[x, y]` pixels from the principal point, on the
 /// CPU (for a scene without triangles, where nothing is dispatched).
-fn direction(camera: &RayGenCamera, [x, y]: [f32; 2]) -> [f32; 3] {
+pub(crate) fn direction(camera: &RayGenCamera, [x, y]: [f32; 2]) -> [f32; 3] {
     let (a, b) = (x / camera.fx, y / camera.fy);
     let d: [f32; 3] =
         std::array::from_fn(|k| camera.forward[k] + a * camera.right[k] - b * camera.up[k]);

@@ -12,7 +12,9 @@ pub struct ShaderSource {
     pub file: &'static str,
     /// The full source the device compiles.
     pub source: &'static str,
-    /// The entry points the crate creates pipelines for.
+    /// The module's entry points: the crate creates pipelines for them, or for some of them
+    /// where the module carries another module's file for its functions
+    /// ([`Self::pipelines_of`]).
     pub entry_points: &'static [&'static str],
     /// The WGSL uniform struct of the module and the size of the Rust `#[repr(C)]` struct
     /// uploaded into it, bytes.
@@ -25,11 +27,20 @@ impl ShaderSource {
     /// error scope ([`GpuContext::scoped`](crate::GpuContext::scoped)): wgpu reports a bad
     /// module there, not here.
     pub(crate) fn pipelines(&self, device: &wgpu::Device) -> Vec<wgpu::ComputePipeline> {
+        self.pipelines_of(device, self.entry_points)
+    }
+
+    /// [`Self::pipelines`] for the entry points `entries` only, in their order.
+    pub(crate) fn pipelines_of(
+        &self,
+        device: &wgpu::Device,
+        entries: &[&str],
+    ) -> Vec<wgpu::ComputePipeline> {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some(self.file),
             source: wgpu::ShaderSource::Wgsl(self.source.into()),
         });
-        self.entry_points
+        entries
             .iter()
             .map(|&entry| {
                 device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {

@@ -224,6 +224,9 @@ pub struct GpuTracer {
     /// The hash check's pipeline (`mix64_check`; built with the scene's, or on first use
     /// for an empty scene).
     pub(crate) mix64: std::sync::OnceLock<wgpu::ComputePipeline>,
+    /// Each triangle's position in the BVH's leaf order (the device's triangle buffer), by
+    /// its index in the caller's list ([`crate::surface`] reads its vertices there).
+    pub(crate) slots: Vec<u32>,
 }
 
 pub(crate) struct SceneBuffers {
@@ -263,6 +266,7 @@ impl GpuTracer {
                 },
                 scene: None,
                 mix64: std::sync::OnceLock::new(),
+                slots: Vec::new(),
             });
         }
         let input: Vec<Triangle> = triangles
@@ -293,6 +297,10 @@ impl GpuTracer {
                 ]
             })
             .collect();
+        let mut slots = vec![0u32; triangles.len()];
+        for (slot, &i) in bvh.primitive_indices.iter().enumerate() {
+            slots[i as usize] = slot as u32;
+        }
         let build_ms = t0.elapsed().as_secs_f64() * 1e3;
         ctx.check_storage_binding(
             "the BVH nodes",
@@ -379,6 +387,7 @@ impl GpuTracer {
             },
             scene: Some(scene),
             mix64: hash.into(),
+            slots,
         })
     }
 

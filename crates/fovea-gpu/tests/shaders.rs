@@ -143,6 +143,16 @@ fn the_ray_generation_records_match_their_rust_structs() {
 }
 
 #[test]
+fn the_surface_records_match_their_rust_structs() {
+    // The surface pass's per-ray, per-triangle, per-vertex, per-material, per-level and
+    // per-record structs: a size mismatch would misread every element after the first.
+    assert_struct_sizes(
+        &fovea_gpu::surface::SHADER,
+        &fovea_gpu::surface::RECORD_STRUCTS,
+    );
+}
+
+#[test]
 fn the_pull_push_block_matches_its_rust_struct() {
     // One block per dispatch of `pull_push.wgsl`: a size mismatch would misread the levels.
     assert_struct_sizes(
@@ -192,9 +202,9 @@ fn every_wgsl_file_is_compiled_by_some_module() {
             "shaders/{name} is in no module of fovea_gpu::ALL_SHADERS"
         );
     }
-    // Every module's own file, common.wgsl, the appended direct_light.wgsl,
-    // ray_generation.wgsl and environment_light.wgsl, and the AA modules' shared
-    // sample_grid.wgsl.
+    // Every module's own file (surface.wgsl is the surface module's), common.wgsl, the
+    // appended direct_light.wgsl, ray_generation.wgsl and environment_light.wgsl, and the AA
+    // modules' shared sample_grid.wgsl.
     assert_eq!(seen, ALL.len() + 4 + 1);
 }
 

@@ -15,6 +15,25 @@ use crate::bvh::{Hit, Ray};
 use crate::scene::Material;
 use crate::world::World;
 
+/// The surface model's constants ([`surface`]), named so another executor uploads the same
+/// numbers (`fovea-gpu`'s surface pass).
+pub mod model {
+    /// `|cos θ|` between the ray and the surface is taken at least this large when the ray
+    /// cone's footprint is stretched along the surface (grazing hits stay finite).
+    pub const MIN_COS: f32 = 0.05;
+    /// The texels a footprint covers are taken at least this many before their log2 (the
+    /// level of detail stays finite for a zero-width cone).
+    pub const MIN_FOOTPRINT_TEXELS: f32 = 1e-8;
+    /// Perceptual roughness is clamped to `[MIN_ROUGHNESS, 1]` (GGX's `D` stays finite).
+    pub const MIN_ROUGHNESS: f32 = 0.02;
+    /// A triangle whose UV parametrisation's `|det|` is below this has no tangent frame (its
+    /// normal map is not applied).
+    pub const TANGENT_DET_FLOOR: f32 = 1e-12;
+    /// Below this fraction of a mip level a texture lookup reads one level, no trilinear
+    /// blend ([`crate::scene::Texture::sample`]).
+    pub const TRILINEAR_MIN_FRACTION: f32 = 1e-3;
+}
+
 /// Material index of a G-buffer sample whose ray hit nothing.
 pub const MISS: u32 = u32::MAX;
 
@@ -111,12 +130,12 @@ pub fn surface(world: &World, ray: &Ray, hit: &Hit, spread_rad: f32) -> GSample 
     if !mesh.uvs.is_empty() {
         let uvs = idx.map(|i| mesh.uvs[i as usize]);
         let uv = b0 * uvs[0] + b1 * uvs[1] + b2 * uvs[2];
-        let cos = ray.dir.dot(ng).abs().max(0.05);
+        let cos = ray.dir.dot(ng).abs().max(model::MIN_COS);
         // Footprint on the surface in UV units.
         let footprint_uv = hit.t * spread_rad / cos * world.uv_per_metre[hit.tri as usize];
         let lod = |tex: &crate::scene::Texture| -> f32 {
             let texels = footprint_uv * ((tex.width() * tex.height()) as f32).sqrt();
-            texels.max(1e-8).log2()
+            texels.max(model::MIN_FOOTPRINT_TEXELS).log2()
         };
         let textures = &world.scene.textures;
         if let Some(t) = mat.base_color_texture {
@@ -165,7 +184,7 @@ pub fn surface(world: &World, ray: &Ray, hit: &Hit, spread_rad: f32) -> GSample 
         to_eye: -ray.dir,
         albedo: albedo.clamp(Vec3::ZERO, Vec3::ONE),
         metallic: metallic.clamp(0.0, 1.0),
-        roughness: roughness.clamp(0.02, 1.0),
+        roughness: roughness.clamp(model::MIN_ROUGHNESS, 1.0),
         specular: mat.specular,
         emissive: mat.emissive,
         t: hit.t,
@@ -191,7 +210,7 @@ fn tangent_frame(
         let (e1, e2) = (v[1] - v[0], v[2] - v[0]);
         let (d1, d2) = (uv[1] - uv[0], uv[2] - uv[0]);
         let det = d1.x * d2.y - d2.x * d1.y;
-        if det.abs() < 1e-12 {
+        if det.abs() < model::TANGENT_DET_FLOOR {
             return None;
         }
         let r = 1.0 / det;

@@ -5,7 +5,9 @@
 //! [`TraceExecutor::closest_hits`]; the frame's stats name the executor. The mock builds each
 //! screen ray as the CPU does (`EyeCamera::ray`) and casts it through the same BVH, so its
 //! screen-aligned frames are the CPU's bit for bit; an executor that does not generate rays
-//! gets them built.
+//! gets them built. An executor that also interpolates the surfaces at the hits
+//! ([`TraceExecutor::interpolates_surfaces`]) returns the G-buffer records, which land where
+//! the CPU's would.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
@@ -21,6 +23,7 @@ use fovea_render::pipeline::{
 };
 use fovea_render::plan::FramePlan;
 use fovea_render::scene::builtin;
+use fovea_render::trace::{surface, GSample};
 use fovea_render::world::World;
 use glam::Vec3;
 
@@ -172,4 +175,173 @@ fn every_methods_primary_rays_are_generated_by_an_executor_that_can() {
         "{plain} {screen} {polar}"
     );
     assert_eq!(generation, "mock");
+}
+
+/// Generates rays and interpolates the surfaces at their hits itself
+/// ([`TraceExecutor::interpolates_surfaces`]), as the CPU does, from its own copy of the
+/// world; `short` answers one record fewer than asked.
+struct SurfaceMock {
+    world: World,
+    calls: Calls,
+    short: bool,
+}
+
+impl SurfaceMock {
+    fn records(&self, rays: Vec<(Ray, f32)>) -> Vec<GSample> {
+        let mut out: Vec<GSample> = rays
+            .iter()
+            .map(|(ray, spread)| match self.world.caster.intersect(ray) {
+                Some(hit) => surface(&self.world, ray, &hit, *spread),
+                None => GSample::miss(ray.dir),
+            })
+            .collect();
+        if self.short {
+            out.pop();
+        }
+        out
+    }
+}
+
+impl TraceExecutor for SurfaceMock {
+    fn backend(&self) -> &str {
+        "mock"
+    }
+
+    fn serves(&self, world: &World) -> bool {
+        world.tris_fingerprint == self.world.tris_fingerprint
+    }
+
+    fn closest_hits(&mut self, rays: &[Ray]) -> Result<Vec<Option<Hit>>, String> {
+        self.calls[0].fetch_add(1, Ordering::SeqCst);
+        Ok(rays
+            .iter()
+            .map(|r| self.world.caster.intersect(r))
+            .collect())
+    }
+
+    fn occluded(&mut self, rays: &[Ray]) -> Result<Vec<bool>, String> {
+        Ok(rays.iter().map(|r| self.world.caster.occluded(r)).collect())
+    }
+
+    fn generates_rays(&self) -> bool {
+        true
+    }
+
+    fn interpolates_surfaces(&self) -> bool {
+        true
+    }
+
+    fn surfaces_screen(
+        &mut self,
+        camera: &EyeCamera,
+        points: &[ScreenPoint],
+        spreads: &[f32],
+    ) -> Result<Vec<GSample>, String> {
+        self.calls[1].fetch_add(1, Ordering::SeqCst);
+        let rays = points
+            .iter()
+            .zip(spreads)
+            .map(|(&p, &s)| (camera.ray(p), s))
+            .collect();
+        Ok(self.records(rays))
+    }
+
+    fn surfaces_polar(
+        &mut self,
+        camera: &EyeCamera,
+        centre: ScreenPoint,
+        rays: &[PolarRay],
+        spreads: &[f32],
+    ) -> Result<Vec<GSample>, String> {
+        self.calls[2].fetch_add(1, Ordering::SeqCst);
+        let rays = rays
+            .iter()
+            .zip(spreads)
+            .map(|(r, &s)| {
+                let (sin, cos) = (r.turn * std::f64::consts::TAU).sin_cos();
+                let p = ScreenPoint::new(centre.x_px + r.r_px * cos, centre.y_px + r.r_px * sin);
+                (camera.ray(p), s)
+            })
+            .collect();
+        Ok(self.records(rays))
+    }
+}
+
+#[test]
+fn an_executor_that_interpolates_surfaces_returns_the_g_buffer_records() {
+    let d = DisplayProfile::new("t", 160, 180, Degrees(100.0), Degrees(110.0)).unwrap();
+    let scene = builtin::depth_range().unwrap();
+    let world = World::new(scene.clone(), Backend::Obvhs).unwrap();
+    let camera = EyeCamera::from_desc(&world.scene.cameras[0], &d).unwrap();
+    let eye = EyeState::looking_at(d.gaze(60.0, 70.0).unwrap());
+    let frame = |m: Method, tracer: Option<Box<dyn TraceExecutor>>| {
+        let plan =
+            FramePlan::new(&world, &camera, &FrameSettings::new(m), &eye, [0.0, 0.0]).unwrap();
+        let mut ctx = FrameContext::new();
+        if let Some(tracer) = tracer {
+            ctx.set_tracer(tracer);
+        }
+        render_planned(
+            &mut ctx,
+            &world,
+            &camera,
+            &plan,
+            FrameInputs::default(),
+            StageTimes::default(),
+            &|_, _| {},
+        )
+        .map(|f| {
+            (
+                f.color.clone(),
+                f.depth.clone(),
+                f.stats.surface_backend.clone(),
+            )
+        })
+    };
+    let tris = Triangles::of_scene(&scene);
+    let surfaces = |calls: &Calls, short: bool| -> Option<Box<dyn TraceExecutor>> {
+        Some(Box::new(SurfaceMock {
+            world: World::new(scene.clone(), Backend::Obvhs).unwrap(),
+            calls: calls.clone(),
+            short,
+        }))
+    };
+    let taken = |calls: &Calls| calls.each_ref().map(|c| c.swap(0, Ordering::SeqCst));
+    for m in [
+        Method::Full,
+        Method::Guenter,
+        Method::Inset,
+        Method::Weier,
+        Method::Vafr,
+    ] {
+        // The reference: the CPU's frame, or for a polar buffer the frame whose rays a mock
+        // generates and whose surfaces the CPU interpolates (the mocks place a polar point
+        // with their own f64 formula, not the rings', so the rays are a mock's).
+        let reference = if m == Method::Vafr {
+            let hits_only = Mock {
+                caster: build(Backend::Obvhs, &tris).unwrap(),
+                fingerprint: world.tris_fingerprint,
+                generates: true,
+                calls: Calls::default(),
+            };
+            frame(m, Some(Box::new(hits_only))).unwrap()
+        } else {
+            frame(m, None).unwrap()
+        };
+        let calls: Calls = Arc::default();
+        let f = frame(m, surfaces(&calls, false)).unwrap();
+        let [plain, screen, polar] = taken(&calls);
+        let polar_method = m == Method::Vafr;
+        assert!(
+            plain == 0 && (screen >= 1) != polar_method && (polar >= 1) == polar_method,
+            "{m}: {plain} {screen} {polar}"
+        );
+        assert_eq!(f.2, "mock", "{m}");
+        assert_eq!(reference.2, "cpu", "{m}");
+        assert_eq!(f.0.data(), reference.0.data(), "{m}: colour");
+        assert_eq!(f.1.data(), reference.1.data(), "{m}: depth");
+        // A wrong number of records is the executor's error, named, not a panic.
+        let e = frame(m, surfaces(&calls, true)).err().unwrap().to_string();
+        assert!(e.contains("mock") && e.contains("surfaces for"), "{m}: {e}");
+    }
 }

@@ -387,9 +387,10 @@ impl FrameRenderer {
                 "cpu".to_string()
             } else {
                 format!(
-                    "primary rays {}, shadow rays {}, direct light {}, environment light {}, \
-                     reconstruct {}",
+                    "primary rays {}, surfaces {}, shadow rays {}, direct light {}, \
+                     environment light {}, reconstruct {}",
                     s.trace_backend,
+                    s.surface_backend,
                     s.shadow_backend,
                     s.direct_light_backend,
                     s.environment_light_backend,

@@ -739,6 +739,7 @@ impl BenchResult {
                     "fps": r.fps(),
                     "stage_backends": {
                         "trace": s.trace_backend,
+                        "surface": s.surface_backend,
                         "shadow_rays": s.shadow_backend,
                         "direct_light": s.direct_light_backend,
                         "environment_light": s.environment_light_backend,

@@ -130,6 +130,11 @@ pub struct FrameStats {
     /// [`trace_shade::TraceExecutor`]'s name where it generates them itself — every method's,
     /// polar or screen-aligned ([`trace_shade::TraceExecutor::generates_rays`]).
     pub ray_generation_backend: String,
+    /// The backend that interpolated the surface at each primary hit (the G-buffer record:
+    /// normals, UVs, materials, textures with their mips): `cpu`, or the
+    /// [`trace_shade::TraceExecutor`]'s name where it did
+    /// ([`trace_shade::TraceExecutor::interpolates_surfaces`]).
+    pub surface_backend: String,
     /// The backend that cast the shade stage's shadow rays (lights and environment): `cpu`,
     /// or the [`trace_shade::TraceExecutor`]'s name where it cast them (direct shading, one
     /// ray per texel, no DOF culling).
@@ -374,6 +379,7 @@ pub fn render_planned<'c>(
     stats.reconstruct_backend = reconstruct_backend;
     stats.trace_backend = casters.primary;
     stats.ray_generation_backend = casters.ray_generation;
+    stats.surface_backend = casters.surface;
     stats.shadow_backend = casters.shadow;
     stats.direct_light_backend = casters.direct_light;
     stats.environment_light_backend = casters.environment_light;
@@ -432,6 +438,7 @@ fn frame_stats(
         reconstruct_backend: reconstruct::CPU.to_string(),
         trace_backend: trace_shade::CPU.to_string(),
         ray_generation_backend: trace_shade::CPU.to_string(),
+        surface_backend: trace_shade::CPU.to_string(),
         shadow_backend: trace_shade::CPU.to_string(),
         direct_light_backend: trace_shade::CPU.to_string(),
         environment_light_backend: trace_shade::CPU.to_string(),

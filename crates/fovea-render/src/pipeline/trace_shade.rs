@@ -127,6 +127,40 @@ pub trait TraceExecutor: Send {
         let _ = (camera, centre, rays);
         Err(format!("{} does not generate rays", self.backend()))
     }
+    /// Whether it also interpolates the surface at each generated ray's hit itself — the
+    /// scene's normals, UVs, materials and textures on its side — and returns G-buffer
+    /// records ([`Self::surfaces_polar`], [`Self::surfaces_screen`]); if not, the hits come
+    /// back and [`crate::trace::surface`] interpolates them here. Asked only when
+    /// [`Self::generates_rays`].
+    fn interpolates_surfaces(&self) -> bool {
+        false
+    }
+    /// [`Self::closest_hits_polar`] with the surface at each hit: the G-buffer record
+    /// [`crate::trace::surface`] makes of it, the ray's cone angle (radians) in `spreads`
+    /// (one per ray), or [`GSample::miss`] of the ray's direction. Called only when
+    /// [`Self::interpolates_surfaces`]. An error is one line saying what to do.
+    fn surfaces_polar(
+        &mut self,
+        camera: &EyeCamera,
+        centre: ScreenPoint,
+        rays: &[PolarRay],
+        spreads: &[f32],
+    ) -> std::result::Result<Vec<GSample>, String> {
+        let _ = (camera, centre, rays, spreads);
+        Err(format!("{} does not interpolate surfaces", self.backend()))
+    }
+    /// [`Self::closest_hits_screen`] with the surface at each hit, as
+    /// [`Self::surfaces_polar`]. Called only when [`Self::interpolates_surfaces`]. An error
+    /// is one line saying what to do.
+    fn surfaces_screen(
+        &mut self,
+        camera: &EyeCamera,
+        points: &[ScreenPoint],
+        spreads: &[f32],
+    ) -> std::result::Result<Vec<GSample>, String> {
+        let _ = (camera, points, spreads);
+        Err(format!("{} does not interpolate surfaces", self.backend()))
+    }
 }
 
 /// A primary ray of a polar buffer as another executor generates it: its screen point, in
@@ -278,6 +312,13 @@ pub fn trace_chunk(
                 })
                 .collect();
             let batch: Vec<PolarRay> = polar.iter().flatten().map(|&(r, _)| r).collect();
+            if tracer.interpolates_surfaces() {
+                let spreads: Vec<f32> = polar.iter().flatten().map(|&(_, s)| s).collect();
+                let got = tracer.surfaces_polar(camera, rings.centre(), &batch, &spreads);
+                let records = checked(tracer, "trace", ("surfaces", "rays"), batch.len(), got)?;
+                placed_gbuf(&polar, records, gbuf);
+                return Ok(());
+            }
             let got = tracer.closest_hits_polar(camera, rings.centre(), &batch);
             let answers = checked(tracer, "trace", ("hits", "rays"), batch.len(), got)?;
             generated_gbuf(world, camera, polar, answers, gbuf);
@@ -289,6 +330,13 @@ pub fn trace_chunk(
             let points: Vec<Option<(ScreenPoint, f32)>> =
                 (0..total).into_par_iter().map(point_of).collect();
             let batch: Vec<ScreenPoint> = points.iter().flatten().map(|&(p, _)| p).collect();
+            if tracer.interpolates_surfaces() {
+                let spreads: Vec<f32> = points.iter().flatten().map(|&(_, s)| s).collect();
+                let got = tracer.surfaces_screen(camera, &batch, &spreads);
+                let records = checked(tracer, "trace", ("surfaces", "rays"), batch.len(), got)?;
+                placed_gbuf(&points, records, gbuf);
+                return Ok(());
+            }
             let got = tracer.closest_hits_screen(camera, &batch);
             let answers = checked(tracer, "trace", ("hits", "rays"), batch.len(), got)?;
             generated_gbuf(world, camera, points, answers, gbuf);
@@ -378,6 +426,19 @@ fn generated_gbuf<R>(
             })
         })
         .collect_into_vec(gbuf);
+}
+
+/// The G-buffer of a chunk whose surfaces another executor interpolated: `rays` holds each
+/// ray of the chunk as sent (`None` where the texel is not traced), `records` each sent ray's
+/// record, in order.
+fn placed_gbuf<R>(
+    rays: &[Option<(R, f32)>],
+    records: Vec<GSample>,
+    gbuf: &mut Vec<Option<GSample>>,
+) {
+    let mut records = records.into_iter();
+    gbuf.clear();
+    gbuf.extend(rays.iter().map(|r| r.as_ref().and_then(|_| records.next())));
 }
 
 /// Primary rays cast together by [`trace_chunk`] on the CPU (one
@@ -773,6 +834,11 @@ pub fn trace_and_shade(
             CPU.to_string()
         },
         primary: backend.clone(),
+        surface: if generated && tracer.as_ref().is_some_and(|t| t.interpolates_surfaces()) {
+            backend.clone()
+        } else {
+            CPU.to_string()
+        },
         shadow: CPU.to_string(),
         direct_light: CPU.to_string(),
         environment_light: CPU.to_string(),
@@ -870,6 +936,9 @@ pub struct Casters {
     pub primary: String,
     /// The primary rays' generation (their screen points and directions).
     pub ray_generation: String,
+    /// The G-buffer records' (the surface at each primary hit: normals, UVs, materials,
+    /// textures).
+    pub surface: String,
     /// The shade stage's shadow rays' (lights and environment).
     pub shadow: String,
     /// The lights' part of direct shading (BRDF, falloff, their shadow rays).

@@ -178,6 +178,14 @@ impl Texture {
         self.levels.len()
     }
 
+    /// Mip level `level` (0: the base level; up to [`Self::level_count`] − 1): its width,
+    /// height and linear RGBA texels, row-major from the top row; `None` past the last.
+    pub fn level(&self, level: usize) -> Option<(u32, u32, &[Vec4])> {
+        self.levels
+            .get(level)
+            .map(|l| (l.width, l.height, l.texels.as_slice()))
+    }
+
     /// Bilinear lookup with repeat wrap at `uv` in mip level `lod` (fractional: trilinear).
     /// `lod = 0` is the base level; `lod = log2(texels per sample footprint)`.
     pub fn sample(&self, uv: Vec2, lod: f32) -> Vec4 {
@@ -190,7 +198,7 @@ impl Texture {
         let l0 = lod.floor() as usize;
         let f = lod - l0 as f32;
         let a = self.bilinear(l0, uv);
-        if f > 1e-3 && l0 + 1 < self.levels.len() {
+        if f > crate::trace::model::TRILINEAR_MIN_FRACTION && l0 + 1 < self.levels.len() {
             a.lerp(self.bilinear(l0 + 1, uv), f)
         } else {
             a
