@@ -608,6 +608,32 @@ impl GpuTraceExecutor {
             .collect()
     }
 
+    /// The surface pass over rays given by their two coordinates (polar `(r_px, turn)`
+    /// around `origin_px`, or screen points from the screen's origin) and their cones.
+    fn surfaces_of(
+        &mut self,
+        camera: &fovea_render::camera::EyeCamera,
+        origin_px: [f64; 2],
+        coords: impl Iterator<Item = [f32; 2]>,
+        spreads: &[f32],
+        polar: bool,
+    ) -> std::result::Result<Vec<fovea_render::trace::GSample>, String> {
+        let surfaces = self.surfaces.as_ref().ok_or("no surfaces on the GPU")?;
+        let cam = Self::ray_gen_camera(camera, origin_px);
+        let rays: Vec<fovea_gpu::GpuSurfaceRay> = coords
+            .zip(spreads)
+            .map(|([a, b], &spread)| fovea_gpu::GpuSurfaceRay { a, b, spread })
+            .collect();
+        let run = if polar {
+            fovea_gpu::GpuTracer::surfaces_polar_timed
+        } else {
+            fovea_gpu::GpuTracer::surfaces_screen_timed
+        };
+        let (out, t) = run(&self.gpu, surfaces, &cam, &rays).map_err(|e| e.to_string())?;
+        Self::add(&self.times, t);
+        Ok(out)
+    }
+
     /// Adds one call's times to a frame's: the stages call the tracer once per chunk of the
     /// frame's texels, and the frame's figures are the sums over its calls (a reader takes
     /// them once per frame).
@@ -727,23 +753,8 @@ impl TraceExecutor for GpuTraceExecutor {
         rays: &[fovea_render::pipeline::PolarRay],
         spreads: &[f32],
     ) -> std::result::Result<Vec<fovea_render::trace::GSample>, String> {
-        let surfaces = self.surfaces.as_ref().ok_or("no surfaces on the GPU")?;
-        let cam = Self::ray_gen_camera(camera, [centre.x_px, centre.y_px]);
-        let rays: Vec<fovea_gpu::GpuSurfaceRay> = rays
-            .iter()
-            .zip(spreads)
-            .map(|(r, &spread)| fovea_gpu::GpuSurfaceRay {
-                a: r.r_px as f32,
-                b: r.turn as f32,
-                spread,
-            })
-            .collect();
-        let (out, t) = self
-            .gpu
-            .surfaces_polar_timed(surfaces, &cam, &rays)
-            .map_err(|e| e.to_string())?;
-        Self::add(&self.times, t);
-        Ok(out)
+        let coords = rays.iter().map(|r| [r.r_px as f32, r.turn as f32]);
+        self.surfaces_of(camera, [centre.x_px, centre.y_px], coords, spreads, true)
     }
 
     fn surfaces_screen(
@@ -752,24 +763,9 @@ impl TraceExecutor for GpuTraceExecutor {
         points: &[fovea_core::units::ScreenPoint],
         spreads: &[f32],
     ) -> std::result::Result<Vec<fovea_render::trace::GSample>, String> {
-        let surfaces = self.surfaces.as_ref().ok_or("no surfaces on the GPU")?;
-        let cam = Self::ray_gen_camera(camera, [0.0, 0.0]);
         // Rounded to f32 as `EyeCamera::ray` rounds them.
-        let rays: Vec<fovea_gpu::GpuSurfaceRay> = points
-            .iter()
-            .zip(spreads)
-            .map(|(p, &spread)| fovea_gpu::GpuSurfaceRay {
-                a: p.x_px as f32,
-                b: p.y_px as f32,
-                spread,
-            })
-            .collect();
-        let (out, t) = self
-            .gpu
-            .surfaces_screen_timed(surfaces, &cam, &rays)
-            .map_err(|e| e.to_string())?;
-        Self::add(&self.times, t);
-        Ok(out)
+        let coords = points.iter().map(|p| [p.x_px as f32, p.y_px as f32]);
+        self.surfaces_of(camera, [0.0, 0.0], coords, spreads, false)
     }
 
     fn shades_direct_light(&self) -> bool {

@@ -31,7 +31,7 @@ pub mod model {
     pub const TANGENT_DET_FLOOR: f32 = 1e-12;
     /// Below this fraction of a mip level a texture lookup reads one level, no trilinear
     /// blend ([`crate::scene::Texture::sample`]).
-    pub const TRILINEAR_MIN_FRACTION: f32 = 1e-3;
+    pub use crate::scene::texture::TRILINEAR_MIN_FRACTION;
 }
 
 /// Material index of a G-buffer sample whose ray hit nothing.

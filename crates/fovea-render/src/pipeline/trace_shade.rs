@@ -42,9 +42,11 @@ use crate::world::World;
 /// Another executor of the trace and shade stages' ray casting (e.g. the GPU's, `fovea-gpu`):
 /// the closest hits of a chunk's primary rays, and the shadow rays of its direct shading,
 /// against the triangles of the world it was built for. The surface attributes (normals, UVs,
-/// materials, the ray cone) and the shading arithmetic stay on the CPU, except the lights' and
-/// the environment's parts of direct shading where it computes them; the rays of a world it
-/// was not built for (a level-of-detail world) stay on the CPU too.
+/// materials, textures, with the CPU's ray cone) are interpolated on the CPU unless it
+/// interpolates them itself ([`Self::interpolates_surfaces`]), and the shading arithmetic
+/// stays on the CPU except the lights' and the environment's parts of direct shading where it
+/// computes them; the rays of a world it was not built for (a level-of-detail world) stay on
+/// the CPU.
 pub trait TraceExecutor: Send {
     /// The backend's short name in stats and JSON, e.g. `gpu`.
     fn backend(&self) -> &str;
@@ -223,8 +225,9 @@ pub fn ray_starts(plan: &FramePlan, chunk: Chunk<'_>, starts: &mut Vec<u32>) {
 ///
 /// With `tracer` the closest hits come from it (one batch per chunk) and the surfaces are
 /// interpolated here — from the rays' screen points, or a polar buffer's polar coordinates,
-/// when it generates the rays itself ([`TraceExecutor::generates_rays`]); without, each ray
-/// is cast on the CPU.
+/// when it generates the rays itself ([`TraceExecutor::generates_rays`]), and then the
+/// records themselves when it interpolates the surfaces too
+/// ([`TraceExecutor::interpolates_surfaces`]); without, each ray is cast on the CPU.
 #[allow(clippy::too_many_arguments)]
 pub fn trace_chunk(
     world: &World,

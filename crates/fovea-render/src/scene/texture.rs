@@ -30,6 +30,10 @@ pub struct Texture {
     levels: Vec<Level>,
 }
 
+/// Below this fraction of a mip level [`Texture::sample`] reads one level, no trilinear blend
+/// (also `crate::trace::model::TRILINEAR_MIN_FRACTION`, which another executor uploads).
+pub const TRILINEAR_MIN_FRACTION: f32 = 1e-3;
+
 /// Largest accepted texture side (a 64k × 64k RGBA f32 texture would be 64 GiB).
 pub const MAX_TEXTURE_SIDE: u32 = 16384;
 
@@ -198,7 +202,7 @@ impl Texture {
         let l0 = lod.floor() as usize;
         let f = lod - l0 as f32;
         let a = self.bilinear(l0, uv);
-        if f > crate::trace::model::TRILINEAR_MIN_FRACTION && l0 + 1 < self.levels.len() {
+        if f > TRILINEAR_MIN_FRACTION && l0 + 1 < self.levels.len() {
             a.lerp(self.bilinear(l0 + 1, uv), f)
         } else {
             a
