@@ -27,6 +27,12 @@ use fovea_render::trace::{surface, GSample};
 use fovea_render::world::World;
 use glam::Vec3;
 
+/// The screen point of the polar ray `r` around `centre` (the mocks' own f64 placement).
+fn polar_point(centre: ScreenPoint, r: &PolarRay) -> ScreenPoint {
+    let (sin, cos) = (r.turn * std::f64::consts::TAU).sin_cos();
+    ScreenPoint::new(centre.x_px + r.r_px * cos, centre.y_px + r.r_px * sin)
+}
+
 /// Calls per entry point: closest_hits, closest_hits_screen, closest_hits_polar.
 type Calls = Arc<[AtomicUsize; 3]>;
 
@@ -85,9 +91,7 @@ impl TraceExecutor for Mock {
         Ok(rays
             .iter()
             .map(|r| {
-                let (s, c) = (r.turn * std::f64::consts::TAU).sin_cos();
-                let p = ScreenPoint::new(centre.x_px + r.r_px * c, centre.y_px + r.r_px * s);
-                let ray = camera.ray(p);
+                let ray = camera.ray(polar_point(centre, r));
                 (ray.dir, self.caster.intersect(&ray))
             })
             .collect())
@@ -257,11 +261,7 @@ impl TraceExecutor for SurfaceMock {
         let rays = rays
             .iter()
             .zip(spreads)
-            .map(|(r, &s)| {
-                let (sin, cos) = (r.turn * std::f64::consts::TAU).sin_cos();
-                let p = ScreenPoint::new(centre.x_px + r.r_px * cos, centre.y_px + r.r_px * sin);
-                (camera.ray(p), s)
-            })
+            .map(|(r, &s)| (camera.ray(polar_point(centre, r)), s))
             .collect();
         Ok(self.records(rays))
     }
