@@ -292,6 +292,7 @@ impl Backend {
             "surface": frame.surface_backend,
             "gpu_surfaces": self.gpu_surfaces,
             "gpu_submissions": self.device.as_ref().map(|d| d.submissions()),
+            "gpu_traffic": self.device.as_ref().map(|d| d.traffic()),
         })
     }
 }
@@ -304,6 +305,10 @@ pub trait SharedDevice: Send + Sync {
     fn submissions(&self) -> serde_json::Value;
     /// The device as the pipeline's meeting point of both eyes' submissions.
     fn lockstep(&self) -> Arc<dyn Lockstep + Send + Sync>;
+    /// What the device moved and waited for so far, by counter (`fovea_gpu::traffic`):
+    /// bytes uploaded and read back, buffers and bind groups created, buffer maps, blocking
+    /// waits, submissions.
+    fn traffic(&self) -> std::collections::BTreeMap<String, u64>;
 }
 
 #[cfg(feature = "gpu")]
@@ -318,7 +323,25 @@ impl SharedDevice for fovea_gpu::GpuContext {
             "submissions": c.submissions,
             "joint": c.joint,
             "posted": c.posted,
+            "timed_out": c.timed_out,
         })
+    }
+
+    fn traffic(&self) -> std::collections::BTreeMap<String, u64> {
+        let t = fovea_gpu::GpuContext::traffic(self);
+        [
+            ("bytes_uploaded", t.bytes_uploaded),
+            ("bytes_read_back", t.bytes_read_back),
+            ("buffers_created", t.buffers_created),
+            ("buffer_bytes_created", t.buffer_bytes_created),
+            ("bind_groups_created", t.bind_groups_created),
+            ("buffer_maps", t.buffer_maps),
+            ("blocking_waits", t.blocking_waits),
+            ("submissions", t.submissions),
+        ]
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v))
+        .collect()
     }
 }
 

@@ -248,6 +248,8 @@ struct BenchBackend {
         FrameContext,
         Arc<dyn fovea_render::pipeline::Lockstep + Send + Sync>,
     )>,
+    /// The installed executors' device, for its transfer counters.
+    device: Option<Arc<dyn crate::backend::SharedDevice>>,
 }
 
 impl BenchBackend {
@@ -262,6 +264,7 @@ impl BenchBackend {
             times: None,
             lockstep,
             second: None,
+            device: None,
         }
     }
 }
@@ -285,6 +288,7 @@ impl BenchExecutors for BenchBackend {
         ctx: &mut FrameContext,
     ) -> fovea_eval::Result<()> {
         self.times = None;
+        self.device = None;
         if self.requested == BackendArg::Cpu {
             return Ok(());
         }
@@ -301,7 +305,15 @@ impl BenchExecutors for BenchBackend {
         });
         backend.install(ctx);
         self.second = backend.second_eye(self.lockstep);
+        self.device = backend.device.clone();
         Ok(())
+    }
+
+    fn device_counters(&mut self) -> BTreeMap<String, u64> {
+        self.device
+            .as_ref()
+            .map(|d| d.traffic())
+            .unwrap_or_default()
     }
 
     fn second_eye(
@@ -522,17 +534,25 @@ fn print_stereo(row: &StereoTiming) {
             format!(" (gpu passes {} ms)", v.join(" "))
         }
     };
+    let dup = format!(
+        "{}{}",
+        passes(&row.dup_device_pass_ms),
+        traffic_summary(&row.dup_device_traffic)
+    );
+    let rep = format!(
+        "{}{}",
+        passes(&row.rep_device_pass_ms),
+        traffic_summary(&row.rep_device_traffic)
+    );
     println!(
-        "{} {}x{} {} binocular: dup {:.0} ms{}, {} primary rays | rep {:.0} ms{}, {} primary rays ({} holes) | rep/dup time {:.2}, rays {:.2}",
+        "{} {}x{} {} binocular: dup {:.0} ms{dup}, {} primary rays | rep {:.0} ms{rep}, {} primary rays ({} holes) | rep/dup time {:.2}, rays {:.2}",
         row.display,
         row.width,
         row.height,
         row.method,
         num(row.dup_ms),
-        passes(&row.dup_device_pass_ms),
         thousands(row.dup_rays_primary),
         num(row.rep_ms),
-        passes(&row.rep_device_pass_ms),
         thousands(row.rep_rays_primary),
         thousands(row.rep_holes),
         num(row.rep_over_dup_time),
@@ -548,6 +568,22 @@ fn print_dof(display: &str, rows: &[DofTiming]) {
             r.name, r.ms, r.ms_per_megapixel, r.relative_to_fastest
         );
     }
+}
+
+/// " | bus 12.3 MB up 4.5 MB down, 57 submits, 57 waits" from a frame's device traffic
+/// (`gpu_traffic_per_frame`); empty when nothing ran on a device.
+fn traffic_summary(t: &BTreeMap<String, u64>) -> String {
+    if t.is_empty() {
+        return String::new();
+    }
+    let get = |k: &str| t.get(k).copied().unwrap_or(0);
+    format!(
+        " | bus {:.1} MB up {:.1} MB down, {} submits, {} waits",
+        get("bytes_uploaded") as f64 / 1e6,
+        get("bytes_read_back") as f64 / 1e6,
+        get("submissions"),
+        get("blocking_waits")
+    )
 }
 
 /// One run's line; with `labels`, the trace, shade and reconstruct stages say where they (and
@@ -572,6 +608,7 @@ fn print_run(r: &BenchRun, labels: bool) {
             .collect();
         format!(" | gpu passes {} ms", passes.join(" "))
     };
+    let gpu = format!("{gpu}{}", traffic_summary(&r.device_traffic));
     println!(
         "{:>5}x{:<5} {:>6} rays {:>13} | trace {:>8.0}{} shade {:>8.0}{} aa {:>6.0}{} reconstruct {:>6.0}{}{gpu} | wall {:>8.0} ms, cpu {:>8.0} ms ({:.0}% of {} cores){} | {:.2} fps | speedup {:>6.2}x wall, {:>6.2}x cpu",
         s.width,

@@ -689,6 +689,10 @@ fn cpu_bench_reports_every_stage_on_the_cpu_and_no_gpu_passes() {
         assert_eq!(r["stage_backends"]["reconstruct"], "cpu", "{r}");
         assert_eq!(r["stage_backends"]["aa"], "cpu", "{r}");
         assert!(r["gpu_pass_ms"].as_object().unwrap().is_empty(), "{r}");
+        assert!(
+            r["gpu_traffic_per_frame"].as_object().unwrap().is_empty(),
+            "{r}"
+        );
         let fps = r["fps"].as_f64().unwrap();
         assert!(fps.is_finite() && fps > 0.0, "{r}");
     }
@@ -729,6 +733,22 @@ fn bench_gpu_times_both_eyes_on_the_gpu() {
         }
     }
     assert!(row["rep_rays_primary"].as_u64().unwrap() < row["dup_rays_primary"].as_u64().unwrap());
+    // The pair's traffic, counted in fovea-gpu: both eyes' passes in shared submissions, each
+    // eye waiting for its readbacks (today's path: a wait per submission and eye).
+    for mode in ["dup_device_traffic", "rep_device_traffic"] {
+        let t = &row[mode];
+        let get = |k: &str| t[k].as_u64().unwrap_or_else(|| panic!("{mode}.{k}: {row}"));
+        assert!(
+            get("bytes_uploaded") > 0 && get("bytes_read_back") > 0,
+            "{mode}: {row}"
+        );
+        assert!(get("submissions") > 0 && get("blocking_waits") >= get("submissions") / 2);
+    }
+    let dup = &row["dup_device_traffic"];
+    assert!(
+        dup["blocking_waits"].as_u64() > dup["submissions"].as_u64(),
+        "in lockstep a submission carries both eyes' passes, each eye waits: {row}"
+    );
 }
 
 #[cfg(not(feature = "gpu"))]
@@ -806,6 +826,15 @@ fn bench_gpu_reports_pass_times_fps_and_speedup() {
     for r in [full, vafr] {
         let fps = r["fps"].as_f64().unwrap();
         assert!(fps.is_finite() && fps > 0.0, "{r}");
+        // The median frame's traffic, counted in fovea-gpu: at least the frame's own
+        // readback (today every stage's records come back).
+        let t = &r["gpu_traffic_per_frame"];
+        let screen_bytes = r["width"].as_u64().unwrap() * r["height"].as_u64().unwrap() * 12;
+        assert!(
+            t["bytes_read_back"].as_u64().unwrap() >= screen_bytes,
+            "{r}"
+        );
+        assert!(t["submissions"].as_u64().unwrap() > 0, "{r}");
         assert!(r["rays_primary"].as_u64().unwrap() > 0, "{r}");
         let speedup = r["speedup_vs_full"].as_f64().unwrap();
         assert!(speedup.is_finite() && speedup > 0.0, "{r}");

@@ -162,6 +162,7 @@ struct Inner {
     features: wgpu::Features,
     health: Arc<Mutex<Health>>,
     gate: crate::lockstep::SubmissionGate,
+    traffic: crate::traffic::Traffic,
 }
 
 /// An open GPU device and its queue, with the adapter it runs on. Cheap to clone (shared).
@@ -270,6 +271,7 @@ impl GpuContext {
                 features,
                 health,
                 gate: Default::default(),
+                traffic: Default::default(),
             }),
         })
     }
@@ -315,6 +317,11 @@ impl GpuContext {
     /// The device's submission gate.
     pub(crate) fn gate(&self) -> &crate::lockstep::SubmissionGate {
         &self.inner.gate
+    }
+
+    /// The device's transfer counters ([`crate::traffic`]).
+    pub(crate) fn traffic_counters(&self) -> &crate::traffic::Traffic {
+        &self.inner.traffic
     }
 
     /// [`GpuError::DeviceLost`] once the device is lost, or an error recorded outside every
@@ -403,6 +410,7 @@ impl GpuContext {
 
     /// Blocks until the queue is idle; [`GpuError::DeviceLost`] if it never will be.
     pub fn wait_idle(&self, what: &str) -> Result<()> {
+        self.inner.traffic.waited();
         self.inner
             .device
             .poll(wgpu::PollType::wait_indefinitely())

@@ -279,7 +279,7 @@ impl GpuTracer {
             )?;
             times.add_batch(ms);
             out.extend(
-                bytemuck::cast_slice::<u8, [f32; 4]>(&raw)
+                bytemuck::cast_slice::<u32, [f32; 4]>(&raw)
                     .iter()
                     .take(chunk.len())
                     .map(|v| DirectLight {

@@ -378,7 +378,7 @@ impl GpuDof {
                 storage,
             );
             let scratch = |label: &str, bytes: u64, usage: wgpu::BufferUsages| {
-                device.create_buffer(&wgpu::BufferDescriptor {
+                self.ctx.create_buffer(&wgpu::BufferDescriptor {
                     label: Some(label),
                     size: bytes,
                     usage,
@@ -389,7 +389,7 @@ impl GpuDof {
             let coc_out = scratch("CoC map", n_bytes(4), copy_out);
             let planes = scratch("DOF planes", n_bytes(PLANE_BYTES), storage);
             let bind = |pipeline: &wgpu::ComputePipeline, entries: &[(u32, &wgpu::Buffer)]| {
-                bind_group(device, "depth of field", pipeline, entries)
+                bind_group(&self.ctx, "depth of field", pipeline, entries)
             };
             let coc_bind = bind(
                 &self.coc,

@@ -305,7 +305,7 @@ impl GpuTracer {
             )?;
             times.add_batch(ms);
             out.extend(
-                bytemuck::cast_slice::<u8, [f32; 4]>(&raw)
+                bytemuck::cast_slice::<u32, [f32; 4]>(&raw)
                     .iter()
                     .take(chunk.len())
                     .map(|v| EnvironmentLight {
@@ -338,7 +338,10 @@ impl GpuTracer {
             Some(p) => p,
             None => {
                 let built = ctx.scoped("building the hash check", || {
-                    SHADER.pipelines(ctx.device()).into_iter().nth(5)
+                    SHADER
+                        .pipelines_of(ctx.device(), &["mix64_check"])
+                        .into_iter()
+                        .next()
                 })?;
                 let Some(p) = built else {
                     return Err(GpuError::Input(
@@ -387,7 +390,7 @@ impl GpuTracer {
             8,
             false,
         )?;
-        Ok(bytemuck::cast_slice::<u8, [u32; 2]>(&raw)
+        Ok(bytemuck::cast_slice::<u32, [u32; 2]>(&raw)
             .iter()
             .take(values.len())
             .map(|w| u64::from(w[0]) | (u64::from(w[1]) << 32))

@@ -75,6 +75,7 @@ pub mod surface;
 mod timestamps;
 pub mod tonemap;
 pub mod trace;
+pub mod traffic;
 mod transfer;
 
 pub use backend::{BackendChoice, Resolved};
@@ -92,6 +93,7 @@ pub use sample_aa::{GpuSampleAa, SampleAaTimes, SampleFilter};
 pub use surface::{GpuSurfaceRay, GpuSurfaces, SurfaceStats};
 pub use tonemap::GpuToneMap;
 pub use trace::{BvhStats, DirectLightModel, GpuHit, GpuRay, GpuTracer, TraceTimes};
+pub use traffic::TrafficCounts;
 
 /// Every WGSL module of the crate, as the device compiles it.
 pub const ALL_SHADERS: &[shaders::ShaderSource] = &[

@@ -9,10 +9,18 @@
 //! are not registered submit as before.
 //!
 //! Each waiting thread holds no lock of the caller's: the executors take `&self`, so the
-//! other eye always reaches its own submission (or leaves) and nobody waits forever.
+//! other eye always reaches its own submission (or leaves). Should it not within
+//! [`POST_TIMEOUT`] (a stalled or starved thread), the waiting thread submits what is posted
+//! itself — a submission that carries fewer eyes, never a frame that waits forever — and
+//! [`SubmissionCounts::timed_out`] counts it.
 
 use std::sync::{Condvar, Mutex, MutexGuard};
 use std::thread::ThreadId;
+use std::time::Duration;
+
+/// How long a posted submission waits for the other registered threads before it goes
+/// without them.
+pub const POST_TIMEOUT: Duration = Duration::from_secs(5);
 
 /// How a device's submissions went, since it was opened.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -24,6 +32,9 @@ pub struct SubmissionCounts {
     /// The passes' submissions as posted (each thread's `GpuContext::submit` calls): as many
     /// as `submissions` with no eyes in lockstep, up to twice as many with two.
     pub posted: u64,
+    /// Submissions that went without every registered thread's post because one did not
+    /// post within [`POST_TIMEOUT`].
+    pub timed_out: u64,
 }
 
 /// The state behind [`SubmissionGate`]'s lock.
@@ -71,10 +82,16 @@ impl SubmissionGate {
             return;
         }
         let ticket = st.flushed;
-        let _st = self
+        let (mut st, waited) = self
             .went
-            .wait_while(st, |st| st.flushed == ticket)
+            .wait_timeout_while(st, POST_TIMEOUT, |st| st.flushed == ticket)
             .unwrap_or_else(|e| e.into_inner());
+        if waited.timed_out() && st.flushed == ticket {
+            st.counts.timed_out += 1;
+            Self::flush(&mut st, queue);
+            drop(st);
+            self.went.notify_all();
+        }
     }
 
     /// Submits everything posted, in one submission.

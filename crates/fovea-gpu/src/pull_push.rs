@@ -308,7 +308,7 @@ impl GpuPullPush {
                 bytemuck::cast_slice(&bits),
                 storage,
             );
-            let colour_buf = device.create_buffer(&wgpu::BufferDescriptor {
+            let colour_buf = self.ctx.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("pull-push colour pyramid"),
                 size: colour_px * RGB_BYTES,
                 usage: storage | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
@@ -316,9 +316,8 @@ impl GpuPullPush {
             });
             let screen: &[f32] = bytemuck::cast_slice(color.data());
             self.ctx
-                .queue()
                 .write_buffer(&colour_buf, 0, bytemuck::cast_slice(screen));
-            let weight_buf = device.create_buffer(&wgpu::BufferDescriptor {
+            let weight_buf = self.ctx.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("pull-push weights"),
                 size: weight_px.max(1) * 4,
                 usage: storage,
@@ -340,7 +339,7 @@ impl GpuPullPush {
             };
             let pyramid_binds = |pipeline: &wgpu::ComputePipeline, u: &wgpu::Buffer| {
                 bind_group(
-                    device,
+                    &self.ctx,
                     "pull-push bindings",
                     pipeline,
                     &[(0, u), (1, &mask_buf), (2, &colour_buf), (3, &weight_buf)],
@@ -367,7 +366,7 @@ impl GpuPullPush {
                 ..uniform_base
             });
             let depth_bind = bind_group(
-                device,
+                &self.ctx,
                 "pull-push depth bindings",
                 &self.fill_depth,
                 &[(0, &depth_uniform), (1, &mask_buf), (4, &depth_buf)],
@@ -398,7 +397,7 @@ impl GpuPullPush {
                 }
             }
             let readback = |label: &str, size: u64| {
-                device.create_buffer(&wgpu::BufferDescriptor {
+                self.ctx.create_buffer(&wgpu::BufferDescriptor {
                     label: Some(label),
                     size,
                     usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,

@@ -268,7 +268,7 @@ impl GpuTracer {
             )?;
             times.add_batch(ms);
             out.extend(
-                bytemuck::cast_slice::<u8, O>(&raw)
+                bytemuck::cast_slice::<u32, O>(&raw)
                     .iter()
                     .take(chunk.len())
                     .map(&answer),

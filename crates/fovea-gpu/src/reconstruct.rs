@@ -267,6 +267,15 @@ impl GpuReconstructor {
             .iter()
             .map(|&u| if u.is_finite() { u } else { LUT_UNCOVERED })
             .collect();
+        // The shader interpolates between entries k and k + 1 with k ≤ len − 2: a table of
+        // fewer than two entries has no interval (an empty screen or a degenerate mapping).
+        if lut.len() < 2 {
+            return Err(GpuError::Input(format!(
+                "the {} mapping's u(r) table has {} entries (at least 2 needed)",
+                mapping.method(),
+                lut.len()
+            )));
+        }
         let radial = tables.texels_per_px.as_deref();
         let gpu_columns: Vec<GpuColumn> = tables
             .columns
@@ -363,13 +372,13 @@ impl GpuReconstructor {
                     bytemuck::bytes_of(&uniform_of(row0, rows)),
                     wgpu::BufferUsages::UNIFORM,
                 );
-                let out = device.create_buffer(&wgpu::BufferDescriptor {
+                let out = self.ctx.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("reconstructed band"),
                     size: bytes,
                     usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                     mapped_at_creation: false,
                 });
-                let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                let bind = self.ctx.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("reconstruct bindings"),
                     layout: &layout,
                     entries: &[
@@ -396,7 +405,7 @@ impl GpuReconstructor {
             }
             let mut readbacks = Vec::with_capacity(bands.len());
             for out in &outputs {
-                let read = device.create_buffer(&wgpu::BufferDescriptor {
+                let read = self.ctx.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("reconstructed band readback"),
                     size: out.size(),
                     usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,

@@ -369,20 +369,20 @@ impl GpuSampleAa {
                 bytemuck::cast_slice(&tables.align),
                 storage,
             );
-            let out_buf = device.create_buffer(&wgpu::BufferDescriptor {
+            let out_buf = self.ctx.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("AA output"),
                 size: bytes,
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             });
-            let read = device.create_buffer(&wgpu::BufferDescriptor {
+            let read = self.ctx.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("AA readback"),
                 size: bytes,
                 usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
                 mapped_at_creation: false,
             });
             let bind = |pipeline: &wgpu::ComputePipeline, entries: &[(u32, &wgpu::Buffer)]| {
-                bind_group(device, "AA bindings", pipeline, entries)
+                bind_group(&self.ctx, "AA bindings", pipeline, entries)
             };
             let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("sample AA"),
@@ -401,7 +401,7 @@ impl GpuSampleAa {
                     pass.dispatch_workgroups(groups_x, h, 1);
                 }
                 SampleFilter::Fxaa(_) => {
-                    let lum = device.create_buffer(&wgpu::BufferDescriptor {
+                    let lum = self.ctx.create_buffer(&wgpu::BufferDescriptor {
                         label: Some("FXAA luma"),
                         size: texels * 4,
                         usage: storage,

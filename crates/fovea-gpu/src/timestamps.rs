@@ -26,13 +26,13 @@ impl PassTimer {
             ty: wgpu::QueryType::Timestamp,
             count: 2,
         });
-        let resolve = device.create_buffer(&wgpu::BufferDescriptor {
+        let resolve = ctx.create_buffer(&wgpu::BufferDescriptor {
             label: Some("timestamps resolved"),
             size: STAMP_BYTES,
             usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let read = device.create_buffer(&wgpu::BufferDescriptor {
+        let read = ctx.create_buffer(&wgpu::BufferDescriptor {
             label: Some("timestamps readback"),
             size: STAMP_BYTES,
             usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,

@@ -171,13 +171,13 @@ impl GpuToneMap {
         let device = self.ctx.device();
         let bytes = n_words * 4;
         let readback = self.ctx.scoped(what, || {
-            let out = device.create_buffer(&wgpu::BufferDescriptor {
+            let out = self.ctx.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("sRGB bytes"),
                 size: bytes,
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             });
-            let read = device.create_buffer(&wgpu::BufferDescriptor {
+            let read = self.ctx.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("sRGB readback"),
                 size: bytes,
                 usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
@@ -195,7 +195,7 @@ impl GpuToneMap {
                 binding: 3,
                 resource: out.as_entire_binding(),
             });
-            let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            let bind = self.ctx.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("tone map"),
                 layout: &self.pipeline.get_bind_group_layout(0),
                 entries: &entries,

@@ -433,14 +433,14 @@ impl GpuTracer {
     }
 
     /// Runs `pass` through `pipeline` (an entry point of the trace module) with the scene's
-    /// nodes, triangles and ids at bindings 1–3: the output's bytes and the pass's
+    /// nodes, triangles and ids at bindings 1–3: the output (4-byte words) and the pass's
     /// milliseconds from timestamps.
     pub(crate) fn run_scene_pass(
         &self,
         scene: &SceneBuffers,
         pipeline: &wgpu::ComputePipeline,
         pass: ScenePass<'_>,
-    ) -> Result<(Vec<u8>, Option<f64>)> {
+    ) -> Result<(Vec<u32>, Option<f64>)> {
         let ctx = &self.ctx;
         let (uniform, inputs) = ctx.scoped(pass.what, || {
             let uniform = upload(
@@ -587,7 +587,7 @@ impl GpuTracer {
             HIT_BYTES,
             true,
         )?;
-        Ok((bytemuck::cast_slice::<u8, HitGpu>(&raw).to_vec(), ms))
+        Ok((bytemuck::cast_slice::<u32, HitGpu>(&raw).to_vec(), ms))
     }
 }
 

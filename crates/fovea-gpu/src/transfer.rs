@@ -14,20 +14,20 @@ pub(crate) fn upload(
     contents: &[u8],
     usage: wgpu::BufferUsages,
 ) -> wgpu::Buffer {
-    let buffer = ctx.device().create_buffer(&wgpu::BufferDescriptor {
+    let buffer = ctx.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
         size: contents.len() as u64,
         usage: usage | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    ctx.queue().write_buffer(&buffer, 0, contents);
+    ctx.write_buffer(&buffer, 0, contents);
     buffer
 }
 
 /// A bind group of group 0 of `pipeline` with each buffer of `entries` bound whole at its
 /// binding.
 pub(crate) fn bind_group(
-    device: &wgpu::Device,
+    ctx: &GpuContext,
     label: &str,
     pipeline: &wgpu::ComputePipeline,
     entries: &[(u32, &wgpu::Buffer)],
@@ -39,7 +39,7 @@ pub(crate) fn bind_group(
             resource: b.as_entire_binding(),
         })
         .collect();
-    device.create_bind_group(&wgpu::BindGroupDescriptor {
+    ctx.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some(label),
         layout: &pipeline.get_bind_group_layout(0),
         entries: &entries,
@@ -71,7 +71,10 @@ pub(crate) fn read_buffers(
             reason: format!("reading back {what}: {e}"),
         })?;
         let done = ctx.scoped(what, || {
-            buffer.get_mapped_range(..).map(|view| read(k, &view))
+            buffer.get_mapped_range(..).map(|view| {
+                ctx.traffic_counters().read_back(view.len() as u64);
+                read(k, &view)
+            })
         })?;
         done.map_err(|e| crate::GpuError::Validation {
             what: what.to_string(),
@@ -85,7 +88,8 @@ pub(crate) fn read_buffers(
 /// Runs `pipeline` once per item over `n` items (one invocation each, in workgroups of
 /// [`WORKGROUP_SIZE`](crate::shaders::WORKGROUP_SIZE) along x) with `inputs` bound at
 /// bindings `0..k` of group 0 and a fresh output buffer of `out_bytes` per item at binding `k`,
-/// and returns the output's bytes. Everything runs inside an error scope named `what`.
+/// and returns the output as 4-byte words (`out_bytes` is a multiple of 4). Everything runs
+/// inside an error scope named `what`.
 /// With `timed`, also the compute pass's own milliseconds from the device's timestamps
 /// ([`PassTimer`]; `None` untimed or on a device without them).
 pub(crate) fn run_1d(
@@ -96,7 +100,7 @@ pub(crate) fn run_1d(
     n: u64,
     out_bytes: u64,
     timed: bool,
-) -> Result<(Vec<u8>, Option<f64>)> {
+) -> Result<(Vec<u32>, Option<f64>)> {
     let numbered: Vec<(u32, wgpu::BindingResource<'_>)> = inputs
         .iter()
         .cloned()
@@ -126,18 +130,18 @@ pub(crate) fn run_1d_at(
     n: u64,
     out_bytes: u64,
     timed: bool,
-) -> Result<(Vec<u8>, Option<f64>)> {
+) -> Result<(Vec<u32>, Option<f64>)> {
     let device = ctx.device();
     let size = n.max(1) * out_bytes;
     let (readback, timer) = ctx.scoped(what, || {
         let timer = timed.then(|| PassTimer::new(ctx, what)).flatten();
-        let output = device.create_buffer(&wgpu::BufferDescriptor {
+        let output = ctx.create_buffer(&wgpu::BufferDescriptor {
             label: Some("output"),
             size,
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        let readback = ctx.create_buffer(&wgpu::BufferDescriptor {
             label: Some("readback"),
             size,
             usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
@@ -149,7 +153,7 @@ pub(crate) fn run_1d_at(
             .chain([(out_binding, output.as_entire_binding())])
             .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource })
             .collect();
-        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        let bind = ctx.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some(what),
             layout: &pipeline.get_bind_group_layout(0),
             entries: &entries,
@@ -181,7 +185,9 @@ pub(crate) fn run_1d_at(
     let (mut out, mut ms) = (Vec::new(), None);
     read_buffers(ctx, &buffers, what, |k, bytes| {
         if k == 0 {
-            out = bytes.to_vec();
+            // Copied into 4-byte words, so the callers' casts to their 4-byte-aligned
+            // records hold whatever alignment the mapped range had.
+            out = bytemuck::pod_collect_to_vec::<u8, u32>(bytes);
         } else {
             ms = Some(PassTimer::ms(ctx, bytes));
         }

@@ -33,6 +33,7 @@ fn counts(submissions: u64, joint: u64, posted: u64) -> SubmissionCounts {
         submissions,
         joint,
         posted,
+        timed_out: 0,
     }
 }
 
@@ -122,6 +123,40 @@ fn an_eye_that_fails_or_panics_releases_the_other() {
     assert!(panicked.is_err());
     assert_eq!(left_done.load(Ordering::SeqCst), 7);
     assert_eq!(ctx.submission_counts(), counts(7, 2, 9));
+}
+
+#[test]
+fn a_post_the_other_eye_never_joins_goes_alone_after_the_timeout() {
+    let Some(ctx) =
+        common::gpu_or_skip("a_post_the_other_eye_never_joins_goes_alone_after_the_timeout")
+    else {
+        return;
+    };
+    // The right eye is registered but busy past the gate's timeout before it posts: the
+    // left eye's post goes alone (timed out), then the right eye's.
+    let started = std::time::Instant::now();
+    let out: Result<((), ())> = in_lockstep(
+        &ctx,
+        || {
+            submit(&ctx, 1);
+            Ok(())
+        },
+        || {
+            std::thread::sleep(
+                fovea_gpu::lockstep::POST_TIMEOUT + std::time::Duration::from_millis(500),
+            );
+            submit(&ctx, 1);
+            Ok(())
+        },
+    );
+    assert!(out.is_ok(), "{out:?}");
+    assert!(started.elapsed() >= fovea_gpu::lockstep::POST_TIMEOUT);
+    let c = ctx.submission_counts();
+    assert_eq!(
+        (c.submissions, c.joint, c.posted, c.timed_out),
+        (2, 0, 2, 1),
+        "{c:?}"
+    );
 }
 
 type Result<T> = std::result::Result<T, RenderError>;

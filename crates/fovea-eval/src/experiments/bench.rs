@@ -97,6 +97,30 @@ pub trait BenchExecutors {
     fn second_eye(&mut self) -> Option<(FrameContext, Arc<dyn Lockstep + Send + Sync>)> {
         None
     }
+    /// The device's transfer counters so far, by name (bytes uploaded and read back,
+    /// submissions, blocking waits, buffers and bind groups created; cumulative: the bench
+    /// takes the difference around each frame); empty (the default) when nothing runs on a
+    /// device.
+    fn device_counters(&mut self) -> BTreeMap<String, u64> {
+        BTreeMap::new()
+    }
+}
+
+/// What a device moved during one frame: `after − before` of two
+/// [`BenchExecutors::device_counters`] snapshots, counter by counter.
+fn counters_since(
+    before: &BTreeMap<String, u64>,
+    after: &BTreeMap<String, u64>,
+) -> BTreeMap<String, u64> {
+    after
+        .iter()
+        .map(|(k, &v)| {
+            (
+                k.clone(),
+                v.saturating_sub(before.get(k).copied().unwrap_or(0)),
+            )
+        })
+        .collect()
 }
 
 /// Every stage on the CPU (what [`run`] uses).
@@ -315,6 +339,11 @@ pub struct StereoTiming {
     pub dup_device_pass_ms: BTreeMap<String, f64>,
     /// The same for the median Rep frame.
     pub rep_device_pass_ms: BTreeMap<String, f64>,
+    /// What the device moved during the median Dup frame (both eyes), by counter
+    /// ([`BenchExecutors::device_counters`]; empty when every stage ran on the CPU).
+    pub dup_device_traffic: BTreeMap<String, u64>,
+    /// The same for the median Rep frame.
+    pub rep_device_traffic: BTreeMap<String, u64>,
     /// Where the left eye's primary rays were cast (`cpu` or the executor's name).
     pub trace_backend: String,
     /// Whether Dup rendered both eyes at the same time, their device work in shared
@@ -473,6 +502,9 @@ pub struct BenchRun {
     /// The median frame's per-pass times on a device, ms by pass ([`BenchExecutors`];
     /// empty when every stage ran on the CPU).
     pub device_pass_ms: BTreeMap<String, f64>,
+    /// What the device moved during the median frame, by counter
+    /// ([`BenchExecutors::device_counters`]; empty when every stage ran on the CPU).
+    pub device_traffic: BTreeMap<String, u64>,
 }
 
 impl BenchRun {
@@ -579,7 +611,9 @@ pub fn run_with(
             // frames with the same context; the median frame's statistics are kept.
             let eye = EyeState::looking_at(gaze);
             let mut ctx = FrameContext::new();
-            let mut timed: Vec<(FrameStats, BTreeMap<String, f64>)> = Vec::new();
+            // Each timed frame's stats, device pass times and device traffic.
+            type Timed = (FrameStats, BTreeMap<String, f64>, BTreeMap<String, u64>);
+            let mut timed: Vec<Timed> = Vec::new();
             let mut allocations_after_warmup = 0;
             let mut last_plan = None;
             for k in 0..params.warmup + params.frames {
@@ -593,6 +627,7 @@ pub fn run_with(
                 if k == 0 {
                     executors.install(world, &plan, &mut ctx)?;
                 }
+                let counters = executors.device_counters();
                 let frame = render_planned(
                     &mut ctx,
                     world,
@@ -603,14 +638,15 @@ pub fn run_with(
                     &|done, total| observe(BenchEvent::Samples { done, total }),
                 )?;
                 let device_ms = executors.pass_ms();
+                let traffic = counters_since(&counters, &executors.device_counters());
                 if k >= params.warmup {
-                    timed.push((frame.stats.clone(), device_ms));
+                    timed.push((frame.stats.clone(), device_ms, traffic));
                 }
                 last_plan = Some(plan);
             }
             let screen_allocations = ctx.screen_allocations() - allocations_after_warmup;
             timed.sort_by(|a, b| a.0.total_ms.total_cmp(&b.0.total_ms));
-            let (stats, device_pass_ms) = timed.swap_remove(timed.len() / 2);
+            let (stats, device_pass_ms, device_traffic) = timed.swap_remove(timed.len() / 2);
             // The images are freed with the context, except the full frame's while DOF
             // filters are timed on it.
             if m == Method::Full && !params.dof_filters.is_empty() {
@@ -654,6 +690,7 @@ pub fn run_with(
                 stats,
                 reconstruct,
                 device_pass_ms,
+                device_traffic,
             };
             observe(BenchEvent::Run(&run));
             result.runs.push(run);
@@ -747,6 +784,7 @@ impl BenchResult {
                         "reconstruct": s.reconstruct_backend,
                     },
                     "gpu_pass_ms": r.device_pass_ms,
+                    "gpu_traffic_per_frame": r.device_traffic,
                     "machine_steal_fraction": r.steal,
                     "cpu_share": r.cpu_share,
                     "screen_allocations_after_warmup": r.screen_allocations,
@@ -997,14 +1035,15 @@ fn time_stereo(
     executors.install(world, &plan, &mut ctx)?;
     drop(plan);
     let mut second = executors.second_eye();
-    // Per mode: each rep's wall ms and device passes.
-    type Reps = Vec<(f64, BTreeMap<String, f64>)>;
+    // Per mode: each rep's wall ms, device passes and device traffic.
+    type Reps = Vec<(f64, BTreeMap<String, f64>, BTreeMap<String, u64>)>;
     let (mut dup, mut rep): (Reps, Reps) = (Vec::new(), Vec::new());
     let (mut dup_rays, mut rep_rays, mut holes) = (0, 0, 0);
     let mut trace_backend = String::new();
     for _ in 0..reps {
         for mode in [StereoMode::Dup, StereoMode::Rep] {
             let pair = SecondEye::of(&mut second);
+            let counters = executors.device_counters();
             let f = render_stereo_in(
                 &mut ctx,
                 pair,
@@ -1017,26 +1056,30 @@ fn time_stereo(
                 &|_, _| {},
             )?;
             let passes = executors.pass_ms();
+            let traffic = counters_since(&counters, &executors.device_counters());
             trace_backend.clone_from(&f.left.stats.trace_backend);
             match mode {
                 StereoMode::Dup => {
-                    dup.push((f.stats.total_ms, passes));
+                    dup.push((f.stats.total_ms, passes, traffic));
                     dup_rays = f.stats.rays_primary;
                 }
                 StereoMode::Rep => {
-                    rep.push((f.stats.total_ms, passes));
+                    rep.push((f.stats.total_ms, passes, traffic));
                     rep_rays = f.stats.rays_primary;
                     holes = f.stats.holes_traced;
                 }
             }
         }
     }
-    // The median rep's wall time and its device passes.
-    let median_of = |mut v: Reps| -> (f64, BTreeMap<String, f64>) {
+    // The median rep's wall time, its device passes and traffic.
+    let median_of = |mut v: Reps| {
         v.sort_by(|a, b| a.0.total_cmp(&b.0));
         v.swap_remove(v.len() / 2)
     };
-    let ((dm, dup_device_pass_ms), (rm, rep_device_pass_ms)) = (median_of(dup), median_of(rep));
+    let (
+        (dm, dup_device_pass_ms, dup_device_traffic),
+        (rm, rep_device_pass_ms, rep_device_traffic),
+    ) = (median_of(dup), median_of(rep));
     Ok(StereoTiming {
         display: display.name.clone(),
         width: display.width_px,
@@ -1051,6 +1094,8 @@ fn time_stereo(
         rep_over_dup_rays: rep_rays as f64 / dup_rays as f64,
         dup_device_pass_ms,
         rep_device_pass_ms,
+        dup_device_traffic,
+        rep_device_traffic,
         trace_backend,
         dup_lockstep: second.is_some(),
     })

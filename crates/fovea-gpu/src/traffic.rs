@@ -1,0 +1,135 @@
+//! What crosses the bus and what the host waits for, counted where it happens (issue 37:
+//! "counted, not estimated").
+//!
+//! Every buffer, bind group and upload of this crate goes through [`GpuContext`]'s
+//! counting wrappers ([`GpuContext::create_buffer`], [`GpuContext::write_buffer`],
+//! [`GpuContext::create_bind_group`]), every readback through `transfer::read_buffers`,
+//! and every blocking wait through [`GpuContext::wait_idle`]; the submissions are the
+//! device's gate's ([`crate::lockstep::SubmissionCounts`]). A frame's traffic is the
+//! difference of two snapshots, [`TrafficCounts::since`].
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use crate::device::GpuContext;
+
+/// What a device has moved and waited for since it was opened (or, from
+/// [`TrafficCounts::since`], between two snapshots).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TrafficCounts {
+    /// Bytes written from the host into device buffers (`Queue::write_buffer`), bytes.
+    pub bytes_uploaded: u64,
+    /// Bytes of mapped buffers the host read back, bytes.
+    pub bytes_read_back: u64,
+    /// Buffers created.
+    pub buffers_created: u64,
+    /// Their sizes added up, bytes.
+    pub buffer_bytes_created: u64,
+    /// Bind groups created.
+    pub bind_groups_created: u64,
+    /// Buffers mapped for reading.
+    pub buffer_maps: u64,
+    /// Times the host thread blocked until the queue was idle.
+    pub blocking_waits: u64,
+    /// `Queue::submit` calls.
+    pub submissions: u64,
+}
+
+impl TrafficCounts {
+    /// The counts from `earlier` to `self`, two snapshots of one device (each field
+    /// saturating at 0).
+    pub fn since(&self, earlier: &Self) -> Self {
+        Self {
+            bytes_uploaded: self.bytes_uploaded.saturating_sub(earlier.bytes_uploaded),
+            bytes_read_back: self.bytes_read_back.saturating_sub(earlier.bytes_read_back),
+            buffers_created: self.buffers_created.saturating_sub(earlier.buffers_created),
+            buffer_bytes_created: self
+                .buffer_bytes_created
+                .saturating_sub(earlier.buffer_bytes_created),
+            bind_groups_created: self
+                .bind_groups_created
+                .saturating_sub(earlier.bind_groups_created),
+            buffer_maps: self.buffer_maps.saturating_sub(earlier.buffer_maps),
+            blocking_waits: self.blocking_waits.saturating_sub(earlier.blocking_waits),
+            submissions: self.submissions.saturating_sub(earlier.submissions),
+        }
+    }
+}
+
+/// The device's counters (all but the submissions, which its gate counts).
+#[derive(Default)]
+pub(crate) struct Traffic {
+    bytes_uploaded: AtomicU64,
+    bytes_read_back: AtomicU64,
+    buffers_created: AtomicU64,
+    buffer_bytes_created: AtomicU64,
+    bind_groups_created: AtomicU64,
+    buffer_maps: AtomicU64,
+    blocking_waits: AtomicU64,
+}
+
+impl Traffic {
+    pub(crate) fn uploaded(&self, bytes: u64) {
+        self.bytes_uploaded.fetch_add(bytes, Ordering::Relaxed);
+    }
+
+    pub(crate) fn read_back(&self, bytes: u64) {
+        self.buffer_maps.fetch_add(1, Ordering::Relaxed);
+        self.bytes_read_back.fetch_add(bytes, Ordering::Relaxed);
+    }
+
+    pub(crate) fn buffer(&self, bytes: u64) {
+        self.buffers_created.fetch_add(1, Ordering::Relaxed);
+        self.buffer_bytes_created
+            .fetch_add(bytes, Ordering::Relaxed);
+    }
+
+    pub(crate) fn bind_group(&self) {
+        self.bind_groups_created.fetch_add(1, Ordering::Relaxed);
+    }
+
+    pub(crate) fn waited(&self) {
+        self.blocking_waits.fetch_add(1, Ordering::Relaxed);
+    }
+
+    pub(crate) fn snapshot(&self, submissions: u64) -> TrafficCounts {
+        TrafficCounts {
+            bytes_uploaded: self.bytes_uploaded.load(Ordering::Relaxed),
+            bytes_read_back: self.bytes_read_back.load(Ordering::Relaxed),
+            buffers_created: self.buffers_created.load(Ordering::Relaxed),
+            buffer_bytes_created: self.buffer_bytes_created.load(Ordering::Relaxed),
+            bind_groups_created: self.bind_groups_created.load(Ordering::Relaxed),
+            buffer_maps: self.buffer_maps.load(Ordering::Relaxed),
+            blocking_waits: self.blocking_waits.load(Ordering::Relaxed),
+            submissions,
+        }
+    }
+}
+
+impl GpuContext {
+    /// What this device has moved and waited for so far ([`TrafficCounts`]).
+    pub fn traffic(&self) -> TrafficCounts {
+        self.traffic_counters()
+            .snapshot(self.submission_counts().submissions)
+    }
+
+    /// `wgpu::Device::create_buffer`, counted.
+    pub(crate) fn create_buffer(&self, desc: &wgpu::BufferDescriptor<'_>) -> wgpu::Buffer {
+        self.traffic_counters().buffer(desc.size);
+        self.device().create_buffer(desc)
+    }
+
+    /// `wgpu::Queue::write_buffer`, counted.
+    pub(crate) fn write_buffer(&self, buffer: &wgpu::Buffer, offset: u64, data: &[u8]) {
+        self.traffic_counters().uploaded(data.len() as u64);
+        self.queue().write_buffer(buffer, offset, data);
+    }
+
+    /// `wgpu::Device::create_bind_group`, counted.
+    pub(crate) fn create_bind_group(
+        &self,
+        desc: &wgpu::BindGroupDescriptor<'_>,
+    ) -> wgpu::BindGroup {
+        self.traffic_counters().bind_group();
+        self.device().create_bind_group(desc)
+    }
+}
