@@ -337,6 +337,7 @@ impl SharedDevice for fovea_gpu::GpuContext {
             ("bind_groups_created", t.bind_groups_created),
             ("buffer_maps", t.buffer_maps),
             ("blocking_waits", t.blocking_waits),
+            ("blocked_ns", t.blocked_ns),
             ("submissions", t.submissions),
         ]
         .into_iter()

@@ -570,7 +570,7 @@ fn print_dof(display: &str, rows: &[DofTiming]) {
     }
 }
 
-/// " | bus 12.3 MB up 4.5 MB down, 57 submits, 57 waits" from a frame's device traffic
+/// " | bus 12.3 MB up 4.5 MB down, 57 submits, 57 waits, 80 ms blocked" from a frame's device traffic
 /// (`gpu_traffic_per_frame`); empty when nothing ran on a device.
 fn traffic_summary(t: &BTreeMap<String, u64>) -> String {
     if t.is_empty() {
@@ -578,11 +578,12 @@ fn traffic_summary(t: &BTreeMap<String, u64>) -> String {
     }
     let get = |k: &str| t.get(k).copied().unwrap_or(0);
     format!(
-        " | bus {:.1} MB up {:.1} MB down, {} submits, {} waits",
+        " | bus {:.1} MB up {:.1} MB down, {} submits, {} waits, {:.0} ms blocked",
         get("bytes_uploaded") as f64 / 1e6,
         get("bytes_read_back") as f64 / 1e6,
         get("submissions"),
-        get("blocking_waits")
+        get("blocking_waits"),
+        get("blocked_ns") as f64 / 1e6
     )
 }
 

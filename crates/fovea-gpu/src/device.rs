@@ -309,9 +309,11 @@ impl GpuContext {
     /// submission while both eyes render in lockstep ([`crate::lockstep`]). Every pass of
     /// this crate submits through here.
     pub fn submit(&self, buffers: impl IntoIterator<Item = wgpu::CommandBuffer>) {
+        let since = std::time::Instant::now();
         self.inner
             .gate
             .submit(&self.inner.queue, buffers.into_iter().collect());
+        self.inner.traffic.blocked(since);
     }
 
     /// The device's submission gate.
@@ -410,13 +412,12 @@ impl GpuContext {
 
     /// Blocks until the queue is idle; [`GpuError::DeviceLost`] if it never will be.
     pub fn wait_idle(&self, what: &str) -> Result<()> {
-        self.inner.traffic.waited();
-        self.inner
-            .device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| GpuError::DeviceLost {
-                reason: format!("waiting for {what}: {}", one_line(&e.to_string())),
-            })?;
+        let since = std::time::Instant::now();
+        let polled = self.inner.device.poll(wgpu::PollType::wait_indefinitely());
+        self.inner.traffic.waited(since);
+        polled.map_err(|e| GpuError::DeviceLost {
+            reason: format!("waiting for {what}: {}", one_line(&e.to_string())),
+        })?;
         self.check_health()
     }
 }

@@ -30,6 +30,10 @@ pub struct TrafficCounts {
     pub buffer_maps: u64,
     /// Times the host thread blocked until the queue was idle.
     pub blocking_waits: u64,
+    /// The host threads' time blocked in those waits, in the queue's submit calls and, in
+    /// lockstep, waiting for the other eye's post, nanoseconds (summed over threads). A
+    /// frame's wall time less this is the host's own work on it.
+    pub blocked_ns: u64,
     /// `Queue::submit` calls.
     pub submissions: u64,
 }
@@ -50,6 +54,7 @@ impl TrafficCounts {
                 .saturating_sub(earlier.bind_groups_created),
             buffer_maps: self.buffer_maps.saturating_sub(earlier.buffer_maps),
             blocking_waits: self.blocking_waits.saturating_sub(earlier.blocking_waits),
+            blocked_ns: self.blocked_ns.saturating_sub(earlier.blocked_ns),
             submissions: self.submissions.saturating_sub(earlier.submissions),
         }
     }
@@ -65,6 +70,7 @@ pub(crate) struct Traffic {
     bind_groups_created: AtomicU64,
     buffer_maps: AtomicU64,
     blocking_waits: AtomicU64,
+    blocked_ns: AtomicU64,
 }
 
 impl Traffic {
@@ -87,8 +93,16 @@ impl Traffic {
         self.bind_groups_created.fetch_add(1, Ordering::Relaxed);
     }
 
-    pub(crate) fn waited(&self) {
+    /// A blocking wait for the queue that took `since.elapsed()`.
+    pub(crate) fn waited(&self, since: std::time::Instant) {
         self.blocking_waits.fetch_add(1, Ordering::Relaxed);
+        self.blocked(since);
+    }
+
+    /// Host time blocked (a submit, a wait for the other eye) from `since` until now.
+    pub(crate) fn blocked(&self, since: std::time::Instant) {
+        let ns = u64::try_from(since.elapsed().as_nanos()).unwrap_or(u64::MAX);
+        self.blocked_ns.fetch_add(ns, Ordering::Relaxed);
     }
 
     pub(crate) fn snapshot(&self, submissions: u64) -> TrafficCounts {
@@ -100,6 +114,7 @@ impl Traffic {
             bind_groups_created: self.bind_groups_created.load(Ordering::Relaxed),
             buffer_maps: self.buffer_maps.load(Ordering::Relaxed),
             blocking_waits: self.blocking_waits.load(Ordering::Relaxed),
+            blocked_ns: self.blocked_ns.load(Ordering::Relaxed),
             submissions,
         }
     }

@@ -27,8 +27,11 @@ fn a_tone_map_moves_exactly_its_buffers() {
         let thresholds = srgb8_thresholds().len() as u64;
         let before = ctx.traffic();
         let bytes = gpu.to_srgb8(&img, 0.0, ToneCurve::Clamp).unwrap();
-        let moved = ctx.traffic().since(&before);
+        let mut moved = ctx.traffic().since(&before);
         assert_eq!(bytes.len() as u64, values);
+        // The time blocked is measured, not derived: positive, then left out of the match.
+        assert!(moved.blocked_ns > 0, "{moved:?}");
+        moved.blocked_ns = 0;
         let uploaded = 16 + 4 * values + 4 * thresholds;
         assert_eq!(
             moved,
@@ -40,6 +43,7 @@ fn a_tone_map_moves_exactly_its_buffers() {
                 bind_groups_created: 1,
                 buffer_maps: 1,
                 blocking_waits: 1,
+                blocked_ns: 0,
                 submissions: 1,
             },
             "{w}x{h}"
@@ -57,6 +61,7 @@ fn since_is_the_difference_of_two_snapshots() {
         bind_groups_created: 2,
         buffer_maps: 1,
         blocking_waits: 1,
+        blocked_ns: 1_000,
         submissions: 4,
     };
     let b = TrafficCounts {
@@ -67,6 +72,7 @@ fn since_is_the_difference_of_two_snapshots() {
         bind_groups_created: 2,
         buffer_maps: 3,
         blocking_waits: 2,
+        blocked_ns: 3_500,
         submissions: 9,
     };
     let d = b.since(&a);
@@ -88,6 +94,7 @@ fn since_is_the_difference_of_two_snapshots() {
         ),
         (0, 2, 1, 5)
     );
+    assert_eq!(d.blocked_ns, 2_500);
     // Snapshots in the wrong order saturate instead of wrapping.
     assert_eq!(a.since(&b).bytes_uploaded, 0);
 }

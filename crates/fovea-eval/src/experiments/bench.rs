@@ -785,6 +785,10 @@ impl BenchResult {
                     },
                     "gpu_pass_ms": r.device_pass_ms,
                     "gpu_traffic_per_frame": r.device_traffic,
+                    // The render thread's own time on the frame: its wall time less the
+                    // time it sat blocked in submits and waits for the device.
+                    "host_ms_unblocked": r.device_traffic.get("blocked_ns")
+                        .map(|&ns| s.total_ms - ns as f64 / 1e6),
                     "machine_steal_fraction": r.steal,
                     "cpu_share": r.cpu_share,
                     "screen_allocations_after_warmup": r.screen_allocations,
