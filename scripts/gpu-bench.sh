@@ -25,7 +25,7 @@
 #     device tool carries), else on the built-in scene.
 #
 # Everything prints to stdout and goes to OUT/gpu-bench.md (default $OUT, else ./gpu-bench-out);
-# record what it printed in docs/gpu.md. No step asserts a time.
+# record what it printed in docs/gpu-measurements.md. No step asserts a time.
 #
 # On the lent NVIDIA machine (see the device tool's README): carry `gpu-bench` and `.gl` (the
 # Vulkan loader packages downloaded once here) and begin the command with

@@ -200,7 +200,7 @@ pub enum BackendArg {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum LockstepArg {
     /// On a hardware GPU; off on a CPU-emulated device (lavapipe), whose "device" is the
-    /// cores that run the eyes' CPU work, where it measured slower (docs/gpu.md).
+    /// cores that run the eyes' CPU work, where it measured slower (docs/gpu-measurements.md).
     Auto,
     On,
     Off,

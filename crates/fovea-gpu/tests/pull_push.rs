@@ -7,7 +7,7 @@
 //! value by about an ulp of the values involved. Colours are in [0, 1), so the bound is
 //!
 //! * **filled colour: |GPU − CPU| ≤ [`MAX_DIFF`] = 1e-5 per channel** (~80 ulp at 1.0; the
-//!   measured maximum is in `docs/gpu.md`),
+//!   measured maximum is in `docs/gpu-measurements.md`),
 //! * **shaded colour: identical bits** (those pixels are never written),
 //! * **depth: identical bits** everywhere (a pick, no arithmetic; +∞ where no shaded pixel
 //!   lies within 64 px).
