@@ -26,8 +26,9 @@ use glam::Vec3;
 use super::{Light, Material, Scene};
 use crate::error::{RenderError, Result};
 
-/// Most lights a scene file may bring (as many as `--lights` may generate).
-pub const MAX_FILE_LIGHTS: usize = crate::lights::MAX_LIGHTS as usize;
+/// Most lights a scene file may bring (as many as `--lights` may generate:
+/// `lights::MAX_LIGHTS` is this value).
+pub const MAX_FILE_LIGHTS: usize = 256;
 
 /// The light's kind, its intensity-like field and that field's name.
 fn power_field(l: &mut Light) -> (&'static str, &'static str, &mut Vec3) {
