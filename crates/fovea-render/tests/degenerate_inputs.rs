@@ -334,3 +334,39 @@ fn an_environment_map_over_the_budget_is_reduced_keeping_its_mean() {
     let e = err_text(decode_within(&p, &bytes, 1000));
     assert!(e.contains("sky.hdr") && e.contains("max-memory"), "{e}");
 }
+
+#[test]
+fn a_texture_over_the_memory_budget_falls_back_to_its_flat_colour() {
+    let dir = tempfile::tempdir().unwrap();
+    image::RgbImage::from_pixel(256, 256, image::Rgb([200, 10, 10]))
+        .save(dir.path().join("t.png"))
+        .unwrap();
+    std::fs::write(
+        dir.path().join("m.mtl"),
+        "newmtl tex\nKd 1 1 1\nmap_Kd t.png\n",
+    )
+    .unwrap();
+    let obj = dir.path().join("tex.obj");
+    std::fs::write(
+        &obj,
+        "mtllib m.mtl\nusemtl tex\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n",
+    )
+    .unwrap();
+    // 256 x 256 texels need 2.5 MiB: they fit 8 MiB of memory (half for the texture)...
+    let limits = |mib: u64| LoadLimits {
+        max_memory_bytes: mib << 20,
+        ..LoadLimits::default()
+    };
+    let s = Scene::load_with_limits(&obj, &limits(8)).unwrap();
+    assert_eq!(s.textures.len(), 1, "{:?}", s.warnings);
+    // ...not 4 MiB: refused from the header, named in a warning, the flat colour used.
+    let s = Scene::load_with_limits(&obj, &limits(4)).unwrap();
+    assert!(s.textures.is_empty());
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("t.png") && w.contains("max-memory")),
+        "{:?}",
+        s.warnings
+    );
+}
