@@ -217,11 +217,51 @@ def gaze_seeds():
     put("gaze_csv", "decreasing.csv", "t,x,y\n1,1,1\n0.5,2,2\n")
 
 
+def rgbe_header(w, h):
+    return f"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n".encode()
+
+
+def envmap_seeds():
+    """Radiance RGBE in its three scanline forms, damaged ones, and a small PNG."""
+    w, h = 16, 8
+    px = [bytes([(7 * i) % 256, (3 * j) % 256, 100, 128 + (i + j) % 4])
+          for j in range(h) for i in range(w)]
+    flat = rgbe_header(w, h) + b"".join(px)
+    put("envmap", "flat.hdr", flat)
+    rle = bytearray(rgbe_header(w, h))
+    for j in range(h):
+        rle += bytes([2, 2, 0, w])
+        row = px[j * w:(j + 1) * w]
+        for c in range(4):
+            # One literal run of 8, then one repeat run of 8.
+            rle += bytes([8]) + bytes(p[c] for p in row[:8]) + bytes([128 + 8, row[8][c]])
+    put("envmap", "rle.hdr", bytes(rle))
+    old = rgbe_header(4, 2) + bytes([10, 20, 30, 129, 1, 1, 1, 3]) * 2
+    put("envmap", "old-rle.hdr", old)
+    put("envmap", "truncated.hdr", bytes(rle[:len(rle) // 2]))
+    put("envmap", "run-overflow.hdr", rgbe_header(8, 1) + bytes([2, 2, 0, 8, 128 + 9, 1]) + bytes(16))
+    put("envmap", "huge-header.hdr", rgbe_header(65536, 65536))
+    put("envmap", "xyze.hdr", b"#?RADIANCE\nFORMAT=32-bit_rle_xyze\n\n-Y 2 +X 2\n" + bytes(16))
+    put("envmap", "flipped.hdr", b"#?RADIANCE\n\n+Y 2 +X 2\n" + bytes(16))
+    # An 8x4 grey PNG (zlib-stored IDAT), written by hand.
+    import zlib
+    raw = b"".join(b"\0" + bytes([128, 128, 128]) * 8 for _ in range(4))
+
+    def chunk(t, d):
+        c = struct.pack(">I", len(d)) + t + d
+        return c + struct.pack(">I", zlib.crc32(t + d) & 0xffffffff)
+    png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 8, 4, 8, 2, 0, 0, 0))
+           + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+    put("envmap", "sky.png", png)
+    put("envmap", "junk.exr", b"not an image at all")
+
+
 if __name__ == "__main__":
     gltf_seeds()
     obj_seeds()
     ply_seeds()
     mitsuba_seeds()
     gaze_seeds()
+    envmap_seeds()
     for d in sorted(OUT.iterdir()):
         print(f"{d.name}: {len(list(d.iterdir()))} files")

@@ -47,9 +47,22 @@ case_() {
   local log="$work/logs/$n"
   (
     ulimit -v $((mem_mb * 1024))
+    if [ -n "${rss_limit_mb:-}" ]; then
+      exec python3 "$work/rss.py" "$log.rss" timeout -k 5 "$timeout_s" "$bin" "$@"
+    fi
     exec timeout -k 5 "$timeout_s" "$bin" "$@"
   ) >"$log.out" 2>"$log.err" </dev/null
   local rc=$?
+  # With rss_limit_mb set: the command's peak resident memory, in the case's name and
+  # checked against the limit.
+  local rss_why=""
+  if [ -n "${rss_limit_mb:-}" ]; then
+    local rss_mb
+    rss_mb=$(($(cat "$log.rss" 2>/dev/null || echo 0) / 1024))
+    name="$name (max RSS $rss_mb MiB)"
+    echo "hostile-suite: $name" >&2
+    if [ "$rss_mb" -gt "$rss_limit_mb" ]; then rss_why="max RSS $rss_mb MiB over $rss_limit_mb MiB"; fi
+  fi
   local first lines why=""
   first="$(head -n 1 "$log.err" | sed "s|$work|\$TMP|g; s/|/\\\\|/g")"
   lines="$(grep -c '' "$log.err")"
@@ -77,6 +90,7 @@ case_() {
       !*) cat "$log.out" "$log.err" | grep -Eq -- "$pat" && why="output matches /$pat/" ;;
     esac
   fi
+  if [ -z "$why" ] && [ -n "$rss_why" ]; then why="$rss_why"; fi
   local status="$rc"
   if [ -n "$why" ]; then
     failed=$((failed + 1))
@@ -144,6 +158,14 @@ printf 'v -3e38 0 0\nv 3e38 0 0\nv 0 3e38 0\nf 1 2 3\n' >"$scenes/huge.obj"
   echo '</scene>'
 } >"$scenes/shapes-8000.xml"
 mkfifo "$scenes/gaze.fifo"
+# rss.py LOG COMMAND...: runs COMMAND, writes its peak resident memory (KiB, the largest of
+# the processes it waited for) to LOG and exits with its code.
+cat >"$work/rss.py" <<'EOF'
+import resource, subprocess, sys
+rc = subprocess.call(sys.argv[2:])
+open(sys.argv[1], "w").write(str(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss))
+sys.exit(rc if rc >= 0 else 128 - rc)
+EOF
 
 # --- cases -------------------------------------------------------------------------------
 case_ "glTF buffer URI /dev/zero" 2 '+outside the scene' -- "${R[@]}" --scene "$d/buffer-dev-zero.gltf"
@@ -197,6 +219,93 @@ case_ "--max-memory 1e30 (more than any machine)" any -- "${R[@]}" --max-memory 
 case_ "gaze CSV /dev/zero" 2 '+not a regular file' -- sequence --res 64x72 --frames 2 --video off -q --gaze-csv /dev/zero --out "$out/gz"
 case_ "gaze CSV: a FIFO" 2 '+not a regular file' -- sequence --res 64x72 --frames 2 --video off -q --gaze-csv "$scenes/gaze.fifo" --out "$out/gf"
 case_ "camera path /dev/zero" 2 '+not a regular file' -- sequence --res 64x72 --frames 2 --video off -q --camera-path /dev/zero --out "$out/cp"
+
+# --- issue 39: geometry, lights, ranges, memory -----------------------------------------------
+# Degenerate geometry (BVH build time from the JSON stats, in this log), a 1M-deep glTF node
+# chain, 10,000 file lights, values outside their physical ranges, and memory: an 8192x4096
+# run-length .hdr under --max-memory 256M and a 10M-row gaze CSV, each with its peak RSS.
+i39="$scenes/i39"
+mkdir -p "$i39"
+{ printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\n'; yes 'f 1 2 3' | head -n 100000; } >"$i39/dup-100k.obj"
+{
+  echo '<scene version="0.6.0">'
+  yes '<shape type="cube"/>' | head -n 16000
+  echo '</scene>'
+} >"$i39/cubes-16000.xml"
+python3 - "$i39" <<'EOF'
+import base64, struct, sys
+d = sys.argv[1]
+tri = base64.b64encode(struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0)).decode()
+def gltf(nodes, roots, extra=""):
+    return ('{"asset":{"version":"2.0"},"extensionsUsed":["KHR_lights_punctual"],"scene":0,'
+            '"scenes":[{"nodes":[%s]}],"nodes":[%s],'
+            '"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],'
+            '"buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,%s"}],'
+            '"bufferViews":[{"buffer":0,"byteLength":36}],'
+            '"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3",'
+            '"min":[0,0,0],"max":[1,1,0]}]%s}' % (roots, nodes, tri, extra))
+n = 1_000_000
+with open(f"{d}/chain-1M.gltf", "w") as f:
+    f.write(gltf(",".join('{"children":[%d]}' % (k + 1) for k in range(n - 1)) + ',{"mesh":0}', "0"))
+def lights(ls):
+    nodes = '{"mesh":0},' + ",".join(
+        '{"translation":[%g,%g,2],"extensions":{"KHR_lights_punctual":{"light":%d}}}'
+        % (k % 100 * 0.01, k // 100 * 0.01, k) for k in range(len(ls)))
+    roots = ",".join(str(k) for k in range(len(ls) + 1))
+    return gltf(nodes, roots, ',"extensions":{"KHR_lights_punctual":{"lights":[%s]}}' % ",".join(ls))
+open(f"{d}/lights-10000.gltf", "w").write(
+    lights(['{"type":"point","intensity":%d}' % (1 + k % 50) for k in range(10000)]))
+open(f"{d}/light-negative.gltf", "w").write(lights(['{"type":"point","intensity":-1000}']))
+open(f"{d}/light-infinite.gltf", "w").write(lights(['{"type":"point","intensity":1e39}']))
+open(f"{d}/yfov-3.2.gltf", "w").write(gltf(
+    '{"mesh":0},{"translation":[0.3,0.3,2],"camera":0}', "0,1",
+    ',"cameras":[{"type":"perspective","perspective":{"yfov":3.2,"znear":0.1}}]'))
+# An 8192 x 4096 Radiance map in 2 MB of adaptive runs (127-pixel runs of one value).
+w, h = 8192, 4096
+with open(f"{d}/big.hdr", "wb") as f:
+    f.write(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y %d +X %d\n" % (h, w))
+    for j in range(h):
+        line = bytearray([2, 2, w >> 8, w & 255])
+        for c in range(4):
+            x = 0
+            while x < w:
+                r = min(127, w - x)
+                line += bytes([128 + r, 128 + 60 * j // h if c < 3 else 129])
+                x += r
+        f.write(line)
+EOF
+cat >"$i39/big-env.xml" <<'EOF'
+<scene version="0.6.0"><shape type="cube"/><emitter type="envmap"><string name="filename" value="big.hdr"/></emitter></scene>
+EOF
+cat >"$i39/point-negative.xml" <<'EOF'
+<scene version="0.6.0"><shape type="cube"/><emitter type="point"><point name="position" x="0" y="3" z="3"/><rgb name="intensity" value="-100"/></emitter></scene>
+EOF
+{ echo 't,x,y'; yes '1,2,3' | head -n 10000001; } >"$i39/gaze-10M.csv"
+S39=(render --res 64x64 -q --method full --out "$out/r39.png" --stats "$out/s39.json")
+bvh_ms() { grep -o '"bvh_build_ms": *[0-9.e+-]*' "$out/s39.json" 2>/dev/null | sed 's/.*: *//'; }
+secs() { python3 -c "import sys; print(f'{float(sys.argv[2]) - float(sys.argv[1]):.2f}')" "$1" "$(date +%s.%N)"; }
+rm -f "$out/s39.json"
+case_ "100k copies of one triangle (OBJ)" 0 '+warning: 99999 triangle.s. repeat' -- "${S39[@]}" --lights 1 --scene "$i39/dup-100k.obj"
+echo "hostile-suite: 100k duplicate triangles: bvh_build_ms $(bvh_ms)" >&2
+rm -f "$out/s39.json"
+case_ "16,000 identical Mitsuba cubes" 0 '+repeat an earlier one' -- "${S39[@]}" --lights 1 --scene "$i39/cubes-16000.xml"
+echo "hostile-suite: 16,000 identical cubes: bvh_build_ms $(bvh_ms)" >&2
+t0=$(date +%s.%N)
+case_ "glTF node chain 1,000,000 deep" 0 -- "${S39[@]}" --lights 1 --scene "$i39/chain-1M.gltf"
+echo "hostile-suite: 1M-deep glTF chain: $(secs "$t0") s in all" >&2
+t0=$(date +%s.%N)
+case_ "10,000 glTF point lights" 0 '+kept the 256 strongest' -- "${S39[@]}" --scene "$i39/lights-10000.gltf"
+echo "hostile-suite: 10,000 file lights at 64x64: $(secs "$t0") s" >&2
+case_ "glTF light intensity -1000" 0 '+warning: .*negative intensity' -- "${S39[@]}" --scene "$i39/light-negative.gltf"
+case_ "glTF light intensity 1e39 (infinite)" 2 '+intensity' -- "${S39[@]}" --scene "$i39/light-infinite.gltf"
+case_ "Mitsuba point light intensity -100" 0 '+warning: .*negative intensity' -- "${S39[@]}" --scene "$i39/point-negative.xml"
+case_ "glTF yfov 3.2 rad" 0 '+warning: .*yfov' -- "${S39[@]}" --lights 1 --scene "$i39/yfov-3.2.gltf"
+rss_limit_mb=256
+case_ "8192x4096 RLE .hdr, --max-memory 256M" 0 '+note: environment map' -- "${R[@]}" --method full --scene "$i39/big-env.xml" --max-memory 256M
+rss_limit_mb=100
+case_ "gaze CSV of 10,000,001 rows" 2 '+data rows' -- sequence --res 64x72 --frames 2 --video off -q --gaze-csv "$i39/gaze-10M.csv" --out "$out/g39"
+unset rss_limit_mb
+rm -f "$i39/gaze-10M.csv" "$i39/chain-1M.gltf"
 
 elapsed=$(($(date +%s) - start))
 echo "$table"

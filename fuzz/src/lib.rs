@@ -14,6 +14,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use fovea_core::gaze::csv::{parse_csv, CsvOptions, GapPolicy};
+use fovea_render::scene::environment::file::decode_within;
 use fovea_render::scene::{gltf, Scene};
 
 /// What a reader made of one input.
@@ -175,6 +176,34 @@ pub fn gaze_csv(data: &[u8]) -> Outcome {
                         }
                     }
                     Err(e) => refused(e),
+                }
+            }
+            Err(e) => refused(e),
+        };
+        first.get_or_insert(outcome);
+    }
+    first.expect("two runs")
+}
+
+/// An environment map through `environment::file::decode_within` (what a Mitsuba `envmap`
+/// runs), as `env.hdr` (the decoder is chosen by the content: Radiance RGBE by its `#?`
+/// signature, else OpenEXR, PNG or JPEG by `image`'s detection), twice: within 64 MiB of
+/// memory and within 1 MiB, where any map of more than about 16,000 pixels is reduced while
+/// it decodes. The reduced map must hold finite, non-negative radiance.
+pub fn envmap(data: &[u8]) -> Outcome {
+    let path = std::path::Path::new("env.hdr");
+    let mut first = None;
+    for budget in [64u64 << 20, 1 << 20] {
+        let outcome = match decode_within(path, data, budget) {
+            Ok((map, note)) => {
+                let m = map.mean();
+                assert!(m.is_finite() && m.min_element() >= 0.0, "mean radiance {m}");
+                if let Some(n) = &note {
+                    assert!(!n.contains('\n'), "a note must be one line: {n:?}");
+                }
+                Outcome::Loaded {
+                    items: (map.width() * map.height()) as usize,
+                    warnings: note.is_some() as usize,
                 }
             }
             Err(e) => refused(e),

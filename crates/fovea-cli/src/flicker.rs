@@ -148,7 +148,11 @@ pub fn params(args: &FlickerArgs) -> Result<FlickerParams> {
 pub fn run(args: FlickerArgs) -> Result<()> {
     check_sequence(args.frames as usize, args.fps)?;
     let params = params(&args)?;
-    let prepared = prepare(&args.scene, &args.display, Headset::VivePro)?;
+    let prepared = prepare(
+        &args.scene.within_memory(params.frame.memory_limit_bytes),
+        &args.display,
+        Headset::VivePro,
+    )?;
     let display = prepared.camera.display.clone();
     let duration_s = args.frames as f64 / args.fps;
     let gaze_csv_text = read_gaze_csv(args.gaze_csv.as_deref())?;

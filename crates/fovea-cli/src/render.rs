@@ -298,7 +298,11 @@ pub fn run(args: RenderArgs) -> Result<()> {
         .validate()?;
     }
     let memory_limit = memory_limit(args.max_memory.as_deref())?;
-    let prepared = prepare(&args.scene, &args.display, Headset::VivePro)?;
+    let prepared = prepare(
+        &args.scene.within_memory(memory_limit),
+        &args.display,
+        Headset::VivePro,
+    )?;
     let display = prepared.camera.display.clone();
     let gaze = args.gaze.resolve(&display, &prepared.camera)?;
     let mut settings = FrameSettings::new(method);

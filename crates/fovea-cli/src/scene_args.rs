@@ -52,6 +52,21 @@ pub struct SceneArgs {
     /// Render even when the camera seems to be inside a closed mesh.
     #[arg(long)]
     pub allow_inside: bool,
+    /// The command's `--max-memory` (bytes), which bounds what loading may decode (an
+    /// environment map is reduced to fit): set with [`SceneArgs::within_memory`].
+    #[arg(skip)]
+    #[serde(skip)]
+    pub max_memory_bytes: Option<u64>,
+}
+
+impl SceneArgs {
+    /// These arguments with the command's memory limit for loading.
+    pub fn within_memory(&self, max_memory_bytes: u64) -> Self {
+        Self {
+            max_memory_bytes: Some(max_memory_bytes),
+            ..self.clone()
+        }
+    }
 }
 
 /// Parses `X,Y,Z`.
@@ -74,13 +89,20 @@ pub fn load_scene(args: &SceneArgs) -> Result<Scene> {
     let path = Path::new(&args.scene);
     let looks_like_file = path.extension().is_some() || args.scene.contains('/');
     let mut scene = if looks_like_file {
-        Scene::load(path)?
+        let limits = fovea_render::scene::LoadLimits {
+            max_memory_bytes: args.max_memory_bytes.unwrap_or(u64::MAX),
+            ..Default::default()
+        };
+        Scene::load_with_limits(path, &limits)?
     } else {
         builtin::by_name(&args.scene)?
     };
     scene.scale_to_metres(args.scene_scale)?;
     for w in &scene.warnings {
-        eprintln!("warning: {w}");
+        match w.strip_prefix("note: ") {
+            Some(note) => eprintln!("note: {note}"),
+            None => eprintln!("warning: {w}"),
+        }
     }
     Ok(scene)
 }
@@ -180,6 +202,11 @@ pub fn load(args: &SceneArgs) -> Result<Loaded> {
     let backend = args.bvh.map_or_else(Backend::best_available, Backend::from);
     let desc = camera_desc(args, &scene)?;
     let world = World::new(scene, backend)?;
+    if world.duplicate_triangles > 0 {
+        if let Some(w) = world.scene.warnings.last() {
+            eprintln!("warning: {w}");
+        }
+    }
     let eye = Eye::from(args.eye);
     let rig = HmdRig::new(desc.position, desc.forward, desc.up, args.ipd)?;
     if args.lights.is_none() && world.lights.is_empty() {

@@ -151,7 +151,21 @@ pub fn csv_trajectory(
 /// The text of `--gaze-csv`, read once (it decides the gaze and, hashed, whether a folder
 /// resumes).
 pub fn read_gaze_csv(p: Option<&Path>) -> Result<Option<String>> {
-    p.map(|p| read_text_input(p, "gaze CSV")).transpose()
+    p.map(|p| {
+        // The row limit first, one line at a time, so an oversized recording is refused
+        // without holding its text (a regular file only; read_text_input names the rest).
+        if std::fs::metadata(p).is_ok_and(|m| m.is_file()) {
+            if let Ok(f) = std::fs::File::open(p) {
+                fovea_core::gaze::csv::check_row_count(
+                    std::io::BufReader::new(f),
+                    CsvOptions::default().max_rows,
+                )
+                .with_context(|| format!("gaze CSV {}", p.display()))?;
+            }
+        }
+        read_text_input(p, "gaze CSV")
+    })
+    .transpose()
 }
 
 pub fn run(args: SequenceArgs) -> Result<()> {
@@ -180,7 +194,11 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     };
     let contrast = args.temporal_opts.contrast()?;
     let memory_limit = memory_limit(args.max_memory.as_deref())?;
-    let prepared = prepare(&args.scene, &args.display, Headset::VivePro)?;
+    let prepared = prepare(
+        &args.scene.within_memory(memory_limit),
+        &args.display,
+        Headset::VivePro,
+    )?;
     let display = prepared.camera.display.clone();
     let duration_s = args.frames as f64 / args.fps;
     let gaze_csv_text = read_gaze_csv(args.gaze_csv.as_deref())?;

@@ -165,7 +165,11 @@ pub fn run(args: ViewArgs) -> Result<()> {
     args.options.warn_inapplicable(&[method]);
     args.exposure.asked()?;
     let memory_limit = crate::render::memory_limit(args.max_memory.as_deref())?;
-    let prepared = prepare(&args.scene, &args.display, Headset::VivePro)?;
+    let prepared = prepare(
+        &args.scene.within_memory(memory_limit),
+        &args.display,
+        Headset::VivePro,
+    )?;
     let display = prepared.camera.display.clone();
     let mut base = FrameSettings::new(method);
     base.mapping = config;

@@ -13,9 +13,8 @@
 //! the primary rays on the device from their screen points instead.
 
 use bytemuck::{Pod, Zeroable};
-use obvhs::bvh2::builder::build_bvh2_from_tris;
+use obvhs::bvh2::leaf_collapser::collapse;
 use obvhs::bvh2::node::Bvh2Node;
-use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
 
 use crate::device::GpuContext;
@@ -269,18 +268,20 @@ impl GpuTracer {
                 slots: Vec::new(),
             });
         }
-        let input: Vec<Triangle> = triangles
-            .iter()
-            .map(|t| Triangle {
-                v0: t[0].into(),
-                v1: t[1].into(),
-                v2: t[2].into(),
-            })
-            .collect();
-        let bvh = build_bvh2_from_tris(
-            &input,
-            BvhBuildParams::medium_build(),
-            &mut std::time::Duration::default(),
+        // The CPU backend's binary BVH (`fovea_render::bvh::same_box`): exact duplicates left
+        // out and triangles sharing a box gathered, so degenerate input builds in O(n log n)
+        // (PLOC alone is quadratic on it; no hit changes), then collapsed to obvhs' leaves.
+        // A duplicate's slot is its first occurrence's.
+        let verts: Vec<[glam::Vec3; 3]> =
+            triangles.iter().map(|t| t.map(glam::Vec3::from)).collect();
+        let distinct = fovea_render::bvh::Distinct::of(&verts);
+        let params = BvhBuildParams::medium_build();
+        let mut bvh = fovea_render::bvh::same_box::build_bvh2(&verts, &distinct);
+        drop(verts);
+        collapse(
+            &mut bvh,
+            params.max_prims_per_leaf.clamp(1, 255),
+            params.collapse_traversal_cost,
         );
         let depth = tree_depth(&bvh.nodes);
         check_depth(depth)?;
@@ -300,6 +301,11 @@ impl GpuTracer {
         let mut slots = vec![0u32; triangles.len()];
         for (slot, &i) in bvh.primitive_indices.iter().enumerate() {
             slots[i as usize] = slot as u32;
+        }
+        if let Some(first) = &distinct.first {
+            for (k, &f) in first.iter().enumerate() {
+                slots[k] = slots[f as usize];
+            }
         }
         let build_ms = t0.elapsed().as_secs_f64() * 1e3;
         ctx.check_storage_binding(

@@ -338,3 +338,62 @@ fn empty_scenes_bad_triangles_and_bad_rays() {
     assert_eq!(&hits[1..], &[None, None]);
     assert_eq!(one.closest_hits(&[]).unwrap(), vec![]);
 }
+
+/// Degenerate geometry (issue 39): 20,000 copies of one triangle, 5,000 different triangles
+/// sharing one box, and a soup. The tree is built over one copy and a balanced subtree per
+/// box (`fovea_render::bvh::same_box`), stays shallow, and the GPU's closest hits match brute
+/// force's (a copy's hit is reported as its first occurrence, which brute force also picks).
+#[test]
+fn duplicate_and_same_box_triangles_trace_as_brute_force() {
+    let Some(ctx) = gpu_or_skip("duplicate_and_same_box_triangles_trace_as_brute_force") else {
+        return;
+    };
+    let mut rng = Pcg64::seed_from_u64(39);
+    let mut tris = soup(&mut rng);
+    let one: Tri = [[-2.0, -2.0, 0.5], [3.0, -1.0, 0.5], [0.0, 3.0, 0.6]];
+    tris.extend(std::iter::repeat_n(one, 20_000));
+    tris.extend((0..5000).map(|k| {
+        let s = 0.4 * k as f32 / 5000.0;
+        [
+            [-4.0, -4.0, -1.0],
+            [4.0, 4.0, -1.0],
+            [-4.0 + 8.0 * s, 4.0 - 8.0 * s, -1.0],
+        ]
+    }));
+    let gpu = GpuTracer::new(&ctx, &tris).unwrap();
+    let stats = gpu.stats();
+    assert_eq!(stats.triangles, tris.len());
+    assert!(stats.depth <= 65, "{stats:?}");
+    let rays = rays(&mut rng, 4000);
+    let hits = gpu.closest_hits(&rays).unwrap();
+    let (mut hit_count, mut disagree) = (0, 0);
+    for (r, g) in rays.iter().zip(&hits) {
+        match (g, brute_closest(&tris, r)) {
+            (None, None) => {}
+            (Some(g), Some((t, tri))) => {
+                hit_count += 1;
+                assert!(close(g.t, t), "{r:?}: GPU t {} against {t}", g.t);
+                if g.tri != tri {
+                    let other = t_of(&tris, g.tri, r).expect("the GPU's triangle is hit");
+                    assert!(
+                        close(other, t),
+                        "{r:?}: GPU tri {} at {other}, CPU {tri}",
+                        g.tri
+                    );
+                }
+                // Never a later copy of the repeated triangle.
+                assert!(tris[g.tri as usize] != one || g.tri == 2000, "{g:?}");
+            }
+            _ => disagree += 1,
+        }
+    }
+    println!(
+        "{hit_count} of {} rays hit; {disagree} on one side only; {stats:?}",
+        rays.len()
+    );
+    assert!(hit_count > rays.len() / 10, "{hit_count}");
+    assert!(
+        disagree * 1000 <= rays.len(),
+        "{disagree} rays disagree on hit/miss"
+    );
+}

@@ -18,8 +18,8 @@ use crate::error::{RenderError, Result};
 use crate::scene::Light;
 use crate::world::World;
 
-/// Most generated lights.
-pub const MAX_LIGHTS: u32 = 256;
+/// Most generated lights (as many as a scene file may bring, `scene::ranges`).
+pub const MAX_LIGHTS: u32 = crate::scene::ranges::MAX_FILE_LIGHTS as u32;
 
 /// `n` point lights in free space in front of `camera`.
 pub fn view_lights(world: &World, camera: &EyeCamera, n: u32) -> Result<Vec<Light>> {

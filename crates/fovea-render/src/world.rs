@@ -22,19 +22,27 @@ pub struct World {
     pub uv_per_metre: Vec<f32>,
     /// Lights used for shading (the scene's, or generated ones, see `crate::lights`).
     pub lights: Vec<Light>,
-    /// BVH build time, milliseconds.
+    /// BVH build time, milliseconds (the search for exact duplicates included).
     pub build_ms: f64,
+    /// Exact duplicate triangles, held once by the BVH (see [`bvh::Distinct`]).
+    pub duplicate_triangles: usize,
     /// FNV-1a of the triangles' vertex bits: which geometry another executor of the trace
     /// stage must have been built from (see `pipeline::TraceExecutor::serves`).
     pub tris_fingerprint: u64,
 }
 
 impl World {
-    /// Flattens `scene`, builds the BVH of `backend` and takes the scene's lights.
-    pub fn new(scene: Scene, backend: Backend) -> Result<Self> {
+    /// Flattens `scene`, builds the BVH of `backend` and takes the scene's lights. Exact
+    /// duplicate triangles are held once by the BVH, with a warning pushed to
+    /// `scene.warnings` (see [`bvh::Distinct`]).
+    pub fn new(mut scene: Scene, backend: Backend) -> Result<Self> {
         let tris = Triangles::of_scene(&scene);
         let t0 = Instant::now();
-        let caster = bvh::build(backend, &tris)?;
+        let distinct = bvh::Distinct::of(&tris.verts);
+        if let Some(w) = distinct.warning() {
+            scene.warnings.push(w);
+        }
+        let caster = bvh::build_distinct(backend, &tris, &distinct)?;
         let build_ms = t0.elapsed().as_secs_f64() * 1e3;
         let uv_per_metre = tris
             .source
@@ -65,6 +73,7 @@ impl World {
             uv_per_metre,
             lights,
             build_ms,
+            duplicate_triangles: distinct.duplicates,
             tris_fingerprint,
         })
     }

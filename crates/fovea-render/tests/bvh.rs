@@ -356,3 +356,147 @@ fn obvhs_packets_give_the_single_ray_and_brute_force_hits_exactly() {
     println!("{total} rays, {hits} hits, all equal");
     assert!(hits > total / 4 && hits < total, "{hits} of {total}");
 }
+
+/// Degenerate geometry (issue 39): many exact copies of a triangle, identical cubes on one
+/// spot, copies with their vertices listed in another order (coincident, not bit-identical),
+/// among a few ordinary triangles. Every backend must give the brute-force scan's closest hit
+/// exactly (distance, triangle: the lowest index among copies, barycentrics) and the same
+/// occlusion, for rays through the copies and around them.
+fn degenerate_scene() -> Triangles {
+    let mut rng = Pcg64::seed_from_u64(39);
+    let mut tris = soup(40, &mut rng);
+    let one = [
+        Vec3::new(0.2, 0.2, 0.5),
+        Vec3::new(0.8, 0.3, 0.5),
+        Vec3::new(0.4, 0.9, 0.55),
+    ];
+    // A unit cube's 12 triangles at (0.3, 0.3, 0.3), side 0.4.
+    let cube: Vec<[Vec3; 3]> = {
+        let c = |x: f32, y: f32, z: f32| Vec3::new(0.3, 0.3, 0.3) + 0.4 * Vec3::new(x, y, z);
+        let q = |a, b, cc, d| [[a, b, cc], [a, cc, d]];
+        [
+            q(c(0., 0., 0.), c(1., 0., 0.), c(1., 1., 0.), c(0., 1., 0.)),
+            q(c(0., 0., 1.), c(1., 0., 1.), c(1., 1., 1.), c(0., 1., 1.)),
+            q(c(0., 0., 0.), c(0., 1., 0.), c(0., 1., 1.), c(0., 0., 1.)),
+            q(c(1., 0., 0.), c(1., 1., 0.), c(1., 1., 1.), c(1., 0., 1.)),
+            q(c(0., 0., 0.), c(1., 0., 0.), c(1., 0., 1.), c(0., 0., 1.)),
+            q(c(0., 1., 0.), c(1., 1., 0.), c(1., 1., 1.), c(0., 1., 1.)),
+        ]
+        .into_iter()
+        .flatten()
+        .collect()
+    };
+    let mut push = |t: [Vec3; 3]| {
+        let k = tris.verts.len() as u32;
+        tris.verts.push(t);
+        tris.source.push((1, k));
+    };
+    for k in 0..3000 {
+        push(one);
+        if k % 10 == 0 {
+            // The same triangle, vertices rotated: coincident but not a duplicate.
+            push([one[1], one[2], one[0]]);
+        }
+    }
+    for _ in 0..200 {
+        for &t in &cube {
+            push(t);
+        }
+    }
+    tris
+}
+
+fn check_degenerate(backend: Backend) {
+    let tris = degenerate_scene();
+    let reference = build(Backend::BruteForce, &tris).unwrap();
+    let caster = build(backend, &tris).unwrap();
+    let mut rng = Pcg64::seed_from_u64(40);
+    let mut rays = rays(3000, &mut rng);
+    // Rays aimed at the copied triangle and through the cube, from both sides.
+    for k in 0..1000 {
+        let target = Vec3::new(
+            0.25 + 0.5 * rng.random::<f32>(),
+            0.25 + 0.6 * rng.random::<f32>(),
+            0.5,
+        );
+        let o = Vec3::new(
+            rng.random(),
+            rng.random(),
+            if k % 2 == 0 { -1.0 } else { 2.0 },
+        );
+        rays.push(Ray::new(o, target - o, 1e-4, f32::INFINITY));
+    }
+    // obvhs runs our triangle test: hits equal bit for bit. Embree runs its own, so its
+    // distances agree to rounding and a tie between coincident triangles may go to another
+    // copy of the same vertices.
+    let exact = backend == Backend::Obvhs;
+    let same = |a: Option<fovea_render::bvh::Hit>, b: Option<fovea_render::bvh::Hit>| {
+        if exact {
+            return a == b;
+        }
+        match (a, b) {
+            (None, None) => true,
+            (Some(a), Some(b)) => {
+                let set = |t: u32| {
+                    let mut v = tris.verts[t as usize].map(|p| p.to_array());
+                    v.sort_by(|x, y| x.partial_cmp(y).unwrap());
+                    v
+                };
+                (a.t - b.t).abs() <= 1e-5 * a.t.max(1.0)
+                    && (a.tri == b.tri || set(a.tri) == set(b.tri))
+            }
+            _ => false,
+        }
+    };
+    let mut hits = 0;
+    for r in &rays {
+        let want = reference.intersect(r);
+        let got = caster.intersect(r);
+        assert!(
+            same(want, got),
+            "{backend:?}: {r:?}: {got:?}, brute force {want:?}"
+        );
+        hits += want.is_some() as usize;
+        assert_eq!(
+            caster.occluded(r),
+            reference.occluded(r),
+            "{backend:?}: {r:?}"
+        );
+    }
+    let mut batch = vec![None; rays.len()];
+    caster.intersect_batch(&rays, &mut batch);
+    for (r, b) in rays.iter().zip(&batch) {
+        let want = reference.intersect(r);
+        assert!(
+            same(want, *b),
+            "{backend:?} batch: {r:?}: {b:?}, brute force {want:?}"
+        );
+    }
+    println!(
+        "{backend:?}: {} triangles, {hits} hits of {} rays",
+        tris.len(),
+        rays.len()
+    );
+    assert!(hits > 1000, "too few hits to mean anything: {hits}");
+}
+
+#[test]
+fn obvhs_on_duplicate_and_coincident_triangles_matches_brute_force() {
+    check_degenerate(Backend::Obvhs);
+}
+
+#[cfg(feature = "embree")]
+#[test]
+fn embree_on_duplicate_and_coincident_triangles_matches_brute_force() {
+    check_degenerate(Backend::Embree);
+}
+
+#[test]
+fn exact_duplicates_are_counted_for_the_warning() {
+    let tris = degenerate_scene();
+    let d = fovea_render::bvh::Distinct::of(&tris.verts);
+    // 2999 copies of the triangle, 199 · 12 of the cube's; the rotated copies repeat each
+    // other (299 of them after the first).
+    assert_eq!(d.duplicates, 2999 + 199 * 12 + 299);
+    assert!(d.warning().unwrap().contains(&d.duplicates.to_string()));
+}

@@ -16,13 +16,14 @@ use harness::Outcome;
 /// A fuzz target's harness function.
 type Target = fn(&[u8]) -> Outcome;
 
-const TARGETS: [(&str, Target); 6] = [
+const TARGETS: [(&str, Target); 7] = [
     ("gltf", harness::gltf),
     ("glb", harness::glb),
     ("obj", harness::obj),
     ("ply", harness::ply),
     ("mitsuba", harness::mitsuba),
     ("gaze_csv", harness::gaze_csv),
+    ("envmap", harness::envmap),
 ];
 
 #[test]
@@ -89,6 +90,9 @@ fn the_seeds_give_their_expected_outcomes() {
         harness::gaze_csv(&seed("gaze_csv", "pixels.csv")),
         "pixels.csv",
     );
+    for p in ["rle.hdr", "flat.hdr", "old-rle.hdr", "sky.png"] {
+        loads(harness::envmap(&seed("envmap", p)), p);
+    }
     // Refused without reading the device.
     match harness::gltf(&seed("gltf", "dev-zero-buffer.gltf")) {
         Outcome::Refused(e) => assert!(e.contains("/dev/zero"), "{e}"),

@@ -393,11 +393,7 @@ pub fn parse_csv(
     for (line_no, line) in lines {
         report.rows += 1;
         if report.rows > opts.max_rows {
-            return Err(FoveaError::ResourceLimit {
-                what: "gaze CSV".into(),
-                needed: format!("more than {} data rows", opts.max_rows),
-                limit: format!("{} rows (split the recording)", opts.max_rows),
-            });
+            return Err(row_limit(opts.max_rows));
         }
         let f = fields(line, delim);
         let cell = |i: usize| f.get(i).copied().unwrap_or("");
@@ -570,6 +566,58 @@ pub fn parse_csv(
     }
     let traj = GazeTrajectory::new(samples, width_px, height_px)?;
     Ok((traj, report))
+}
+
+/// Counts the data rows of a gaze CSV read from `reader` one line at a time (memory: the
+/// longest line), the rows [`parse_csv`] counts (after the header; blank lines and `#`
+/// comments skipped), and refuses more than `max_rows` as soon as the count passes it, with
+/// the error [`parse_csv`] gives. Run it on a file before reading the file's text, so a
+/// recording of 10 million rows is refused without holding it (issue 39).
+pub fn check_row_count<R: std::io::BufRead>(mut reader: R, max_rows: usize) -> Result<usize> {
+    let mut line = Vec::new();
+    let mut rows = 0usize;
+    let mut header_seen = false;
+    let mut first = true;
+    loop {
+        line.clear();
+        let n = reader.read_until(b'\n', &mut line).map_err(|e| {
+            FoveaError::invalid(
+                "gaze CSV",
+                format!("unreadable: {e}"),
+                "a readable text file",
+            )
+        })?;
+        if n == 0 {
+            break;
+        }
+        let mut l: &[u8] = &line;
+        if first {
+            l = l.strip_prefix("\u{feff}".as_bytes()).unwrap_or(l);
+            first = false;
+        }
+        let t = l.trim_ascii();
+        if t.is_empty() || t.starts_with(b"#") {
+            continue;
+        }
+        if !header_seen {
+            header_seen = true;
+            continue;
+        }
+        rows += 1;
+        if rows > max_rows {
+            return Err(row_limit(max_rows));
+        }
+    }
+    Ok(rows)
+}
+
+/// The error for more than `max_rows` data rows.
+fn row_limit(max_rows: usize) -> FoveaError {
+    FoveaError::ResourceLimit {
+        what: "gaze CSV".into(),
+        needed: format!("more than {max_rows} data rows"),
+        limit: format!("{max_rows} rows (split the recording)"),
+    }
 }
 
 #[cfg(test)]
@@ -784,6 +832,24 @@ mod tests {
             ..Default::default()
         };
         assert!(parse_csv("t,x,y\n0,4,5\n", W, H, &quote).is_err());
+    }
+
+    #[test]
+    fn rows_are_counted_like_parse_csv_and_refused_while_reading() {
+        let text = "\u{feff}# c\nt,x,y\n\n0,1,1\n# c\n1,2,2\r\n2,3,3\n";
+        assert_eq!(check_row_count(text.as_bytes(), 3).unwrap(), 3);
+        assert_eq!(parse(text).unwrap().1.rows, 3);
+        let e = check_row_count(text.as_bytes(), 2).unwrap_err();
+        assert!(matches!(e, FoveaError::ResourceLimit { .. }), "{e}");
+        // Blank lines are not rows, however many.
+        let blanks = std::io::Read::chain(
+            "t,x,y\n".as_bytes(),
+            std::io::Read::take(std::io::repeat(b'\n'), 1 << 20),
+        );
+        assert_eq!(
+            check_row_count(std::io::BufReader::new(blanks), 1).unwrap(),
+            0
+        );
     }
 
     #[test]

@@ -1,18 +1,21 @@
 //! Intel Embree 3 backend (cargo feature `embree`; needs the system library, Debian
-//! `libembree-dev`). One triangle geometry holds every scene triangle in [`Triangles`] order,
-//! so Embree's `primID` is our triangle index. Queries use `rtcIntersect1` / `rtcOccluded1`
+//! `libembree-dev`). One triangle geometry holds every distinct scene triangle in
+//! [`Triangles`] order (exact duplicates left out, see [`Distinct`]), so Embree's `primID`
+//! is our triangle index, or indexes the kept triangles' list when there were duplicates. Queries use `rtcIntersect1` / `rtcOccluded1`
 //! through the raw bindings of the `embree` crate (its safe wrapper borrows the device and
 //! scene for a lifetime, which does not fit a long-lived renderer).
 
 use embree::sys;
 
-use super::{Backend, Hit, Ray, RayCaster, Triangles};
+use super::{Backend, Distinct, Hit, Ray, RayCaster, Triangles};
 use crate::error::{RenderError, Result};
 
 /// Embree device + committed scene.
 pub struct EmbreeCaster {
     device: sys::RTCDevice,
     scene: sys::RTCScene,
+    /// The scene index of each `primID` (`None`: the identity).
+    original: Option<Vec<u32>>,
 }
 
 // Embree scenes are safe to query from many threads once committed; the handles are only
@@ -23,8 +26,13 @@ unsafe impl Sync for EmbreeCaster {}
 const INVALID_ID: u32 = u32::MAX;
 
 impl EmbreeCaster {
-    /// Builds the scene (high build quality).
+    /// Builds the scene (high build quality) over the distinct triangles.
     pub fn new(tris: &Triangles) -> Result<Self> {
+        Self::new_distinct(tris, &Distinct::of(&tris.verts))
+    }
+
+    /// Builds the scene over the triangles `distinct` keeps.
+    pub fn new_distinct(tris: &Triangles, distinct: &Distinct) -> Result<Self> {
         unsafe {
             let device = sys::rtcNewDevice(std::ptr::null());
             if device.is_null() {
@@ -35,7 +43,7 @@ impl EmbreeCaster {
             let scene = sys::rtcNewScene(device);
             sys::rtcSetSceneBuildQuality(scene, sys::RTCBuildQuality::HIGH);
             let geom = sys::rtcNewGeometry(device, sys::RTCGeometryType::TRIANGLE);
-            let n = tris.len();
+            let n = distinct.len(tris.len());
             let vb = sys::rtcSetNewGeometryBuffer(
                 geom,
                 sys::RTCBufferType::VERTEX,
@@ -64,7 +72,8 @@ impl EmbreeCaster {
             }
             let v = std::slice::from_raw_parts_mut(vb, 9 * n);
             let ix = std::slice::from_raw_parts_mut(ib, 3 * n);
-            for (k, t) in tris.verts.iter().enumerate() {
+            for k in 0..n {
+                let t = &tris.verts[distinct.original(k as u32) as usize];
                 for c in 0..3 {
                     v[9 * k + 3 * c..9 * k + 3 * c + 3].copy_from_slice(&t[c].to_array());
                     ix[3 * k + c] = (3 * k + c) as u32;
@@ -74,8 +83,18 @@ impl EmbreeCaster {
             sys::rtcAttachGeometry(scene, geom);
             sys::rtcReleaseGeometry(geom);
             sys::rtcCommitScene(scene);
-            Ok(Self { device, scene })
+            Ok(Self {
+                device,
+                scene,
+                original: distinct.kept.clone(),
+            })
         }
+    }
+
+    /// The scene's triangle index of Embree's `primID`.
+    #[inline]
+    fn scene_index(&self, prim: u32) -> u32 {
+        self.original.as_ref().map_or(prim, |o| o[prim as usize])
     }
 
     #[inline]
@@ -148,7 +167,7 @@ impl RayCaster for EmbreeCaster {
         unsafe { sys::rtcIntersect1(self.scene, &mut ctx, &mut rh) };
         (rh.hit.geomID != INVALID_ID).then(|| Hit {
             t: rh.ray.tfar,
-            tri: rh.hit.primID,
+            tri: self.scene_index(rh.hit.primID),
             bary: glam::Vec2::new(rh.hit.u, rh.hit.v),
         })
     }
@@ -182,7 +201,7 @@ impl RayCaster for EmbreeCaster {
         for (o, r) in out.iter_mut().zip(&rh) {
             *o = (r.hit.geomID != INVALID_ID).then(|| Hit {
                 t: r.ray.tfar,
-                tri: r.hit.primID,
+                tri: self.scene_index(r.hit.primID),
                 bary: glam::Vec2::new(r.hit.u, r.hit.v),
             });
         }

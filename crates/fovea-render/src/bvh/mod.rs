@@ -10,17 +10,24 @@
 //! * [`brute::BruteForce`]: a linear scan over every triangle, the reference the tests check
 //!   the BVHs against.
 //!
-//! All report hits by the triangle's index in [`Triangles`], the flattened scene.
+//! All report hits by the triangle's index in [`Triangles`], the flattened scene. The BVH
+//! backends hold every distinct triangle once ([`distinct`]): exact duplicates stay out of
+//! the tree, which keeps the builds O(n log n) on repeated geometry and changes no hit; the
+//! obvhs tree gathers the triangles that share one bounding box first ([`same_box`]).
+
+pub use distinct::Distinct;
 
 use glam::{Vec2, Vec3};
 
 use crate::scene::Scene;
 
 pub mod brute;
+pub mod distinct;
 #[cfg(feature = "embree")]
 pub mod embree_bvh;
 pub mod obvhs_bvh;
 pub mod packet;
+pub mod same_box;
 
 /// A ray: origin, unit direction and the parametric interval `[t_min, t_max]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -215,13 +222,27 @@ pub fn intersect_triangle(ray: &Ray, v: &[Vec3; 3]) -> Option<(f32, f32, f32)> {
     (t >= ray.t_min && t <= ray.t_max).then_some((t, u, w))
 }
 
-/// Builds the requested backend.
+/// Builds the requested backend (the exact duplicates found here, see [`build_distinct`]).
 pub fn build(backend: Backend, tris: &Triangles) -> crate::Result<Box<dyn RayCaster>> {
+    let distinct = match backend {
+        Backend::BruteForce => Distinct::all(),
+        _ => Distinct::of(&tris.verts),
+    };
+    build_distinct(backend, tris, &distinct)
+}
+
+/// Builds the requested backend over the triangles `distinct` keeps (from
+/// [`Distinct::of`]`(&tris.verts)`); the brute-force scan takes every triangle.
+pub fn build_distinct(
+    backend: Backend,
+    tris: &Triangles,
+    distinct: &Distinct,
+) -> crate::Result<Box<dyn RayCaster>> {
     Ok(match backend {
-        Backend::Obvhs => Box::new(obvhs_bvh::ObvhsCaster::new(tris)),
+        Backend::Obvhs => Box::new(obvhs_bvh::ObvhsCaster::new_distinct(tris, distinct)),
         Backend::BruteForce => Box::new(brute::BruteForce::new(tris)),
         #[cfg(feature = "embree")]
-        Backend::Embree => Box::new(embree_bvh::EmbreeCaster::new(tris)?),
+        Backend::Embree => Box::new(embree_bvh::EmbreeCaster::new_distinct(tris, distinct)?),
         #[cfg(not(feature = "embree"))]
         Backend::Embree => return Err(crate::RenderError::Unsupported(
             "the Embree backend: rebuild with `--features embree` (needs Debian's libembree-dev)"

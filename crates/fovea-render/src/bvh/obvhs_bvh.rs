@@ -4,15 +4,13 @@
 
 use glam::{Vec2, Vec3A};
 use obvhs::bvh2::leaf_collapser::collapse;
-use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
 use obvhs::cwbvh::CwBvh;
-use obvhs::ploc::PlocBuilder;
-use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
 
 use super::packet::{PacketBvh, LEAF_MAX};
-use super::{intersect_triangle, Backend, Hit, Ray, RayCaster, Triangles};
+use super::same_box::build_bvh2;
+use super::{intersect_triangle, Backend, Distinct, Hit, Ray, RayCaster, Triangles};
 
 /// `obvhs` CWBVH over the scene triangles.
 pub struct ObvhsCaster {
@@ -26,28 +24,19 @@ pub struct ObvhsCaster {
 }
 
 impl ObvhsCaster {
-    /// Builds the BVH (medium-quality preset).
+    /// Builds the BVH (medium-quality preset) over the distinct triangles.
     pub fn new(tris: &Triangles) -> Self {
-        let t: Vec<Triangle> = tris
-            .verts
-            .iter()
-            .map(|v| Triangle {
-                v0: Vec3A::from(v[0]),
-                v1: Vec3A::from(v[1]),
-                v2: Vec3A::from(v[2]),
-            })
-            .collect();
+        Self::new_distinct(tris, &Distinct::of(&tris.verts))
+    }
+
+    /// Builds the BVH over the triangles `distinct` keeps (exact duplicates left out, see
+    /// [`Distinct`]; hits still name the scene's triangle indices).
+    pub fn new_distinct(tris: &Triangles, distinct: &Distinct) -> Self {
         // `obvhs::cwbvh::builder::build_cwbvh_from_tris` (no pre-splits) step by step, keeping
-        // its binary BVH for the packets: PLOC, reinsertion, then widened to the CWBVH.
+        // its binary BVH for the packets: PLOC and reinsertion over the distinct triangles,
+        // those sharing a box gathered (`same_box`), then widened to the CWBVH.
         let params = BvhBuildParams::medium_build();
-        let mut bvh2 = PlocBuilder::with_capacity(t.len()).build(
-            params.ploc_search_distance,
-            &t,
-            (0..t.len() as u32).collect::<Vec<_>>(),
-            params.sort_precision,
-            params.search_depth_threshold,
-        );
-        ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
+        let mut bvh2 = build_bvh2(&tris.verts, distinct);
         let bvh = bvh2_to_cwbvh(&bvh2, params.max_prims_per_leaf.clamp(1, 3), true, false);
         // The packets' tree: leaves of up to `LEAF_MAX` triangles.
         collapse(&mut bvh2, LEAF_MAX, params.collapse_traversal_cost);

@@ -42,6 +42,10 @@ pub struct LoadLimits {
     /// Whether files named by the scene may lie outside the scene file's folder tree
     /// (default `false`).
     pub allow_outside_scene_dir: bool,
+    /// Memory budget of the load's large decoded data, bytes (default `u64::MAX`: none
+    /// beyond the fixed caps). An environment map may take half of it and is reduced to fit
+    /// (see `environment::file`). The CLI passes `--max-memory`.
+    pub max_memory_bytes: u64,
 }
 
 impl Default for LoadLimits {
@@ -51,6 +55,7 @@ impl Default for LoadLimits {
             max_total_bytes: DEFAULT_MAX_TOTAL_BYTES,
             max_nesting: DEFAULT_MAX_NESTING,
             allow_outside_scene_dir: false,
+            max_memory_bytes: u64::MAX,
         }
     }
 }

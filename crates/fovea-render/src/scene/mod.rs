@@ -38,6 +38,7 @@ pub mod mitsuba;
 pub mod obj;
 pub mod ply;
 mod primitives;
+pub mod ranges;
 pub mod texture;
 
 pub use environment::{EnvMap, Environment};
@@ -432,6 +433,9 @@ impl Scene {
     /// * a normal / UV / tangent / colour array whose length does not match the positions →
     ///   dropped with a warning (normals fall back to geometric normals; tangents silently);
     /// * a texture index out of range → the texture is ignored with a warning;
+    /// * lights and materials outside their physical ranges, and more than
+    ///   [`ranges::MAX_FILE_LIGHTS`] lights → see [`ranges`] (errors, or clamps and bounds
+    ///   with a warning naming the field and the file);
     /// * no triangles at all → error.
     pub fn validate(&mut self) -> Result<()> {
         let source = self
@@ -501,6 +505,16 @@ impl Scene {
                 ));
                 m.colors.clear();
             }
+            if m.colors.iter().any(|c| c.min_element() < 0.0) {
+                self.warnings.push(format!(
+                    "{}: mesh `{}`: negative vertex colours, clamped to 0",
+                    source.display(),
+                    m.name
+                ));
+                for c in &mut m.colors {
+                    *c = c.max(Vec3::ZERO);
+                }
+            }
             let before = m.indices.len();
             let pos = &m.positions;
             let mut overflowed = 0usize;
@@ -558,10 +572,9 @@ impl Scene {
                     *slot = None;
                 }
             }
-            if !mat.base_color.is_finite() {
-                mat.base_color = Vec3::splat(0.8);
-            }
         }
+        let range_warnings = ranges::check_materials(&mut self.materials, &source);
+        self.warnings.extend(range_warnings);
         if self.triangle_count() == 0 {
             return Err(RenderError::BadInput {
                 path: source,
@@ -580,30 +593,9 @@ impl Scene {
                 ),
             });
         }
-        for l in &self.lights {
-            let ok = match l {
-                Light::Point {
-                    position,
-                    intensity,
-                    ..
-                } => position.is_finite() && intensity.is_finite(),
-                Light::Spot {
-                    position,
-                    direction,
-                    intensity,
-                    ..
-                } => position.is_finite() && direction.is_finite() && intensity.is_finite(),
-                Light::Directional {
-                    direction,
-                    irradiance,
-                } => direction.is_finite() && irradiance.is_finite(),
-            };
-            if !ok {
-                return Err(RenderError::BadInput {
-                    path: source,
-                    what: format!("light {l:?} has a non-finite value"),
-                });
-            }
+        ranges::check_lights(self, &source)?;
+        if let Some(w) = ranges::bound_lights(&mut self.lights, ranges::MAX_FILE_LIGHTS, &source) {
+            self.warnings.push(w);
         }
         Ok(())
     }

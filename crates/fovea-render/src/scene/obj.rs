@@ -117,7 +117,8 @@ pub fn load_with_limits(path: &Path, limits: &LoadLimits) -> Result<Scene> {
             ..Material::default()
         };
         mat.base_color = match (m.diffuse, &m.diffuse_texture) {
-            (Some(kd), _) => Vec3::from_array(kd).max(Vec3::ZERO),
+            // Negative values are clamped with a warning by `Scene::validate` (`ranges`).
+            (Some(kd), _) => Vec3::from_array(kd),
             (None, Some(_)) => Vec3::ONE,
             (None, None) => mat.base_color,
         };
@@ -128,7 +129,7 @@ pub fn load_with_limits(path: &Path, limits: &LoadLimits) -> Result<Scene> {
             mat.roughness = Material::roughness_from_phong(ns);
         }
         if let Some(ke) = m.emissive {
-            mat.emissive = Vec3::from_array(ke).max(Vec3::ZERO);
+            mat.emissive = Vec3::from_array(ke);
         }
         if let Some(pr) = m
             .unknown_param

@@ -36,6 +36,10 @@ pub const TRILINEAR_MIN_FRACTION: f32 = 1e-3;
 
 /// Largest accepted texture side (a 64k × 64k RGBA f32 texture would be 64 GiB).
 pub const MAX_TEXTURE_SIDE: u32 = 16384;
+/// Bytes a texture takes per base-level texel while it is built: the decoded image (up to
+/// RGBA f32, 16), its linear RGBA f32 base level (16) and the mip chain above it (a third
+/// more, 6), rounded up.
+pub const TEXTURE_BYTES_PER_TEXEL: u64 = 40;
 
 /// sRGB → linear (IEC 61966-2-1).
 #[inline]
@@ -143,8 +147,32 @@ impl Texture {
 
     /// Reads (within the load's limits, inside the scene's folder) and decodes an image file
     /// a scene names.
+    /// A texture whose decoding and mip chain would take more than half of the load's
+    /// `max_memory_bytes` ([`TEXTURE_BYTES_PER_TEXEL`] a texel, from the header's size) is
+    /// refused before it is decoded (the loaders then use the flat colour, with a warning).
     pub(crate) fn load_in(files: &SceneFiles, path: &Path, srgb: bool) -> Result<Self> {
         let bytes = files.read(path, None)?;
+        let budget = files.limits().max_memory_bytes / 2;
+        if budget < u64::MAX / 2 {
+            let mut reader = image::ImageReader::new(std::io::Cursor::new(&bytes[..]));
+            if let Ok(format) = image::ImageFormat::from_path(path) {
+                reader.set_format(format);
+            }
+            if let Ok((w, h)) = reader
+                .with_guessed_format()
+                .map_err(|e| RenderError::io(path, &e))?
+                .into_dimensions()
+            {
+                let needed = u64::from(w) * u64::from(h) * TEXTURE_BYTES_PER_TEXEL;
+                if needed > budget {
+                    return Err(RenderError::ResourceLimit {
+                        what: format!("texture {}", path.display()),
+                        needed: format!("{} MiB for {w}x{h} texels", needed.div_ceil(1 << 20)),
+                        limit: format!("half of --max-memory, {} MiB", budget >> 20),
+                    });
+                }
+            }
+        }
         Self::decode_file(path, &bytes, srgb)
     }
 

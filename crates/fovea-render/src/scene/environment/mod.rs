@@ -7,7 +7,8 @@
 //!   `sky`/`sunsky`, the default of glTF/OBJ/PLY scenes).
 //! * [`Environment::Map`]: an equirectangular image ([`EnvMap`], module `envmap`: Mitsuba's
 //!   lat-long orientation, bilinear lookup, importance sampling by luminance × solid angle),
-//!   read from OpenEXR, Radiance HDR, PNG or JPEG (module `file`).
+//!   read from OpenEXR, Radiance HDR (module `rgbe`, one scanline at a time), PNG or JPEG
+//!   (module `file`), reduced to fit the memory limit (module `shrink`).
 //!
 //! Every variant offers the same four queries: [`Environment::radiance`] by direction,
 //! [`Environment::mean`] over the sphere, [`Environment::sample`] (a direction with its
@@ -22,6 +23,8 @@ use glam::Vec3;
 pub mod distribution;
 pub mod envmap;
 pub mod file;
+pub mod rgbe;
+pub mod shrink;
 
 pub use envmap::{EnvMap, MAX_ENVMAP_PIXELS};
 

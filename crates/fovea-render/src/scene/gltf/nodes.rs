@@ -60,11 +60,18 @@ impl Loader<'_> {
                 .rev()
                 .map(|&n| (n, Mat4::IDENTITY, 0))
                 .collect();
+            // The path from the root to the node being visited, and a flag per node for
+            // "on that path": the cycle test is O(1), so a chain of n nodes walks in O(n)
+            // (a search of the path made a 1M-deep chain quadratic). Each node's world
+            // transform is its parent's (carried on the stack) times its local one.
             let mut ancestors: Vec<usize> = Vec::new();
+            let mut on_path = vec![false; nodes.len()];
             let mut visits = 0usize;
             while let Some((index, parent, depth)) = stack.pop() {
-                ancestors.truncate(depth);
-                if ancestors.contains(&index) {
+                for a in ancestors.drain(depth.min(ancestors.len())..) {
+                    on_path[a] = false;
+                }
+                if on_path[index] {
                     return Err(RenderError::bad(
                         self.path,
                         format!("the node hierarchy has a cycle through node {index}"),
@@ -79,6 +86,7 @@ impl Loader<'_> {
                     });
                 }
                 ancestors.push(index);
+                on_path[index] = true;
                 let node = &nodes[index];
                 let world = if bake {
                     let world = parent * local_transform(node);
@@ -197,6 +205,14 @@ impl Loader<'_> {
         let yfov = p.yfov().to_degrees();
         let yfov_deg = (yfov.is_finite() && yfov > 0.0 && yfov < 180.0).then_some(yfov);
         let name = camera.name().unwrap_or(node).to_owned();
+        if yfov_deg.is_none() {
+            self.scene.warnings.push(format!(
+                "{}: camera `{name}`: yfov = {} rad is outside (0°, 180°), ignored (the \
+                 display's field of view is used)",
+                self.path.display(),
+                p.yfov()
+            ));
+        }
         self.scene.cameras.push(CameraDesc {
             name,
             position,

@@ -134,7 +134,11 @@ impl<'t> Loader<'t> {
                 let p = self.resolve(&f);
                 let m = to_world(node, &mut self.warnings)?;
                 let map = match load_in(self.files, &p) {
-                    Ok(map) => map.scaled(scale)?,
+                    Ok((map, note)) => {
+                        // A map reduced to fit the memory limit: a note, not a warning.
+                        self.warnings.extend(note);
+                        map.scaled(scale)?
+                    }
                     Err(e) => {
                         self.warn(format!(
                             "{}: environment map {}: {e}; using a constant {:?}",
