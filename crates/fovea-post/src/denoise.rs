@@ -359,7 +359,7 @@ fn exp_neg(x: f32) -> f32 {
     let i = t as i32; // toward zero: the fraction lies in (−1, 0]
     let f = t - i as f32;
     let p = 1.0
-        + f * (0.693_147_2
+        + f * (std::f32::consts::LN_2
             + f * (0.240_226_5 + f * (0.055_504_1 + f * (0.009_618_1 + f * 0.001_333_4))));
     f32::from_bits(((i + 127) as u32) << 23) * p
 }

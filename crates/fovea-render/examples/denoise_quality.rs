@@ -18,7 +18,7 @@ use fovea_core::display::DisplayProfile;
 use fovea_core::mapping::Method;
 use fovea_core::units::Degrees;
 use fovea_eval::bands::{band_quality, whole_frame, REPORT_BANDS_DEG};
-use fovea_post::denoise::DenoiseParams;
+use fovea_post::denoise::{DenoiseParams, Kernel};
 use fovea_render::bvh::Backend;
 use fovea_render::camera::EyeCamera;
 use fovea_render::lights::view_lights;
@@ -93,9 +93,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     println!("|---|---|---|---|---|---|---|");
     for m in methods {
-        for iterations in [None, Some(3), Some(4), Some(5)] {
+        for variant in [
+            None,
+            Some((Kernel::Linear3x3, 4)),
+            Some((Kernel::B3Spline5x5, 4)),
+        ] {
             let mut s = FrameSettings::new(m);
-            s.denoise = iterations.map(|iterations| DenoiseParams {
+            s.denoise = variant.map(|(kernel, iterations)| DenoiseParams {
+                kernel,
                 iterations,
                 ..DenoiseParams::default()
             });
@@ -110,7 +115,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let dn = st.stages_cpu_ms.get(Stage::Denoise);
             println!(
                 "| {m} | {} | {:.0} | {:.0} ({:.1} %) | {:.4} | {:.2} | {} |",
-                iterations.map_or("off".into(), |n| format!("{n} iterations")),
+                variant.map_or("off".into(), |(k, n)| format!("{k:?} x{n}")),
                 st.total_cpu_ms,
                 dn,
                 100.0 * dn / st.total_cpu_ms,
