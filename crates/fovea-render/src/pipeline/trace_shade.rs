@@ -464,8 +464,9 @@ pub const SHADE_GROUP: usize = SHADE_BATCH * 256;
 /// (`color`, `depth`: the chunk's rows). Records the cull state of each sample in
 /// `cull_state` when culling. With `noisy` (the chunk's rows) each shaded texel's Monte Carlo
 /// part goes there too ([`crate::shade::shade_parts`]: what the denoiser filters) where the
-/// shading separates it — on the CPU, without DOF culling; the others are left as they are
-/// (NaN from [`record_guides`]: the denoiser then filters their whole colour).
+/// shading separates it — without DOF culling; the culled and kept samples of the roulette are
+/// left as they are (NaN from [`record_guides`]: the denoiser then filters their whole
+/// colour).
 ///
 /// With `tracer`, the shadow rays of direct shading of one ray per texel without culling
 /// (the default frame) are cast there, [`SHADE_GROUP`] texels' at a time; the shading
@@ -585,6 +586,7 @@ pub fn shade_chunk(
             let gs: Vec<&GSample> = reps.iter().flatten().copied().collect();
             let mut values = vec![Vec3::ZERO; gs.len()];
             let mut rc = rc;
+            let mut given_env = None;
             if direct.is_none() && environment.is_none() {
                 rays.shade(world, &gs, env_light, blocked, &mut values);
             } else {
@@ -601,8 +603,22 @@ pub fn shade_chunk(
                     blocked,
                     &mut values,
                 );
+                given_env = env;
             }
-            (emit(&reps, values), rc, Vec::new())
+            // The Monte Carlo part: the environment's, given or summed from its rays.
+            let mc = if want_noisy {
+                let env = given_env.unwrap_or_else(|| rays.environment_sums(blocked, gs.len()));
+                gs.iter()
+                    .zip(env)
+                    .map(|(g, e)| match g.is_hit() {
+                        true => crate::shade::monte_carlo_part(env_light, e),
+                        false => Vec3::ZERO,
+                    })
+                    .collect()
+            } else {
+                Vec::new()
+            };
+            (emit(&reps, values), rc, mc)
         };
         // Per batch: each texel's colour and depth, the batch's secondary rays, and the Monte
         // Carlo part of each surface sample (empty where not separated).

@@ -142,6 +142,14 @@ impl ShadowRays {
         direct
     }
 
+    /// The occluded environment's part of each of the batch's `samples` samples, summed from
+    /// the unoccluded rays (`blocked`, as [`Self::rays`]).
+    pub fn environment_sums(&self, blocked: &[bool], samples: usize) -> Vec<Vec3> {
+        let mut env = vec![Vec3::ZERO; samples];
+        self.sum(Term::Environment, blocked, &mut env);
+        env
+    }
+
     /// [`Self::shade`] with the lights' part of each sample given (`direct`, one per sample
     /// of the batch; e.g. computed by another executor) rather than summed from the rays.
     pub fn shade_given_direct(
