@@ -336,7 +336,8 @@ pub fn render_planned<'c>(
         Some(params) => {
             let t = Stopwatch::start();
             let (samples, guides, scratch) = ctx.samples_and_denoiser();
-            let s = sample_post::denoise(plan, &params, samples, guides, scratch)?;
+            let accumulated = temporal.is_some();
+            let s = sample_post::denoise(plan, &params, samples, guides, scratch, accumulated)?;
             times.add(Stage::Denoise, &t);
             Some(s)
         }

@@ -41,12 +41,17 @@ pub fn accumulate(
 /// fovea half a turn on; a screen-aligned one (full resolution, Weier's sparse screen grid,
 /// Guenter's layers, the inset) is a rectangle. Texels with no surface record (sky, unshaded,
 /// Weier's unsampled pixels, prefilled) are left as they are and never read.
+///
+/// `accumulated`: temporal accumulation blended history into the colour this frame. The
+/// history's Monte Carlo part is not tracked, so the fresh frame's no longer says which part of
+/// the blend is noise; the whole colour is filtered then.
 pub fn denoise(
     plan: &FramePlan,
     params: &DenoiseParams,
     samples: &mut SampleBuffers,
     guides: &DenoiseGuides,
     scratch: &mut DenoiseScratch,
+    accumulated: bool,
 ) -> Result<DenoiseStats> {
     let polar = plan.mapping().polar_layout();
     let mut stats = DenoiseStats::default();
@@ -70,7 +75,7 @@ pub fn denoise(
                 height: c.height(),
             },
         };
-        let noisy = guides.noisy.get(l);
+        let noisy = guides.noisy.get(l).filter(|_| !accumulated);
         stats += fovea_post::denoise::denoise(c, d, albedo, normal, noisy, &grid, params, scratch)?;
     }
     Ok(stats)
