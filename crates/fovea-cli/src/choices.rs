@@ -129,6 +129,33 @@ impl From<ReconstructFilterChoice> for fovea_post::inverse_map::ReconstructFilte
     }
 }
 
+/// `--denoise`: the sample-space denoiser off, or on (spatial: SVGF's à-trous filter with a
+/// spatial variance estimate).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DenoiseChoice {
+    Off,
+    #[value(alias = "spatial")]
+    On,
+}
+
+/// `--denoise-kernel`: the denoiser's à-trous kernel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DenoiseKernelChoice {
+    #[value(name = "3x3")]
+    Linear3x3,
+    #[value(name = "5x5")]
+    B3Spline5x5,
+}
+
+impl From<DenoiseKernelChoice> for fovea_post::denoise::Kernel {
+    fn from(k: DenoiseKernelChoice) -> Self {
+        match k {
+            DenoiseKernelChoice::Linear3x3 => Self::Linear3x3,
+            DenoiseKernelChoice::B3Spline5x5 => Self::B3Spline5x5,
+        }
+    }
+}
+
 /// `--shading`: direct lighting or path tracing (the numbers are separate options).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Shading {

@@ -13,8 +13,8 @@ use fovea_render::pipeline::FrameSettings;
 use fovea_render::settings::{DEFAULT_PERIPHERY_RAYS, MAX_PIXEL_SAMPLES};
 
 use crate::choices::{
-    self, Headset, InsetPlacement, InsetSmoothing, ReconstructFilterChoice, VafrRingsChoice,
-    VpInverse,
+    self, DenoiseChoice, DenoiseKernelChoice, Headset, InsetPlacement, InsetSmoothing,
+    ReconstructFilterChoice, VafrRingsChoice, VpInverse,
 };
 
 /// Which display to use: a preset or a resolution with a field of view.
@@ -371,6 +371,8 @@ pub struct FrameOptions {
     pub periphery_rays: u32,
     #[command(flatten)]
     pub inset: InsetSmoothingArgs,
+    #[command(flatten)]
+    pub denoise: DenoiseArgs,
 }
 
 impl FrameOptions {
@@ -380,6 +382,40 @@ impl FrameOptions {
         settings.reconstruct_filter = self.reconstruct_filter.into();
         settings.periphery_rays = self.periphery_rays;
         self.inset.apply(settings);
+        self.denoise.apply(settings);
+    }
+}
+
+/// `--denoise`, `--denoise-iterations` (`render`, `sequence`, `bench`, `view`, `demo`).
+#[derive(Args, Debug, Clone)]
+pub struct DenoiseArgs {
+    /// The sample-space denoiser (SVGF's edge-avoiding à-trous filter over the polar buffer or
+    /// the screen, before the reconstruction; docs/denoise.md): `on` (spatial variance) or
+    /// `off`.
+    #[arg(long, value_enum, ignore_case = true, default_value_t = DenoiseChoice::On)]
+    pub denoise: DenoiseChoice,
+    /// À-trous iterations of the denoiser (step 2^i texels), 1 to 6.
+    #[arg(long, default_value_t = fovea_post::denoise::DenoiseParams::default().iterations,
+          value_parser = clap::value_parser!(u32)
+              .range(1..=i64::from(fovea_post::denoise::MAX_ITERATIONS)))]
+    pub denoise_iterations: u32,
+    /// The denoiser's à-trous kernel: 3x3 (linear B spline, the default: 2.2x cheaper) or
+    /// 5x5 (SVGF's B3 spline).
+    #[arg(long, value_enum, default_value_t = DenoiseKernelChoice::Linear3x3)]
+    pub denoise_kernel: DenoiseKernelChoice,
+}
+
+impl DenoiseArgs {
+    /// Sets the denoiser in `settings`.
+    pub fn apply(&self, settings: &mut FrameSettings) {
+        settings.denoise = match self.denoise {
+            DenoiseChoice::Off => None,
+            DenoiseChoice::On => Some(fovea_post::denoise::DenoiseParams {
+                iterations: self.denoise_iterations,
+                kernel: self.denoise_kernel.into(),
+                ..Default::default()
+            }),
+        };
     }
 }
 

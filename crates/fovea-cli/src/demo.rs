@@ -51,6 +51,8 @@ pub struct DemoArgs {
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
+    #[command(flatten)]
+    pub denoise: crate::common::DenoiseArgs,
 }
 
 pub fn run(args: DemoArgs) -> Result<()> {
@@ -93,6 +95,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
     // The eye state of every frame: auto focus at the gaze through the accommodation filter.
     let mut settings = FrameSettings::new(Method::Vafr);
     settings.dof = Some(DofSettings::new(Some(FilterKind::Gather), FocusMode::Auto));
+    args.denoise.apply(&mut settings);
     let cameras = vec![camera.clone(); gazes.len()];
     let seq = Sequence::plan(
         &world,

@@ -423,6 +423,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         "gaze": [gaze.point.x_px, gaze.point.y_px],
         "pixel_samples": settings.pixel_samples,
         "periphery_rays": settings.periphery_rays,
+        "denoise": settings.denoise,
         "reconstruct_filter": settings.reconstruct_filter,
         // The smoothing asked for; `frame.inset_smoothing` is the one applied.
         "inset_smoothing": (method == Method::Inset).then(|| settings.inset_smoothing.name()),
@@ -467,6 +468,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         Stage::Plan,
         Stage::Trace,
         Stage::Shade,
+        Stage::Denoise,
         Stage::Aa,
         Stage::Reconstruct,
     ]
@@ -638,6 +640,7 @@ fn run_stereo(
         "gaze_right": [rg.point.x_px, rg.point.y_px],
         "pixel_samples": settings.pixel_samples,
         "periphery_rays": settings.periphery_rays,
+        "denoise": settings.denoise,
         "reconstruct_filter": settings.reconstruct_filter,
         "inset_smoothing": (settings.method == Method::Inset)
             .then(|| settings.inset_smoothing.name()),

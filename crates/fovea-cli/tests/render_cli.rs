@@ -71,9 +71,53 @@ fn render_writes_image_stats_depth_and_density() {
             + f["rays_environment"].as_u64().unwrap()
             + f["rays_bounce"].as_u64().unwrap()
     );
-    for stage in ["plan", "trace", "shade", "aa", "reconstruct"] {
+    // The sample-space denoiser is on by default (issue 38).
+    for stage in ["plan", "trace", "shade", "denoise", "aa", "reconstruct"] {
         assert!(f["stages_ms"][stage].as_f64().is_some(), "{stage}");
     }
+    assert!(f["denoise"]["filtered"].as_u64().unwrap() > 0);
+    assert_eq!(stats["denoise"]["iterations"], 4);
+}
+
+#[test]
+fn denoise_off_leaves_out_its_stage_and_bad_choices_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("f.png");
+    let out = fovea()
+        .args([
+            "render",
+            "--res",
+            "160x90",
+            "--method",
+            "vafr",
+            "--denoise",
+            "off",
+        ])
+        .args(["-q", "--out"])
+        .arg(&png)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("f.json")).unwrap()).unwrap();
+    assert!(stats["frame"]["stages_ms"]["denoise"].is_null());
+    assert!(stats["frame"]["denoise"].is_null());
+    assert!(stats["denoise"].is_null());
+    let err = fails(&["render", "--res", "160x90", "--denoise", "maybe", "-q"]);
+    assert!(err.contains("--denoise"), "{err}");
+    let err = fails(&[
+        "render",
+        "--res",
+        "160x90",
+        "--denoise-iterations",
+        "9",
+        "-q",
+    ]);
+    assert!(err.contains("--denoise-iterations"), "{err}");
 }
 
 #[test]

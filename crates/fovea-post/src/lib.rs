@@ -5,6 +5,7 @@
 //! * [`grid`]: neighbour lookups in a sample buffer — clamped for screen-aligned buffers,
 //!   angle-aligned and wrapping for polar (log-polar) buffers, so filters see no seam.
 //! * [`contrast`]: peripheral contrast enhancement (Weier et al., after Patney et al.).
+//! * [`denoise`]: edge-avoiding à-trous denoiser in sample space (SVGF, Schied et al. 2017).
 //! * [`fxaa`]: FXAA inside the sample buffer (VaFR Sec. 6).
 //! * [`gaussian_aa`]: the 3×3 Gaussian KFR applies in its LP buffer.
 //! * [`inset_smoothing`]: high-res inset over an upsampled low-res periphery, with the
@@ -19,6 +20,7 @@
 
 pub mod alloc;
 pub mod contrast;
+pub mod denoise;
 pub mod dof;
 pub mod exposure;
 pub mod fxaa;

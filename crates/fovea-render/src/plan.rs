@@ -178,6 +178,11 @@ impl FramePlan {
             // CoC map and the filtered image.
             memory += display.pixel_count() * (4 + std::mem::size_of::<Rgb>() as u64);
         }
+        if settings.denoise.is_some() {
+            // The denoiser's guides (albedo, normal) and working buffers per sample.
+            let samples: u64 = mapping.buffers().iter().map(|b| b.pixels()).sum();
+            memory += samples * fovea_post::denoise::BYTES_PER_SAMPLE;
+        }
         if memory > settings.memory_limit_bytes {
             return Err(RenderError::ResourceLimit {
                 what: format!(

@@ -6,6 +6,7 @@ use serde::Serialize;
 
 use fovea_core::mapping::{MappingConfig, Method};
 use fovea_post::contrast::PeripheralContrast;
+use fovea_post::denoise::DenoiseParams;
 use fovea_post::inset_smoothing::Smoothing;
 use fovea_post::inverse_map::ReconstructFilter;
 
@@ -106,6 +107,10 @@ pub struct FrameSettings {
     /// LaFR, visual-polar) casts where it covers several screen pixels: one per pixel it
     /// covers, up to this (1: one ray everywhere; at most [`MAX_PIXEL_SAMPLES`]).
     pub periphery_rays: u32,
+    /// The sample-space denoiser (`fovea_post::denoise`, SVGF's à-trous filter before the
+    /// reconstruction; `None`: off, the library's default so that a frame's settings name
+    /// it on purpose — `fovea`'s commands turn it on with `--denoise on`).
+    pub denoise: Option<DenoiseParams>,
 }
 
 impl FrameSettings {
@@ -127,6 +132,7 @@ impl FrameSettings {
             inset_smoothing: Smoothing::ALPHA_BLEND,
             reconstruct_filter: ReconstructFilter::Footprint,
             periphery_rays: DEFAULT_PERIPHERY_RAYS,
+            denoise: None,
         }
     }
 
@@ -139,6 +145,9 @@ impl FrameSettings {
         }
         if let Some(c) = &self.contrast {
             c.validate()?;
+        }
+        if let Some(d) = &self.denoise {
+            d.validate()?;
         }
         if !(1..=MAX_PIXEL_SAMPLES).contains(&self.pixel_samples) {
             return Err(RenderError::invalid(

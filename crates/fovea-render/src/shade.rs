@@ -350,14 +350,38 @@ pub fn shade(
     key: u64,
     counts: &mut RayCounts,
 ) -> Vec3 {
+    shade_parts(world, g, mode, key, counts).0
+}
+
+/// The part of a direct-shading value estimated by Monte Carlo: the occluded environment's
+/// (`env`, from [`environment_light`]); the unshadowed ambient term is exact (zero).
+#[inline]
+pub fn monte_carlo_part(env_light: EnvLight, env: Vec3) -> Vec3 {
+    match env_light {
+        EnvLight::Occluded { .. } => env,
+        EnvLight::Unshadowed => Vec3::ZERO,
+    }
+}
+
+/// [`shade`] and the part of it estimated by Monte Carlo — what the sample-space denoiser
+/// filters (`fovea_post::denoise`): in direct shading the occluded environment's
+/// ([`monte_carlo_part`]; the lights' shadow rays and emission are exact), in path tracing
+/// everything but emission; zero for a miss.
+pub fn shade_parts(
+    world: &World,
+    g: &GSample,
+    mode: ShadingMode,
+    key: u64,
+    counts: &mut RayCounts,
+) -> (Vec3, Vec3) {
     if !g.is_hit() {
-        return world.scene.environment.radiance(-g.to_eye);
+        return (world.scene.environment.radiance(-g.to_eye), Vec3::ZERO);
     }
     match mode {
         ShadingMode::Direct { env_light } => {
-            g.emissive
-                + direct(world, g, counts)
-                + environment_light(world, g, env_light, key, counts)
+            let d = direct(world, g, counts);
+            let env = environment_light(world, g, env_light, key, counts);
+            (g.emissive + d + env, monte_carlo_part(env_light, env))
         }
         ShadingMode::Path { bounces, spp, seed } => {
             let mut acc = Vec3::ZERO;
@@ -372,7 +396,8 @@ pub fn shade(
                     counts,
                 );
             }
-            acc / spp as f32
+            let c = acc / spp as f32;
+            (c, c - g.emissive)
         }
     }
 }

@@ -1,4 +1,5 @@
-//! Golden images: small frames of the built-in scene through every method, a few depth-of-field
+//! Golden images: small frames of the built-in scene through every method (the sample-space
+//! denoiser off, as `FrameSettings::new` has it, but in one VaFR case), a few depth-of-field
 //! filters, Liu's hybrid, peripheral contrast, path tracing, binocular reprojection (Rep) and
 //! temporal accumulation after several frames, compared with images stored in
 //! `tests/golden/` (16-bit PNG of the tone-mapped, sRGB-encoded colour, the encoding of
@@ -197,6 +198,12 @@ fn cases() -> Vec<Case> {
             frame(s, &f, off_centre())
         }),
         case("weier", |s| method(s, Method::Weier, off_centre())),
+        // The sample-space denoiser (issue 38), off in every other case.
+        case("vafr-denoise", |s| {
+            let mut f = FrameSettings::new(Method::Vafr);
+            f.denoise = Some(fovea_post::denoise::DenoiseParams::default());
+            frame(s, &f, off_centre())
+        }),
         case("vafr-no-aa", |s| {
             let mut f = FrameSettings::new(Method::Vafr);
             f.aa = fovea_render::pipeline::AaMode::None;

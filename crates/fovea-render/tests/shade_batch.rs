@@ -83,7 +83,7 @@ fn batched_direct_shading_is_shade_bit_for_bit_hits_and_misses() {
         let keys: Vec<u64> = (0..refs.len() as u64).map(|k| k * 7919).collect();
         let mut out = vec![Vec3::NAN; refs.len()];
         let mut many = RayCounts::default();
-        shade_direct_batch(&world, &refs, &keys, env_light, &mut out, &mut many);
+        shade_direct_batch(&world, &refs, &keys, env_light, &mut out, None, &mut many);
         let mut one = RayCounts::default();
         for ((g, &key), got) in refs.iter().zip(&keys).zip(&out) {
             let want = shade(&world, g, mode, key, &mut one);

@@ -771,6 +771,9 @@ impl BenchResult {
                     "stages_cpu_ms": s.stages_cpu_ms,
                     "post_fraction": post(&s.stages_ms) / s.total_ms,
                     "post_fraction_cpu": post(&s.stages_cpu_ms) / s.total_cpu_ms,
+                    // The sample-space denoiser's share of the frame (0 when it is off).
+                    "denoise_fraction": s.stages_ms.get(Stage::Denoise) / s.total_ms,
+                    "denoise_fraction_cpu": s.stages_cpu_ms.get(Stage::Denoise) / s.total_cpu_ms,
                     "speedup_vs_full": r.speedup,
                     "speedup_vs_full_cpu": r.speedup_cpu,
                     "fps": r.fps(),

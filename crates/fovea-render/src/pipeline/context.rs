@@ -9,6 +9,7 @@ use rayon::prelude::*;
 use fovea_core::display::DisplayProfile;
 use fovea_core::mapping::Method;
 use fovea_core::Image;
+use fovea_post::denoise::{DenoiseGuides, DenoiseScratch};
 use fovea_post::inverse_map::SampleBuffers;
 use fovea_post::Rgb;
 
@@ -49,6 +50,8 @@ pub struct FrameContext {
     screen_allocations: u64,
     /// The other executors the stages run on, where one is plugged in.
     executors: Executors,
+    /// The denoiser's guides (written by the trace) and working buffers, when it is on.
+    denoise: (DenoiseGuides, DenoiseScratch),
 }
 
 /// The executors other than the CPU's (e.g. the GPU's) that a [`FrameContext`] runs stages
@@ -212,8 +215,10 @@ impl FrameContext {
         (samples, self.executors.reconstructor.as_deref_mut())
     }
 
-    /// The sample buffers for `plan` ([`samples_for`](Self::samples_for)) and the executor
-    /// of the trace stage, if one is plugged in.
+    /// The sample buffers for `plan` ([`samples_for`](Self::samples_for)), the executor
+    /// of the trace stage, if one is plugged in, and the denoiser's guides sized for `plan`
+    /// when it denoises.
+    #[allow(clippy::type_complexity)]
     pub(crate) fn samples_and_tracer(
         &mut self,
         plan: &FramePlan,
@@ -221,13 +226,36 @@ impl FrameContext {
     ) -> Result<(
         &mut SampleBuffers,
         Option<&mut (dyn TraceExecutor + 'static)>,
+        Option<&mut DenoiseGuides>,
     )> {
         self.samples_for(plan, prefill)?;
         let samples = self
             .samples
             .as_mut()
             .expect("samples_for keeps the buffers it prepares");
-        Ok((samples, self.executors.tracer.as_deref_mut()))
+        let guides = match plan.settings.denoise {
+            Some(_) => {
+                let sizes: Vec<(u32, u32)> =
+                    plan.buffers.iter().map(|b| (b.width, b.height)).collect();
+                self.denoise.0.fit(&sizes)?;
+                Some(&mut self.denoise.0)
+            }
+            None => None,
+        };
+        Ok((samples, self.executors.tracer.as_deref_mut(), guides))
+    }
+
+    /// The sample buffers [`samples_for`](Self::samples_for) prepared, with the denoiser's
+    /// guides (as the trace wrote them) and working buffers.
+    pub(crate) fn samples_and_denoiser(
+        &mut self,
+    ) -> (&mut SampleBuffers, &DenoiseGuides, &mut DenoiseScratch) {
+        let samples = self
+            .samples
+            .as_mut()
+            .expect("samples_for runs before the denoiser");
+        let (guides, scratch) = &mut self.denoise;
+        (samples, &*guides, scratch)
     }
 
     /// Casts the trace stage's primary rays on `executor` (e.g. the GPU's) in every frame

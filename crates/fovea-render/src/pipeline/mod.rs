@@ -6,7 +6,7 @@
 //! | 1. eye state | `crate::eye` | gaze sample, tracker | [`EyeState`] |
 //! | 2. plan | `crate::plan` | settings, eye state | [`FramePlan`] (mapping, footprint, AA, culling) |
 //! | 3–4. trace, shade | [`trace_shade`] | plan, world | sample buffers |
-//! | 5. sample-space post | [`sample_post`] | plan, history | sample buffers (temporal, AA) |
+//! | 5. sample-space post | [`sample_post`] | plan, history | sample buffers (temporal, denoise, AA) |
 //! | 6. reconstruct | `fovea_post::inverse_map` | plan, sample buffers | screen colour + depth |
 //! | 7. screen post | [`screen_post`] | plan, screen | contrast, DOF, CoC |
 //! | 8. output | here | everything | [`Frame`], [`FrameStats`] |
@@ -113,6 +113,8 @@ pub struct FrameStats {
     /// The inset boundary smoothing applied (inset frames whose periphery is an exact 2× or 4×
     /// subsampling of the screen; `null` otherwise).
     pub inset_smoothing: Option<String>,
+    /// What the sample-space denoiser did (`null` when it is off).
+    pub denoise: Option<fovea_post::denoise::DenoiseStats>,
     /// Whether every screen pixel had samples (see [`FramePlan::covers_screen`]).
     pub covers_screen: bool,
     /// The backend that ran the sample-space AA filter (stage 5): `cpu`, or the name of the
@@ -314,12 +316,12 @@ pub fn render_planned<'c>(
     let known = prefill.map(|p| p.known.as_slice());
 
     // 3–4. Trace and shade into the sample buffers.
-    let (samples, tracer) = ctx.samples_and_tracer(plan, prefill)?;
+    let (samples, tracer, guides) = ctx.samples_and_tracer(plan, prefill)?;
     let (counts, casters) = trace_shade::trace_and_shade(
-        world, camera, plan, known, samples, &mut times, tracer, progress,
+        world, camera, plan, known, samples, guides, &mut times, tracer, progress,
     )?;
 
-    // 5. Sample-space post: temporal accumulation, then anti-aliasing.
+    // 5. Sample-space post: temporal accumulation, denoising, then anti-aliasing.
     let temporal = match accumulator.as_deref_mut() {
         Some(acc) => {
             let t = Stopwatch::start();
@@ -329,6 +331,19 @@ pub fn render_planned<'c>(
         }
         None => None,
     };
+    // Denoising, before the reconstruction magnifies the periphery's noise.
+    let denoise = match plan.settings.denoise {
+        Some(params) => {
+            let t = Stopwatch::start();
+            let (samples, guides, scratch) = ctx.samples_and_denoiser();
+            let accumulated = temporal.is_some();
+            let s = sample_post::denoise(plan, &params, samples, guides, scratch, accumulated)?;
+            times.add(Stage::Denoise, &t);
+            Some(s)
+        }
+        None => None,
+    };
+    let (samples, _, _) = ctx.samples_and_denoiser();
     let kept_samples = plan.settings.keep_samples.then(|| samples.clone());
     let (samples, anti_aliaser) = ctx.samples_and_anti_aliaser();
     let aa_backend = times.time(Stage::Aa, || {
@@ -376,6 +391,7 @@ pub fn render_planned<'c>(
     let mut stats = frame_stats(plan, counts, times, temporal, total_ms, total_cpu_ms);
     stats.inset_smoothing = inset_smoothing.map(|s| s.name().to_string());
     stats.aa_backend = aa_backend;
+    stats.denoise = denoise;
     stats.reconstruct_backend = reconstruct_backend;
     stats.trace_backend = casters.primary;
     stats.ray_generation_backend = casters.ray_generation;
@@ -433,6 +449,7 @@ fn frame_stats(
             .and_then(|d| d.filter.map(|k| k.name().to_string())),
         temporal,
         inset_smoothing: None,
+        denoise: None,
         covers_screen: plan.covers_screen,
         aa_backend: sample_post::CPU.to_string(),
         reconstruct_backend: reconstruct::CPU.to_string(),

@@ -1,6 +1,8 @@
 //! Stage 5 of the frame (DESIGN.md "How a frame flows"): **sample-space post** — temporal
 //! accumulation (the previous frame reprojected and folded into the fresh samples, see
-//! `crate::temporal`) and anti-aliasing inside the sample buffers: FXAA for VaFR and
+//! `crate::temporal`), denoising (`fovea_post::denoise`, SVGF's edge-avoiding à-trous filter
+//! over the polar buffer or the screen, [`denoise`]) and anti-aliasing inside the sample
+//! buffers: FXAA for VaFR and
 //! visual-polar (VaFR Sec. 3.4, with the polar seam wrapped), the 3×3 Gaussian for KFR and LaFR
 //! (Meng et al.), none for the others unless asked.
 //!
@@ -10,6 +12,7 @@
 //! way.
 
 use fovea_core::Image;
+use fovea_post::denoise::{DenoiseGuides, DenoiseParams, DenoiseScratch, DenoiseStats};
 use fovea_post::fxaa::{fxaa, FxaaParams};
 use fovea_post::gaussian_aa::gaussian_3x3;
 use fovea_post::grid::Grid;
@@ -30,6 +33,52 @@ pub fn accumulate(
     samples: &mut SampleBuffers,
 ) -> Result<TemporalStats> {
     accumulator.accumulate(plan, camera, samples)
+}
+
+/// Denoises every layer of `samples` with `params`, guided by `guides` (recorded by the
+/// trace for this frame) and each layer's depth, over the layer's topology: a polar buffer
+/// (VaFR, KFR/LMFR, LaFR, visual-polar) wraps around the angle axis and reads across the
+/// fovea half a turn on; a screen-aligned one (full resolution, Weier's sparse screen grid,
+/// Guenter's layers, the inset) is a rectangle. Texels with no surface record (sky, unshaded,
+/// Weier's unsampled pixels, prefilled) are left as they are and never read.
+///
+/// `accumulated`: temporal accumulation blended history into the colour this frame. The
+/// history's Monte Carlo part is not tracked, so the fresh frame's no longer says which part of
+/// the blend is noise; the whole colour is filtered then.
+pub fn denoise(
+    plan: &FramePlan,
+    params: &DenoiseParams,
+    samples: &mut SampleBuffers,
+    guides: &DenoiseGuides,
+    scratch: &mut DenoiseScratch,
+    accumulated: bool,
+) -> Result<DenoiseStats> {
+    let polar = plan.mapping().polar_layout();
+    let mut stats = DenoiseStats::default();
+    for (l, (c, d)) in samples
+        .color
+        .iter_mut()
+        .zip(samples.depth.iter())
+        .enumerate()
+    {
+        let (Some(albedo), Some(normal)) = (guides.albedo.get(l), guides.normal.get(l)) else {
+            return Err(RenderError::invalid(
+                "denoise guides",
+                format!("{} layers", guides.albedo.len()),
+                format!("one per sample buffer ({})", samples.depth.len()),
+            ));
+        };
+        let grid = match &polar {
+            Some(layout) => Grid::polar(layout),
+            None => Grid::Rect {
+                width: c.width(),
+                height: c.height(),
+            },
+        };
+        let noisy = guides.noisy.get(l).filter(|_| !accumulated);
+        stats += fovea_post::denoise::denoise(c, d, albedo, normal, noisy, &grid, params, scratch)?;
+    }
+    Ok(stats)
 }
 
 /// Another executor of the AA filter (e.g. the GPU's), kept in a [`super::FrameContext`] from

@@ -17,6 +17,8 @@ pub enum Stage {
     CullFill,
     /// Temporal accumulation (history folded in, and kept for the next frame).
     Temporal,
+    /// Sample-space denoising (and recording its guides at the trace).
+    Denoise,
     /// Sample-space anti-aliasing.
     Aa,
     /// Sample buffers to screen pixels.
@@ -29,12 +31,13 @@ pub enum Stage {
 
 impl Stage {
     /// Every stage, in order.
-    pub const ALL: [Stage; 9] = [
+    pub const ALL: [Stage; 10] = [
         Stage::Plan,
         Stage::Trace,
         Stage::Shade,
         Stage::CullFill,
         Stage::Temporal,
+        Stage::Denoise,
         Stage::Aa,
         Stage::Reconstruct,
         Stage::Contrast,
@@ -49,6 +52,7 @@ impl Stage {
             Stage::Shade => "shade",
             Stage::CullFill => "cull-fill",
             Stage::Temporal => "temporal",
+            Stage::Denoise => "denoise",
             Stage::Aa => "aa",
             Stage::Reconstruct => "reconstruct",
             Stage::Contrast => "contrast",

@@ -21,6 +21,7 @@ use rayon::prelude::*;
 use fovea_core::mapping::SamplePoint;
 use fovea_core::units::ScreenPoint;
 use fovea_core::Image;
+use fovea_post::denoise::DenoiseGuides;
 use fovea_post::inverse_map::SampleBuffers;
 use fovea_post::Rgb;
 use glam::Vec3;
@@ -33,7 +34,7 @@ use crate::error::{RenderError, Result};
 use crate::plan::{FramePlan, RayRings};
 use crate::scene::Light;
 use crate::shade::{
-    shade, shade_direct_batch, subsample_key, texel_key, EnvLight, RayCounts, ShadingMode,
+    shade_direct_batch, shade_parts, subsample_key, texel_key, EnvLight, RayCounts, ShadingMode,
     ShadowRays,
 };
 use crate::trace::{surface, GSample};
@@ -461,7 +462,11 @@ pub const SHADE_GROUP: usize = SHADE_BATCH * 256;
 /// the mean of its rays — or culled by the plan's DOF roulette (decided by the ray nearest the texel
 /// centre, whose depth is the texel's), and scattered into the chunk's colour and depth
 /// (`color`, `depth`: the chunk's rows). Records the cull state of each sample in
-/// `cull_state` when culling.
+/// `cull_state` when culling. With `noisy` (the chunk's rows) each shaded texel's Monte Carlo
+/// part goes there too ([`crate::shade::shade_parts`]: what the denoiser filters) where the
+/// shading separates it — without DOF culling; the culled and kept samples of the roulette are
+/// left as they are (NaN from [`record_guides`]: the denoiser then filters their whole
+/// colour).
 ///
 /// With `tracer`, the shadow rays of direct shading of one ray per texel without culling
 /// (the default frame) are cast there, [`SHADE_GROUP`] texels' at a time; the shading
@@ -479,10 +484,12 @@ pub fn shade_chunk(
     gbuf: &[Option<GSample>],
     color: &mut [Rgb],
     depth: &mut [f32],
+    mut noisy: Option<&mut [Rgb]>,
     mut cull_state: Option<&mut CullBuffers>,
     counts: &mut TraceCounts,
     tracer: Option<&mut (dyn TraceExecutor + 'static)>,
 ) -> Result<ShadeCast> {
+    let want_noisy = noisy.is_some();
     let Chunk {
         layer,
         j0,
@@ -579,6 +586,7 @@ pub fn shade_chunk(
             let gs: Vec<&GSample> = reps.iter().flatten().copied().collect();
             let mut values = vec![Vec3::ZERO; gs.len()];
             let mut rc = rc;
+            let mut given_env = None;
             if direct.is_none() && environment.is_none() {
                 rays.shade(world, &gs, env_light, blocked, &mut values);
             } else {
@@ -595,11 +603,26 @@ pub fn shade_chunk(
                     blocked,
                     &mut values,
                 );
+                given_env = env;
             }
-            (emit(&reps, values), rc)
+            // The Monte Carlo part: the environment's, given or summed from its rays.
+            let mc = if want_noisy {
+                let env = given_env.unwrap_or_else(|| rays.environment_sums(blocked, gs.len()));
+                gs.iter()
+                    .zip(env)
+                    .map(|(g, e)| match g.is_hit() {
+                        true => crate::shade::monte_carlo_part(env_light, e),
+                        false => Vec3::ZERO,
+                    })
+                    .collect()
+            } else {
+                Vec::new()
+            };
+            (emit(&reps, values), rc, mc)
         };
-        // Per batch: each texel's colour and depth, and the batch's secondary rays.
-        type Batch = (Vec<Option<(Rgb, f32)>>, RayCounts);
+        // Per batch: each texel's colour and depth, the batch's secondary rays, and the Monte
+        // Carlo part of each surface sample (empty where not separated).
+        type Batch = (Vec<Option<(Rgb, f32)>>, RayCounts, Vec<Vec3>);
         let on_executor = ShadeCast {
             shadow_rays: tracer.is_some(),
             direct_light: tracer.as_ref().is_some_and(|t| t.shades_direct_light()),
@@ -614,8 +637,10 @@ pub fn shade_chunk(
                     let (reps, gs, keys) = records(b * SHADE_BATCH, ks);
                     let mut rc = RayCounts::default();
                     let mut values = vec![Vec3::ZERO; gs.len()];
-                    shade_direct_batch(world, &gs, &keys, env_light, &mut values, &mut rc);
-                    (emit(&reps, values), rc)
+                    let mut mc = vec![Vec3::ZERO; if want_noisy { gs.len() } else { 0 }];
+                    let parts = want_noisy.then_some(mc.as_mut_slice());
+                    shade_direct_batch(world, &gs, &keys, env_light, &mut values, parts, &mut rc);
+                    (emit(&reps, values), rc, mc)
                 })
                 .collect(),
             Some(tracer) => {
@@ -681,12 +706,17 @@ pub fn shade_chunk(
                 blocks
             }
         };
-        for (ks, (values, rc)) in order.chunks(SHADE_BATCH).zip(blocks) {
+        for (ks, (values, rc, mc)) in order.chunks(SHADE_BATCH).zip(blocks) {
             counts.secondary += rc;
+            let mut mc = mc.into_iter();
             for (&k, v) in ks.iter().zip(values) {
                 let Some((c, d)) = v else { continue };
                 depth[k as usize] = d;
                 color[k as usize] = c;
+                // One Monte Carlo part per record, in the records' order.
+                if let (Some(n), Some(m)) = (noisy.as_deref_mut(), mc.next()) {
+                    n[k as usize] = m.to_array();
+                }
                 if d.is_finite() {
                     counts.shaded += 1;
                 }
@@ -694,7 +724,7 @@ pub fn shade_chunk(
         }
         return Ok(on_executor);
     }
-    type Shaded = (Option<Rgb>, f32, Option<SampleCull>, RayCounts);
+    type Shaded = (Option<Rgb>, f32, Option<SampleCull>, RayCounts, Option<Rgb>);
     let shaded: Vec<Option<Shaded>> = order
         .par_iter()
         .enumerate()
@@ -709,38 +739,49 @@ pub fn shade_chunk(
             // Sub-sample `s` of a texel draws its own random numbers.
             let key_of = |s: usize| subsample_key(key, s);
             let depth = camera.view_depth(-rep.to_eye, rep.t);
-            let mean_of_others = |first: Vec3, rc: &mut RayCounts| {
-                let mut sum = first;
+            // The mean over the texel's rays of the value and of its Monte Carlo part, `first`
+            // the representative ray's.
+            let mean_of_others = |first: (Vec3, Vec3), rc: &mut RayCounts| {
+                let (mut sum, mut mc) = first;
                 let mut m = 1.0f32;
                 for (s, g) in rays.iter().enumerate() {
                     if let Some(g) = g.as_ref().filter(|g| !std::ptr::eq(*g, rep)) {
-                        sum += shade(world, g, shading, key_of(s), rc);
+                        let (v, p) = shade_parts(world, g, shading, key_of(s), rc);
+                        sum += v;
+                        mc += p;
                         m += 1.0;
                     }
                 }
-                sum / m
+                (sum / m, mc / m)
             };
             if let Some(culling) = cull {
                 let (i, j) = (k % row_len as u32, j0 + k / row_len as u32);
                 let keep = culling.keep(depth, i, j, key);
                 let (v, info) = shade_or_cull(world, rep, shading, keep, key, &mut rc);
                 let v = match v {
-                    Some(v) if n > 1 => Some(mean_of_others(v, &mut rc)),
+                    Some(v) if n > 1 => Some(mean_of_others((v, Vec3::ZERO), &mut rc).0),
                     v => v,
                 };
-                return Some((v.map(|v| v.to_array()), depth, Some(info), rc));
+                return Some((v.map(|v| v.to_array()), depth, Some(info), rc, None));
             }
-            let v = shade(world, rep, shading, key, &mut rc);
-            let v = if n > 1 { mean_of_others(v, &mut rc) } else { v };
-            Some((Some(v.to_array()), depth, None, rc))
+            let parts = shade_parts(world, rep, shading, key, &mut rc);
+            let (v, mc) = if n > 1 {
+                mean_of_others(parts, &mut rc)
+            } else {
+                parts
+            };
+            Some((Some(v.to_array()), depth, None, rc, Some(mc.to_array())))
         })
         .collect();
     let chunk_start = j0 as usize * row_len;
     for (&k, s) in order.iter().zip(shaded) {
-        let Some((c, d, info, rc)) = s else {
+        let Some((c, d, info, rc, mc)) = s else {
             continue;
         };
         depth[k as usize] = d;
+        if let (Some(n), Some(m)) = (noisy.as_deref_mut(), mc) {
+            n[k as usize] = m;
+        }
         counts.secondary += rc;
         let state = match c {
             Some(c) => {
@@ -804,11 +845,52 @@ fn checked<T>(
     Ok(got)
 }
 
+/// The denoiser's guides of `chunk` from its G-buffer (`gbuf`, texel-major from `starts`):
+/// each texel's albedo and unit shading normal, averaged over its rays that hit a surface,
+/// written into the chunk's rows `albedo` and `normal`; zero normal where no ray of the texel
+/// hit (sky, untraced and prefilled texels: the denoiser leaves them as they are). The
+/// chunk's rows of `noisy` are reset to NaN (unknown) for [`shade_chunk`] to fill.
+pub fn record_guides(
+    chunk: Chunk<'_>,
+    starts: &[u32],
+    gbuf: &[Option<GSample>],
+    albedo: &mut [Rgb],
+    normal: &mut [[f32; 3]],
+    noisy: &mut [Rgb],
+) {
+    normal.fill([0.0; 3]);
+    noisy.fill([f32::NAN; 3]);
+    let values: Vec<Option<(Rgb, [f32; 3])>> = chunk
+        .order
+        .par_iter()
+        .enumerate()
+        .map(|(t, _)| {
+            let rays = gbuf.get(starts[t] as usize..starts[t + 1] as usize)?;
+            let (mut a, mut n, mut m) = (Vec3::ZERO, Vec3::ZERO, 0.0f32);
+            for g in rays.iter().flatten().filter(|g| g.is_hit()) {
+                a += g.albedo;
+                n += g.normal;
+                m += 1.0;
+            }
+            let n = n.normalize_or_zero();
+            (m > 0.0 && n != Vec3::ZERO).then(|| ((a / m).to_array(), n.to_array()))
+        })
+        .collect();
+    for (&k, v) in chunk.order.iter().zip(values) {
+        if let Some((a, n)) = v {
+            albedo[k as usize] = a;
+            normal[k as usize] = n;
+        }
+    }
+}
+
 /// Trace and shade every layer of the plan into `samples` (sized and reset for the plan, or
 /// holding the prefilled texels of `known`), chunk by chunk; then fill culled samples.
 /// `progress(done, total)` is called after each chunk. With `tracer` (for `world`) the
 /// primary rays are cast there, and so are the shadow rays of frames [`shade_chunk`] can hand
-/// it. Returns the counts and the backends that cast the rays.
+/// it. With `guides` (sized for the plan) each chunk's denoiser guides are recorded from its
+/// G-buffer ([`record_guides`], timed as [`Stage::Denoise`]). Returns the counts and the
+/// backends that cast the rays.
 #[allow(clippy::too_many_arguments)]
 pub fn trace_and_shade(
     world: &World,
@@ -816,6 +898,7 @@ pub fn trace_and_shade(
     plan: &FramePlan,
     known: Option<&[Image<bool>]>,
     samples: &mut SampleBuffers,
+    mut guides: Option<&mut DenoiseGuides>,
     times: &mut StageTimes,
     mut tracer: Option<&mut (dyn TraceExecutor + 'static)>,
     progress: &(dyn Fn(u64, u64) + Sync),
@@ -894,6 +977,20 @@ pub fn trace_and_shade(
             )?;
             times.add(Stage::Trace, &t);
             counts.primary += gbuf.iter().filter(|g| g.is_some()).count() as u64;
+            let start = chunk_idx * rows_per_chunk * row_len;
+            let span = start..start + c_chunk.len();
+            if let Some(g) = guides.as_deref_mut() {
+                let t = Stopwatch::start();
+                record_guides(
+                    chunk,
+                    &starts,
+                    &gbuf,
+                    &mut g.albedo[layer].data_mut()[span.clone()],
+                    &mut g.normal[layer].data_mut()[span.clone()],
+                    &mut g.noisy[layer].data_mut()[span.clone()],
+                );
+                times.add(Stage::Denoise, &t);
+            }
 
             let t = Stopwatch::start();
             let cs = cull_state.as_mut();
@@ -906,6 +1003,9 @@ pub fn trace_and_shade(
                 &gbuf,
                 c_chunk,
                 d_chunk,
+                guides
+                    .as_deref_mut()
+                    .map(|g| &mut g.noisy[layer].data_mut()[span.clone()]),
                 cs,
                 &mut counts,
                 tracer.as_deref_mut(),

@@ -142,6 +142,14 @@ impl ShadowRays {
         direct
     }
 
+    /// The occluded environment's part of each of the batch's `samples` samples, summed from
+    /// the unoccluded rays (`blocked`, as [`Self::rays`]).
+    pub fn environment_sums(&self, blocked: &[bool], samples: usize) -> Vec<Vec3> {
+        let mut env = vec![Vec3::ZERO; samples];
+        self.sum(Term::Environment, blocked, &mut env);
+        env
+    }
+
     /// [`Self::shade`] with the lights' part of each sample given (`direct`, one per sample
     /// of the batch; e.g. computed by another executor) rather than summed from the rays.
     pub fn shade_given_direct(
@@ -258,25 +266,35 @@ pub fn direct_batch(world: &World, gs: &[&GSample], out: &mut [Vec3], counts: &m
 /// light over the batch ([`direct_batch`]), the environment's per sample as in
 /// [`super::shade`] (random directions: one at a time; in the lights' packets they made the
 /// shade stage 1.5× slower, classroom at 1080p, 12 lights). The same values as
-/// [`super::shade`], bit for bit.
+/// [`super::shade`], bit for bit. With `noisy`, each sample's Monte Carlo part goes there too
+/// (as [`super::shade_parts`]).
 pub fn shade_direct_batch(
     world: &World,
     gs: &[&GSample],
     keys: &[u64],
     env_light: EnvLight,
     out: &mut [Vec3],
+    mut noisy: Option<&mut [Vec3]>,
     counts: &mut RayCounts,
 ) {
     let hits: Vec<&GSample> = gs.iter().copied().filter(|g| g.is_hit()).collect();
     let mut direct = vec![Vec3::ZERO; hits.len()];
     direct_batch(world, &hits, &mut direct, counts);
     let mut direct = direct.into_iter();
-    for ((g, &key), o) in gs.iter().zip(keys).zip(out.iter_mut()) {
-        *o = if g.is_hit() {
+    for (s, ((g, &key), o)) in gs.iter().zip(keys).zip(out.iter_mut()).enumerate() {
+        let (value, mc) = if g.is_hit() {
             let d = direct.next().unwrap_or(Vec3::ZERO);
-            g.emissive + d + environment_light(world, g, env_light, key, counts)
+            let env = environment_light(world, g, env_light, key, counts);
+            (
+                g.emissive + d + env,
+                super::monte_carlo_part(env_light, env),
+            )
         } else {
-            world.scene.environment.radiance(-g.to_eye)
+            (world.scene.environment.radiance(-g.to_eye), Vec3::ZERO)
         };
+        *o = value;
+        if let Some(n) = noisy.as_deref_mut().and_then(|n| n.get_mut(s)) {
+            *n = mc;
+        }
     }
 }
