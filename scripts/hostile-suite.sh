@@ -307,6 +307,98 @@ case_ "gaze CSV of 10,000,001 rows" 2 '+data rows' -- sequence --res 64x72 --fra
 unset rss_limit_mb
 rm -f "$i39/gaze-10M.csv" "$i39/chain-1M.gltf"
 
+# issue 39: outputs, sequences, messages ------------------------------------------------------
+# check_ NAME CONDITION...: a row for a check on what the cases above left (files, bytes),
+# failed when the command CONDITION fails.
+check_() {
+  local name="$1"
+  shift
+  n=$((n + 1))
+  local status="ok"
+  if ! "$@" >"$work/logs/$n.check" 2>&1; then
+    failed=$((failed + 1))
+    status="FAIL"
+    echo "FAIL $name" >&2
+    sed 's/^/    /' "$work/logs/$n.check" | head -n 20 >&2
+  fi
+  table+=$'\n'"| $name | $status | ok | (check) |"
+}
+# last_stderr_short MAX: the last case's stderr lines are at most MAX characters.
+last_stderr_short() {
+  awk -v m="$1" 'length > m { print "a line of " length " characters"; bad = 1 } END { exit bad }' \
+    "$work/logs/$((n - 1)).err"
+}
+# no_temporaries DIR: no temporary file (`.NAME.PID-N.tmp`) in DIR.
+no_temporaries() { ! ls -A "$1" | grep -E '^\..*\.[0-9]+-[0-9]+\.tmp$'; }
+# only_files DIR NAMES...: DIR holds exactly these entries (no temporary or partial file).
+only_files() {
+  local dir="$1"
+  shift
+  local want have
+  want="$(printf '%s\n' "$@" | sort)"
+  have="$(ls -A "$dir" | sort)"
+  [ "$want" = "$have" ] || { echo "in $dir: [$have], want [$want]"; return 1; }
+}
+# same_frames A B: the frame PNGs of two sequence folders are the same files, byte for byte.
+same_frames() {
+  local f k=0
+  for f in "$1"/frame_*.png; do
+    cmp "$f" "$2/$(basename "$f")" || return 1
+    k=$((k + 1))
+  done
+  [ "$k" -gt 0 ] && [ "$k" = "$(ls "$2"/frame_*.png | wc -l)" ]
+}
+
+# Error messages: the file, the line or element, the real problem, one short line.
+printf '{"asset":{"version":"2.0"},"nodes":[{"children":[1]},{"children":[0]}]}\n' >"$scenes/cycle.gltf"
+case_ "glTF: two-node cycle, no scenes" 2 '+cycle through node' -- "${R[@]}" --scene "$scenes/cycle.gltf"
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf\nf 1 2 3\n' >"$scenes/bare-f.obj"
+case_ "OBJ: a bare f line" 2 '+line 4' -- "${R[@]}" --scene "$scenes/bare-f.obj"
+{ seq -s, -f 'column_%g' 10000; echo '0,1,2'; } >"$scenes/wide.csv"
+case_ "gaze CSV: 10,000-column header" 2 '+10000 columns' -- sequence --res 64x72 --frames 2 --video off -q --gaze-csv "$scenes/wide.csv" --out "$out/wide"
+check_ "  ... its error line is under 800 characters" last_stderr_short 800
+printf 't,x,y,z,look_x,look_y,look_z\n0,0,1,5,0,1,0\n1,1e30,1,5,0,1,0\n' >"$scenes/far-path.csv"
+case_ "camera path: a position of 1e30" 2 '+far-path.csv.*keyframe 1 \(line 3\).*within' -- sequence --res 64x72 --frames 2 --video off -q --camera-path "$scenes/far-path.csv" --out "$out/far"
+mkdir -p "$out/is-a-dir.png"
+case_ "render --out onto a folder" 2 '+cannot write .*is-a-dir.png' -- render --res 64x72 --lights 1 -q --out "$out/is-a-dir.png"
+check_ "  ... no temporary file left beside it" no_temporaries "$out"
+
+# A sequence folder's frames are reused only when its sequence.json vouches for them.
+vouch=(sequence --res 120x90 --lights 1 --frames 3 --video off -q --out "$out/vouch")
+case_ "sequence (before its manifest is deleted)" 0 -- "${vouch[@]}"
+rm -f "$out/vouch/sequence.json"
+case_ "sequence folder without sequence.json" 2 '+no sequence.json.*--overwrite' -- "${vouch[@]}" --seed 2
+case_ "  ... with --overwrite: rendered again" 0 '=3 rendered, 0 already there' -- "${vouch[@]}" --seed 2 --overwrite
+
+# Full disk: a small tmpfs (we need root to mount one).
+disk="$work/disk"
+mkdir -p "$disk"
+if mount -t tmpfs -o size=256k tmpfs "$disk" 2>"$work/mount.err"; then
+  trap 'umount "$disk" 2>/dev/null; rm -rf "$work"' EXIT
+  dd if=/dev/zero of="$disk/fill" bs=1k 2>/dev/null # until the disk is full
+  case_ "full disk: render PNG" 2 '+cannot write .*disk/r.png.*No space' -- render --res 64x72 --lights 1 -q --out "$disk/r.png"
+  check_ "  ... no file under its name, no temporary" only_files "$disk" fill
+  case_ "full disk: render EXR" 2 '+cannot write .*disk/r.exr.*No space' -- render --res 64x72 --lights 1 -q --out "$disk/r.exr"
+  check_ "  ... no file under its name, no temporary" only_files "$disk" fill
+  rm -f "$disk/fill"
+  # Room for the manifest and 2.5 frames of six (~24 KiB each): the run stops at the first
+  # frame that does not fit.
+  full=(sequence --res 160x120 --lights 1 --frames 6 --video off -q)
+  case_ "sequence (reference, uninterrupted)" 0 -- "${full[@]}" --out "$out/full-ref"
+  frame_kib=$(( $(stat -c %s "$out/full-ref/frame_00000.png") / 1024 + 1 ))
+  dd if=/dev/zero of="$disk/fill" bs=1k count=$((256 - 16 - 5 * frame_kib / 2)) 2>/dev/null
+  case_ "full disk: sequence stops at the frame that fails" 2 '+cannot write .*disk/seq/frame_0000[0-9].png.*No space' -- "${full[@]}" --out "$disk/seq"
+  kept=$(ls "$disk/seq" | grep -c '^frame_.*\.png$')
+  check_ "  ... keeps the frames before it ($kept), no temporary" sh -c "[ $kept -ge 1 ] && [ $kept -lt 6 ] && ! ls -A '$disk/seq' | grep -q tmp"
+  rm -f "$disk/fill"
+  case_ "  ... resumed once space is freed" 0 "=$((6 - kept)) rendered, $kept already there" -- "${full[@]}" --out "$disk/seq"
+  check_ "  ... byte for byte the uninterrupted run" same_frames "$out/full-ref" "$disk/seq"
+  umount "$disk"
+else
+  echo "hostile-suite: full-disk cases skipped: cannot mount a tmpfs ($(head -n 1 "$work/mount.err"))" >&2
+  table+=$'\n'"| full-disk cases | skipped | - | cannot mount a tmpfs (needs root) |"
+fi
+
 elapsed=$(($(date +%s) - start))
 echo "$table"
 echo

@@ -1,6 +1,5 @@
 //! `fovea curves`: shading rate against eccentricity for every mapping, as PNG and CSV.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
@@ -409,21 +408,20 @@ fn write_curves(
         a.ymax,
         &tangential,
     )?;
-    let mut f = std::io::BufWriter::new(
-        std::fs::File::create(&csv).with_context(|| format!("writing {}", csv.display()))?,
-    );
-    write!(f, "eccentricity_deg")?;
-    for (name, _) in &columns {
-        write!(f, ",\"{}\"", name.replace('"', "'"))?;
-    }
-    writeln!(f)?;
-    for (k, e) in es.iter().enumerate() {
-        write!(f, "{e}")?;
-        for (_, v) in &columns {
-            write!(f, ",{}", v[k])?;
+    fovea_core::atomic_file::write_atomic_with(&csv, |f| {
+        write!(f, "eccentricity_deg")?;
+        for (name, _) in &columns {
+            write!(f, ",\"{}\"", name.replace('"', "'"))?;
         }
         writeln!(f)?;
-    }
-    f.flush()?;
+        for (k, e) in es.iter().enumerate() {
+            write!(f, "{e}")?;
+            for (_, v) in &columns {
+                write!(f, ",{}", v[k])?;
+            }
+            writeln!(f)?;
+        }
+        Ok(())
+    })?;
     Ok(vec![radial_png, tangential_png, csv])
 }

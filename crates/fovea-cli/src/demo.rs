@@ -246,7 +246,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
             .join("\n"),
     );
     let index = dir.join("index.html");
-    std::fs::write(&index, html).with_context(|| format!("cannot write {}", index.display()))?;
+    crate::output::write_file(&index, html.as_bytes())?;
     println!(
         "{} frames of the built-in scene on {} ({w}x{h}), VaFR + auto-focus depth of field, in {:.0} s",
         args.frames,

@@ -196,11 +196,10 @@ pub fn write_outputs(
     let json = result.to_json(scene, display);
     let json_text = serde_json::to_string_pretty(&json)? + "\n";
     let json_path = out.join("dof-compare.json");
-    std::fs::write(&json_path, &json_text)
-        .with_context(|| format!("cannot write {}", json_path.display()))?;
+    crate::output::write_file(&json_path, json_text.as_bytes())?;
     let md = result.markdown(scene, display);
     let md_path = out.join("dof-compare.md");
-    std::fs::write(&md_path, &md).with_context(|| format!("cannot write {}", md_path.display()))?;
+    crate::output::write_file(&md_path, md.as_bytes())?;
     let sheet_path = out.join("contact-sheet.png");
     contact_sheet(result, &sheet_path)?;
     Ok(Written {
@@ -261,8 +260,6 @@ fn contact_sheet(r: &DofComparison, path: &std::path::Path) -> Result<()> {
         root.present()
             .map_err(|e| anyhow::anyhow!("contact sheet: {e}"))?;
     }
-    let img = image::RgbImage::from_raw(w, h, buf)
-        .ok_or_else(|| anyhow::anyhow!("contact sheet buffer size"))?;
-    img.save(path)
-        .with_context(|| format!("cannot write {}", path.display()))
+    let png = crate::output::png_bytes(path, w, h, buf)?;
+    crate::output::write_file(path, &png)
 }

@@ -38,6 +38,9 @@ pub struct FidelityArgs {
     /// Print JSON instead of a table.
     #[arg(long)]
     json: bool,
+    /// Only the table (or the JSON): without the paragraph that explains it.
+    #[arg(long, short)]
+    quiet: bool,
 }
 
 #[derive(Serialize)]
@@ -105,13 +108,16 @@ pub fn run(a: FidelityArgs) -> Result<()> {
         println!("{}", serde_json::to_string_pretty(&rows)?);
         return Ok(());
     }
-    println!(
-        "Texel spacing against the acuity's Nyquist spacing ω(e)/2 at each pixel's true \
-         eccentricity, {}×{} ({:.1}°×{:.1}°); 1 = acuity-consistent, above 1 = coarser than the \
-         eye resolves. u: between rings (radial) for polar buffers, v: along them (tangential).",
-        display.width_px, display.height_px, display.hfov.0, display.vfov.0
-    );
-    println!();
+    if !a.quiet {
+        println!(
+            "Texel spacing against the acuity's Nyquist spacing ω(e)/2 at each pixel's true \
+             eccentricity, {}×{} ({:.1}°×{:.1}°); 1 = acuity-consistent, above 1 = coarser than \
+             the eye resolves. u: between rings (radial) for polar buffers, v: along them \
+             (tangential).",
+            display.width_px, display.height_px, display.hfov.0, display.vfov.0
+        );
+        println!();
+    }
     println!(
         "| method | gaze | samples | band | pixels | unsampled | u median (p90) | v median (p90) |"
     );

@@ -282,7 +282,7 @@ pub fn write_outputs(
     let text = serde_json::to_string_pretty(&json)? + "\n";
     let write = |name: &str, text: &str| {
         let p = out.join(name);
-        std::fs::write(&p, text).with_context(|| format!("cannot write {}", p.display()))
+        crate::output::write_file(&p, text.as_bytes())
     };
     write("flicker.json", &text)?;
     write("flicker-frames.csv", &result.frames_csv())?;

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::Args;
 
 use fovea_eval::experiments::inset::{run as run_inset, InsetAnalysis, InsetParams};
@@ -124,6 +124,6 @@ pub fn write_json(analysis: &InsetAnalysis, out: &Path) -> Result<serde_json::Va
     let json = analysis.to_json();
     let text = serde_json::to_string_pretty(&json)? + "\n";
     let p = out.join("inset-analysis.json");
-    std::fs::write(&p, &text).with_context(|| format!("cannot write {}", p.display()))?;
+    crate::output::write_file(&p, text.as_bytes())?;
     Ok(json)
 }

@@ -144,21 +144,41 @@ pub fn write_rgb_on(
     check_image_path(path)?;
     ensure_parent(path)?;
     let (w, h) = (img.width(), img.height());
-    match extension(path).as_str() {
+    let bytes = match extension(path).as_str() {
         "exr" => {
             let data: Vec<f32> = img.data().iter().flat_map(|c| *c).collect();
             let buf = image::Rgb32FImage::from_raw(w, h, data).context("image size")?;
-            buf.save(path)
-                .with_context(|| format!("cannot write {}", path.display()))?;
+            encode(path, |c| buf.write_to(c, image::ImageFormat::OpenExr))?
         }
         _ => {
             let bytes = encode_srgb8(img, exposure, curve, tone_map)?;
-            let buf = image::RgbImage::from_raw(w, h, bytes).context("image size")?;
-            buf.save(path)
-                .with_context(|| format!("cannot write {}", path.display()))?;
+            png_bytes(path, w, h, bytes)?
         }
-    }
-    Ok(())
+    };
+    write_file(path, &bytes)
+}
+
+/// Writes `bytes` to `path` complete or not at all (a temporary file in the same folder,
+/// flushed, synced and renamed: [`fovea_core::atomic_file`]); the error names `path`.
+pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
+    Ok(fovea_core::atomic_file::write_atomic(path, bytes)?)
+}
+
+/// `rgb8` (`w × h`, 3 bytes a pixel) encoded as PNG in memory (for [`write_file`]); `path`
+/// names the file in errors.
+pub fn png_bytes(path: &Path, w: u32, h: u32, rgb8: Vec<u8>) -> Result<Vec<u8>> {
+    let buf = image::RgbImage::from_raw(w, h, rgb8).context("image size")?;
+    encode(path, |c| buf.write_to(c, image::ImageFormat::Png))
+}
+
+/// The bytes `write` encodes into memory; its error names `path`.
+fn encode(
+    path: &Path,
+    write: impl FnOnce(&mut std::io::Cursor<Vec<u8>>) -> image::ImageResult<()>,
+) -> Result<Vec<u8>> {
+    let mut c = std::io::Cursor::new(Vec::new());
+    write(&mut c).with_context(|| format!("cannot encode {}", path.display()))?;
+    Ok(c.into_inner())
 }
 
 /// `img`'s 8-bit sRGB bytes through `exposure` and `curve`, on `tone_map` when given.

@@ -63,53 +63,61 @@ pub fn line_plot(
 ) -> Result<()> {
     register_font();
     let err = |e: &dyn std::fmt::Display| anyhow!("drawing {}: {e}", path.display());
-    let root = BitMapBackend::new(path, (1280, 800)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 28))
-        .margin(20)
-        .x_label_area_size(60)
-        .y_label_area_size(80)
-        .build_cartesian_2d(x_range.0..x_range.1, 0.0..y_max)
-        .map_err(|e| err(&e))?;
-    chart
-        .configure_mesh()
-        .x_desc(x_desc)
-        .y_desc(y_desc)
-        .axis_desc_style(("sans-serif", 22))
-        .label_style(("sans-serif", 18))
-        .light_line_style(RGBColor(235, 235, 235))
-        .draw()
-        .map_err(|e| err(&e))?;
-    for s in series {
-        let (color, width) = match s.style {
-            Style::Reference => (BLACK, 4),
-            Style::Display => (RGBColor(150, 150, 150), 2),
-            Style::Method(i) => (PALETTE[i % PALETTE.len()], 3),
-        };
-        let mut first = true;
-        for run in runs(&s.points, y_max) {
-            let anno = chart
-                .draw_series(LineSeries::new(run, color.stroke_width(width)))
-                .map_err(|e| err(&e))?;
-            if first {
-                anno.label(s.label.clone()).legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(width))
-                });
-                first = false;
+    // Drawn in memory, then written complete or not at all (plotters' file backend saves
+    // through the image crate's `save`, which does not report the last buffered write).
+    const W: u32 = 1280;
+    const H: u32 = 800;
+    let mut buf = vec![255u8; (W * H * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (W, H)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 28))
+            .margin(20)
+            .x_label_area_size(60)
+            .y_label_area_size(80)
+            .build_cartesian_2d(x_range.0..x_range.1, 0.0..y_max)
+            .map_err(|e| err(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc(x_desc)
+            .y_desc(y_desc)
+            .axis_desc_style(("sans-serif", 22))
+            .label_style(("sans-serif", 18))
+            .light_line_style(RGBColor(235, 235, 235))
+            .draw()
+            .map_err(|e| err(&e))?;
+        for s in series {
+            let (color, width) = match s.style {
+                Style::Reference => (BLACK, 4),
+                Style::Display => (RGBColor(150, 150, 150), 2),
+                Style::Method(i) => (PALETTE[i % PALETTE.len()], 3),
+            };
+            let mut first = true;
+            for run in runs(&s.points, y_max) {
+                let anno = chart
+                    .draw_series(LineSeries::new(run, color.stroke_width(width)))
+                    .map_err(|e| err(&e))?;
+                if first {
+                    anno.label(s.label.clone()).legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(width))
+                    });
+                    first = false;
+                }
             }
         }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 18))
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(|e| err(&e))?;
+        root.present().map_err(|e| err(&e))?;
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 18))
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(|e| err(&e))?;
-    root.present().map_err(|e| err(&e))?;
-    Ok(())
+    let png = crate::output::png_bytes(path, W, H, buf)?;
+    crate::output::write_file(path, &png)
 }
 
 /// Splits a polyline into runs of finite points with `y ≤ y_max`.

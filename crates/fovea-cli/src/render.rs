@@ -357,8 +357,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     times.add(Stage::Plan, &t);
     let mut written: Vec<&Path> = Vec::new();
     if let Some(p) = &args.plan_out {
-        std::fs::write(p, plan.to_json()? + "\n")
-            .with_context(|| format!("cannot write {}", p.display()))?;
+        crate::output::write_file(p, (plan.to_json()? + "\n").as_bytes())?;
         written.push(p);
     }
     // Which executors run the trace and reconstruct stages; refused here, before any ray is
@@ -432,8 +431,10 @@ pub fn run(args: RenderArgs) -> Result<()> {
         "exposure": exposure_json(exposure.0, &exposed),
         "frame": s,
     });
-    std::fs::write(&stats_path, serde_json::to_string_pretty(&json)? + "\n")
-        .with_context(|| format!("cannot write {}", stats_path.display()))?;
+    crate::output::write_file(
+        &stats_path,
+        (serde_json::to_string_pretty(&json)? + "\n").as_bytes(),
+    )?;
 
     // Which boundary smoothing an inset frame got (none where its periphery is not an exact
     // 2× or 4× subsampling of the screen, whatever was asked).
@@ -654,8 +655,10 @@ fn run_stereo(
         // Both eyes ran on the same device; the GPU's times are summed over both eyes.
         "backend": backend.json(&frame.left.stats),
     });
-    std::fs::write(&stats_path, serde_json::to_string_pretty(&json)? + "\n")
-        .with_context(|| format!("cannot write {}", stats_path.display()))?;
+    crate::output::write_file(
+        &stats_path,
+        (serde_json::to_string_pretty(&json)? + "\n").as_bytes(),
+    )?;
     let st = &frame.stats;
     println!(
         "{} {w}x{h} ×2 {} {} | primary rays: left {}, right {} ({} warped, {} cracks filled, {} holes traced) | {:.0} ms",

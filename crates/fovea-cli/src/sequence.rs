@@ -3,8 +3,12 @@
 //! through the accommodation filter, written as a numbered PNG series (and an MP4 when `ffmpeg`
 //! is installed). Interrupted runs resume: the eye state of every frame is planned first (it
 //! costs a few thousand rays per frame), and frames whose PNG is already there are not
-//! rendered again. Each PNG is written to a temporary name and renamed, so a killed run leaves
-//! no half-written frame.
+//! rendered again. Each file is written to a temporary name, synced and renamed
+//! ([`fovea_core::atomic_file`]), so a killed run or a full disk leaves no half-written frame
+//! under a frame's name; a frame that cannot be written stops the run (exit 2) and a rerun
+//! resumes from it. Frames are reused only where `sequence.json` (written before the first
+//! frame) holds this run's settings: a folder with other settings, or with frames and no
+//! manifest, is refused unless `--overwrite`.
 
 use std::path::{Path, PathBuf};
 
@@ -32,6 +36,7 @@ use crate::choices::{self, BackendArg, Headset, MethodChoice, Scenario, Switch, 
 use crate::common::{read_text_input, DisplayArgs, FrameOptions, MethodOptions};
 use crate::dof_args::DofArgs;
 use crate::exposure_args::ExposureArgs;
+use crate::output::write_file;
 use crate::render::memory_limit;
 use crate::scene_args::{prepare, SceneArgs};
 use crate::temporal_args::TemporalArgs;
@@ -101,7 +106,8 @@ pub struct SequenceArgs {
     /// Video: auto (when ffmpeg is installed), on (fail without ffmpeg) or off.
     #[arg(long, value_enum, ignore_case = true, default_value_t = Video::Auto)]
     pub video: Video,
-    /// Start over when the folder holds frames of other settings (otherwise an error).
+    /// Render the frames again when the folder holds frames of other settings, or frames
+    /// without a sequence.json to vouch for them (otherwise an error).
     #[arg(long)]
     pub overwrite: bool,
     /// Refuse frames needing more memory than this (e.g. 8G).
@@ -310,19 +316,9 @@ pub fn run(args: SequenceArgs) -> Result<()> {
         .with_context(|| format!("cannot create directory {}", args.out.display()))?;
     let manifest_path = args.out.join("sequence.json");
     let manifest_text = serde_json::to_string_pretty(&manifest)? + "\n";
-    if let Ok(old) = std::fs::read_to_string(&manifest_path) {
-        if old != manifest_text {
-            if !args.overwrite {
-                bail!(
-                    "{} holds frames rendered with other settings; pass --overwrite to start over or choose another --out",
-                    args.out.display()
-                );
-            }
-            remove_frames(&args.out)?;
-        }
-    }
-    write_atomic(&manifest_path, manifest_text.as_bytes())?;
-    write_atomic(&args.out.join("frames.csv"), eye_csv(&seq).as_bytes())?;
+    check_folder(&args.out, &manifest_path, &manifest_text, args.overwrite)?;
+    write_file(&manifest_path, manifest_text.as_bytes())?;
+    write_file(&args.out.join("frames.csv"), eye_csv(&seq).as_bytes())?;
 
     let pb = if args.quiet {
         ProgressBar::hidden()
@@ -341,24 +337,22 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     let mut driver = SequenceDriver::new(world, &seq, vec![track])?;
     let out = &args.out;
     let mut tone_map = backend.tone_map.take();
+    // A frame that cannot be written (a full disk) stops the run: the frames before it are
+    // complete under their names, and a rerun resumes from it.
     let counts = driver.run(
         &|i| frame_is_complete(&frame_path(out, i), &display),
         &mut |e| {
-            let path = frame_path(out, e.index);
-            let tmp = path.with_extension("png.tmp");
             write_png(
-                &tmp,
+                &frame_path(out, e.index),
                 &e.frames[0].color,
                 exposure_stops,
                 tone_map.as_deref_mut(),
-            )?;
-            std::fs::rename(&tmp, &path)
-                .with_context(|| format!("cannot write {}", path.display()))?;
-            Ok::<(), anyhow::Error>(())
+            )
         },
         &mut |_| pb.inc(1),
-    )?;
+    );
     pb.finish_and_clear();
+    let counts = counts?;
     println!(
         "{} frames in {}: {} rendered, {} already there",
         args.frames,
@@ -490,7 +484,7 @@ fn frame_is_complete(path: &Path, d: &DisplayProfile) -> bool {
 }
 
 /// Writes 8-bit sRGB PNG (Reinhard tone curve, as `fovea render`) whatever the extension,
-/// encoded on `tone_map` when given.
+/// encoded on `tone_map` when given, complete or not at all ([`write_file`]).
 fn write_png(
     path: &Path,
     img: &fovea_core::Image<fovea_post::Rgb>,
@@ -498,25 +492,71 @@ fn write_png(
     tone_map: Option<&mut (dyn fovea_post::tonemap::ToneMapExecutor + 'static)>,
 ) -> Result<()> {
     let bytes = crate::output::encode_srgb8(img, stops, ToneCurve::Reinhard, tone_map)?;
-    let buf = image::RgbImage::from_raw(img.width(), img.height(), bytes)
-        .ok_or_else(|| anyhow::anyhow!("frame buffer size"))?;
-    buf.save_with_format(path, image::ImageFormat::Png)
-        .with_context(|| format!("cannot write {}", path.display()))
+    let png = crate::output::png_bytes(path, img.width(), img.height(), bytes)?;
+    write_file(path, &png)
 }
 
-fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let tmp = path.with_extension("tmp");
-    std::fs::write(&tmp, bytes).with_context(|| format!("cannot write {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
+/// Decides whether `out` may take this run's frames. Frames are reused only when
+/// `sequence.json` vouches for them: its text is this run's `manifest` (the manifest is
+/// written before the first frame, so every frame of a folder was rendered under the
+/// manifest it holds). A folder whose manifest differs, or that holds frames (or a video)
+/// without a manifest (deleted, or unreadable), is refused; with `overwrite` its frames are
+/// removed and rendered again.
+fn check_folder(out: &Path, manifest_path: &Path, manifest: &str, overwrite: bool) -> Result<()> {
+    let old = match std::fs::read(manifest_path) {
+        Ok(bytes) => Some(bytes),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+        Err(e) => bail!("cannot read {}: {e}", manifest_path.display()),
+    };
+    if old.as_deref() == Some(manifest.as_bytes()) {
+        return Ok(());
+    }
+    let frames = earlier_outputs(out)?;
+    if old.is_none() && frames == 0 {
+        return Ok(());
+    }
+    if !overwrite {
+        match old {
+            Some(_) => bail!(
+                "{} holds frames rendered with other settings (its sequence.json differs); pass --overwrite to render them again or choose another --out",
+                out.display()
+            ),
+            None => bail!(
+                "{} holds {frames} frame file(s) but no sequence.json to say which settings rendered them; pass --overwrite to render them again or choose another --out",
+                out.display()
+            ),
+        }
+    }
+    remove_frames(out)
 }
 
-/// Removes the frames (and video) of an earlier run.
+/// The frames (`frame_*.png`) and video of an earlier run in `out`.
+fn earlier_outputs(out: &Path) -> Result<usize> {
+    let mut n = 0;
+    for e in std::fs::read_dir(out).with_context(|| format!("cannot read {}", out.display()))? {
+        let e = e.with_context(|| format!("cannot read {}", out.display()))?;
+        let name = e.file_name();
+        let name = name.to_string_lossy();
+        let frame =
+            (name.starts_with("frame_") && name.ends_with(".png")) || name == "sequence.mp4";
+        if frame && e.path().is_file() {
+            n += 1;
+        }
+    }
+    Ok(n)
+}
+
+/// Removes the frames (and video) of an earlier run, with the temporary files of a run that
+/// was killed while writing one.
 fn remove_frames(out: &Path) -> Result<()> {
     for e in std::fs::read_dir(out).with_context(|| format!("cannot read {}", out.display()))? {
         let p = e?.path();
         let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
+        let temporary = fovea_core::atomic_file::is_temporary_name(name)
+            && (name.starts_with(".frame_") || name.starts_with(".sequence.mp4."));
         if (name.starts_with("frame_") && (name.ends_with(".png") || name.ends_with(".tmp")))
             || name == "sequence.mp4"
+            || temporary
         {
             std::fs::remove_file(&p).with_context(|| format!("cannot remove {}", p.display()))?;
         }
@@ -541,30 +581,37 @@ fn make_video(out: &Path, fps: f64, video: Video) -> Result<()> {
         return Ok(());
     }
     let mp4 = out.join("sequence.mp4");
-    let status = std::process::Command::new("ffmpeg")
-        .args([
-            "-y",
-            "-loglevel",
-            "error",
-            "-framerate",
-            &format!("{fps}"),
-            "-i",
-        ])
-        .arg(out.join("frame_%05d.png"))
-        .args([
-            "-c:v",
-            "libx264",
-            "-pix_fmt",
-            "yuv420p",
-            "-vf",
-            "pad=ceil(iw/2)*2:ceil(ih/2)*2",
-        ])
-        .arg(&mp4)
-        .status()
-        .context("cannot run ffmpeg")?;
-    if !status.success() {
-        bail!("ffmpeg failed ({status}) writing {}", mp4.display());
-    }
+    // ffmpeg writes a temporary name (hence `-f mp4`), renamed into place when it succeeds.
+    fovea_core::atomic_file::write_atomic_via(&mp4, |tmp| {
+        let status = std::process::Command::new("ffmpeg")
+            .args([
+                "-y",
+                "-loglevel",
+                "error",
+                "-framerate",
+                &format!("{fps}"),
+                "-i",
+            ])
+            .arg(out.join("frame_%05d.png"))
+            .args([
+                "-c:v",
+                "libx264",
+                "-pix_fmt",
+                "yuv420p",
+                "-vf",
+                "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+                "-f",
+                "mp4",
+            ])
+            .arg(tmp)
+            .status()
+            .map_err(|e| std::io::Error::other(format!("cannot run ffmpeg: {e}")))?;
+        if status.success() {
+            Ok(())
+        } else {
+            Err(std::io::Error::other(format!("ffmpeg failed ({status})")))
+        }
+    })?;
     println!("wrote {}", mp4.display());
     Ok(())
 }

@@ -155,8 +155,11 @@ pub fn run(args: ViewArgs) -> Result<()> {
     if let Some(p) = &args.screenshot {
         crate::output::check_image_path(p)?;
     }
-    // Before the scene loads: no window, no point loading it.
+    // Before the scene loads: no window, no point loading it. The connection is made before
+    // the GPU is probed (a Vulkan layer's own connect and disconnect would otherwise reset
+    // the X server just before the window connects) and held until the window's is open.
     fovea_viewer::check_display_server()?;
+    let display_hold = fovea_viewer::connect_display_server(args.quiet)?;
     args.display.display(Headset::VivePro)?;
     let liu_hybrid = args.method.is_liu_hybrid();
     let method = args.method.method();
@@ -280,6 +283,7 @@ pub fn run(args: ViewArgs) -> Result<()> {
         cpu_path,
         move_speed_m_s: args.speed,
         quiet: args.quiet,
+        display_hold,
     })?;
     println!(
         "{} frames in {:.1} s: {:.2} fps, {:.0} ms a frame | window: {} | frames: {}",

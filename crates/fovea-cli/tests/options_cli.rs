@@ -274,6 +274,31 @@ fn every_command_takes_quiet() {
         c.output().unwrap().stdout
     };
     assert_eq!(json(true), json(false));
+    // fidelity: the table, without the paragraph that explains it.
+    let fidelity = |q: bool| {
+        let mut c = fovea();
+        c.args([
+            "fidelity",
+            "--res",
+            "160x180",
+            "--methods",
+            "vafr",
+            "--stride",
+            "8",
+        ]);
+        if q {
+            c.arg("-q");
+        }
+        let o = c.output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    let (loud, quiet) = (fidelity(false), fidelity(true));
+    assert!(
+        loud.starts_with("Texel spacing") && quiet.starts_with("| method |"),
+        "{quiet}"
+    );
+    assert!(loud.ends_with(&*quiet), "{quiet}");
     // optics: every line is what was asked for.
     let o = fovea().args(["optics", "-q"]).output().unwrap();
     assert!(o.status.success());

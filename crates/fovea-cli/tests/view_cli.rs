@@ -79,6 +79,33 @@ const VIEW: [&str; 7] = [
     "-q",
 ];
 
+/// An X server that never answers: the first connection is retried for 5 s, then one line
+/// names the display, the attempts and the reason (issue 39), before the scene loads.
+#[test]
+fn an_absent_x_server_is_retried_then_one_line() {
+    let t = std::time::Instant::now();
+    let out = fovea()
+        .args(["view", "--frames", "1", "--res", "64x72"])
+        .env("DISPLAY", ":4917")
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("WAYLAND_SOCKET")
+        .output()
+        .unwrap();
+    let secs = t.elapsed().as_secs_f64();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "{err}");
+    assert!(
+        lines[0].starts_with(
+            "error: no display server: cannot connect to the X server DISPLAY=:4917 ("
+        ),
+        "{err}"
+    );
+    assert!(lines[0].contains("attempts over 5 s"), "{err}");
+    assert!(secs >= 5.0, "gave up after {secs:.1} s");
+}
+
 #[test]
 fn no_display_server_is_one_line_naming_the_variables() {
     let out = fovea()

@@ -9,8 +9,8 @@ pub enum FoveaError {
     /// and the range that would be accepted, so the caller can fix it without reading the source.
     #[error(
         "invalid parameter `{}` = {}: expected {}",
-        printable(.name),
-        printable(.value),
+        echoed(.name),
+        echoed(.value),
         printable(.expected)
     )]
     InvalidParameter {
@@ -44,7 +44,8 @@ pub enum FoveaError {
 
 /// `text` with its control characters (`\n`, `\r`, NUL, escape…) escaped (`\r`, `\u{0}`):
 /// messages quote file contents and names, and every error is shown as one printable line.
-/// The errors' `Display` applies it to every field.
+/// The errors' `Display` applies it to every field (and [`echoed`] also cuts the fields that
+/// quote input).
 pub fn printable(text: &str) -> std::borrow::Cow<'_, str> {
     if !text.chars().any(char::is_control) {
         return std::borrow::Cow::Borrowed(text);
@@ -58,6 +59,29 @@ pub fn printable(text: &str) -> std::borrow::Cow<'_, str> {
         }
     }
     std::borrow::Cow::Owned(out)
+}
+
+/// How many characters of a user's input an error message quotes before cutting it short
+/// ([`shorten`]): enough to recognise a header or a value, short enough for one line.
+pub const ECHO_CHARS: usize = 200;
+
+/// `text` cut to its first `max_chars` characters with `…` and the number of characters left
+/// out, e.g. a 10,000-column CSV header quoted in an error; `text` itself when it is short
+/// enough.
+pub fn shorten(text: &str, max_chars: usize) -> std::borrow::Cow<'_, str> {
+    match text.char_indices().nth(max_chars) {
+        None => std::borrow::Cow::Borrowed(text),
+        Some((cut, _)) => {
+            let left = text[cut..].chars().count();
+            std::borrow::Cow::Owned(format!("{}… ({left} more characters)", &text[..cut]))
+        }
+    }
+}
+
+/// Text quoted from the user's input in a message: [`shorten`]ed to [`ECHO_CHARS`], then
+/// [`printable`]. The `InvalidParameter` errors show their name and value this way.
+pub fn echoed(text: &str) -> String {
+    printable(&shorten(text, ECHO_CHARS)).into_owned()
 }
 
 /// Result alias of the core crate.
@@ -104,5 +128,39 @@ fn range_text(lo: f64, hi: f64, open_lo: bool) -> String {
         (true, false) => format!("a finite number ≥ {lo}"),
         (false, true) => format!("a finite number ≤ {hi}"),
         (false, false) => "a finite number".to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn long_input_is_cut_with_the_count_of_what_was_left_out() {
+        assert_eq!(shorten("short", 10), "short");
+        assert_eq!(shorten("exactly10!", 10), "exactly10!");
+        assert_eq!(
+            shorten("abcdefghijkl", 10),
+            "abcdefghij… (2 more characters)"
+        );
+        // Characters, not bytes: a cut never splits one.
+        assert_eq!(shorten("ééééé", 2), "éé… (3 more characters)");
+        let header = (0..10_000)
+            .map(|i| format!("c{i}"))
+            .collect::<Vec<_>>()
+            .join(",");
+        let e = FoveaError::invalid("gaze CSV header", &header, "a time column");
+        let text = e.to_string();
+        assert!(text.len() < 300, "{} bytes: {text}", text.len());
+        assert!(
+            text.starts_with("invalid parameter `gaze CSV header` = c0,c1,c2,"),
+            "{text}"
+        );
+        let left = header.chars().count() - ECHO_CHARS;
+        assert!(text.ends_with(&format!(
+            "… ({left} more characters): expected a time column"
+        )));
+        // Control characters are still escaped after the cut.
+        assert_eq!(echoed("a\nb"), "a\\nb");
     }
 }

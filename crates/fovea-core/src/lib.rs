@@ -9,6 +9,8 @@
 //!   sampling and full resolution, each a forward/inverse/shading-rate triple.
 //! * [`optics`]: the thin-lens eye (Liu Eq. 4–13, Weier Eq. 3) and pupil models.
 //! * [`analysis`]: sample-count tables and shading-rate curves for reports.
+//! * [`atomic_file`]: every output file written complete or not at all (temporary name,
+//!   flush, fsync, rename).
 //! * [`fidelity`]: how coarse a mapping's texels are against the acuity model at every
 //!   pixel's true eccentricity, for any gaze.
 //! * [`gaze`]: gaze trajectories per frame, from eye-tracker CSV or synthesised (fixations,
@@ -33,6 +35,7 @@
 
 pub mod acuity;
 pub mod analysis;
+pub mod atomic_file;
 pub mod display;
 pub mod error;
 pub mod fidelity;

@@ -5,8 +5,10 @@
 //! Text format (CSV, header required, `#` comments and blank lines skipped, comma, semicolon
 //! or tab separated): `t,x,y,z,look_x,look_y,look_z` with time in seconds and coordinates in
 //! the scene's metres (after `--scene-scale`); an optional `up_x,up_y,up_z` triple sets the up
-//! vector (default +y). Times must strictly increase; every value must be finite; a look-at
-//! point equal to the position is an error. At most 1,000,000 keyframes.
+//! vector (default +y). Times must strictly increase; every value must be finite, and
+//! coordinates within ±10⁹ m ([`MAX_COORDINATE_M`]); a look-at point equal to the position, or
+//! an up vector along the view direction, is an error naming the keyframe and its line. At
+//! most 1,000,000 keyframes.
 
 use glam::Vec3;
 
@@ -33,9 +35,37 @@ pub struct CameraPath {
 
 const MAX_KEYFRAMES: usize = 1_000_000;
 
+/// Largest coordinate of a position or look-at point, metres. A camera's basis is built in
+/// `f32` from `look_at − position`; far beyond this its squared length overflows (at
+/// ~1.8·10¹⁹ m) and `f32`'s spacing (64 m at 10⁹ m) has long stopped resolving a scene.
+pub const MAX_COORDINATE_M: f32 = 1e9;
+
+/// `(x, y, z)` for messages, large values in scientific notation (`1e30`, not 31 digits).
+fn show(v: Vec3) -> String {
+    let c = |x: f32| {
+        if x.abs() >= 1e6 {
+            format!("{x:e}")
+        } else {
+            format!("{x}")
+        }
+    };
+    format!("({}, {}, {})", c(v.x), c(v.y), c(v.z))
+}
+
 impl CameraPath {
-    /// A path through `keys` (at least one, strictly increasing times, finite values).
+    /// A path through `keys` (at least one, strictly increasing times, finite values within
+    /// [`MAX_COORDINATE_M`], each keyframe a valid camera: look-at away from the position, up
+    /// not along the view).
     pub fn new(keys: Vec<Keyframe>) -> Result<Self> {
+        Self::checked(keys, None)
+    }
+
+    /// [`CameraPath::new`], with the text line of each keyframe for messages.
+    fn checked(keys: Vec<Keyframe>, lines: Option<&[usize]>) -> Result<Self> {
+        let name = |i: usize| match lines.and_then(|l| l.get(i)) {
+            Some(line) => format!("camera path keyframe {i} (line {line})"),
+            None => format!("camera path keyframe {i}"),
+        };
         if keys.is_empty() || keys.len() > MAX_KEYFRAMES {
             return Err(RenderError::invalid(
                 "camera path",
@@ -50,22 +80,52 @@ impl CameraPath {
                 && k.up.is_finite())
             {
                 return Err(RenderError::invalid(
-                    "camera path",
-                    format!("keyframe {i}"),
-                    "finite time, position, look-at and up",
+                    name(i),
+                    format!(
+                        "t {} s, position {}, look-at {}, up {}",
+                        k.t_s,
+                        show(k.position),
+                        show(k.look_at),
+                        show(k.up)
+                    ),
+                    "finite time, position, look-at and up (in f32)",
                 ));
             }
-            if (k.look_at - k.position).length() < 1e-9 || k.up.length() < 1e-9 {
+            let far = |v: Vec3| v.abs().max_element() > MAX_COORDINATE_M;
+            if far(k.position) || far(k.look_at) {
                 return Err(RenderError::invalid(
-                    "camera path",
-                    format!("keyframe {i}"),
-                    "a look-at point away from the position and a non-zero up vector",
+                    name(i),
+                    format!("position {}, look-at {}", show(k.position), show(k.look_at)),
+                    format!("coordinates within ±{MAX_COORDINATE_M:e} m"),
+                ));
+            }
+            let forward = (k.look_at - k.position).normalize_or_zero();
+            if forward == Vec3::ZERO {
+                return Err(RenderError::invalid(
+                    name(i),
+                    format!(
+                        "position {} = look-at {}",
+                        show(k.position),
+                        show(k.look_at)
+                    ),
+                    "a look-at point away from the position",
+                ));
+            }
+            if forward.cross(k.up).normalize_or_zero() == Vec3::ZERO {
+                return Err(RenderError::invalid(
+                    name(i),
+                    format!(
+                        "up {} along the view direction {}",
+                        show(k.up),
+                        show(forward)
+                    ),
+                    "a non-zero up vector not parallel to look-at − position",
                 ));
             }
             if i > 0 && k.t_s <= keys[i - 1].t_s {
                 return Err(RenderError::invalid(
-                    "camera path",
-                    format!("keyframe {i} at {} s after {} s", k.t_s, keys[i - 1].t_s),
+                    name(i),
+                    format!("{} s after {} s", k.t_s, keys[i - 1].t_s),
                     "strictly increasing times",
                 ));
             }
@@ -105,7 +165,7 @@ impl CameraPath {
             idx.push(col(n).ok_or_else(|| {
                 RenderError::invalid(
                     "camera path header",
-                    header,
+                    fovea_core::error::shorten(header, fovea_core::error::ECHO_CHARS),
                     "columns t,x,y,z,look_x,look_y,look_z (optional up_x,up_y,up_z)",
                 )
             })?);
@@ -115,6 +175,7 @@ impl CameraPath {
             _ => None,
         };
         let mut keys = Vec::new();
+        let mut key_lines = Vec::new();
         for (line_no, line) in lines {
             if keys.len() >= MAX_KEYFRAMES {
                 return Err(RenderError::invalid(
@@ -135,7 +196,11 @@ impl CameraPath {
                     .ok_or_else(|| {
                         RenderError::invalid(
                             format!("camera path line {line_no}, column {}", names[i]),
-                            if cell.is_empty() { "(empty)" } else { cell },
+                            if cell.is_empty() {
+                                "(empty)".into()
+                            } else {
+                                fovea_core::error::shorten(cell, fovea_core::error::ECHO_CHARS)
+                            },
                             "a finite number",
                         )
                     })
@@ -143,6 +208,7 @@ impl CameraPath {
             let v3 = |a: usize, b: usize, c: usize| -> Result<Vec3> {
                 Ok(Vec3::new(num(a)? as f32, num(b)? as f32, num(c)? as f32))
             };
+            key_lines.push(line_no);
             keys.push(Keyframe {
                 t_s: num(idx[0])?,
                 position: v3(idx[1], idx[2], idx[3])?,
@@ -153,7 +219,7 @@ impl CameraPath {
                 },
             });
         }
-        Self::new(keys)
+        Self::checked(keys, Some(&key_lines))
     }
 
     /// The keyframes.
@@ -201,7 +267,8 @@ mod tests {
         assert_eq!(p.at(9.0).0, Vec3::new(2.0, 1.0, 5.0));
         assert_eq!(p.at(f64::NAN).0, Vec3::new(0.0, 1.0, 5.0));
         let semi = CameraPath::parse(
-            "t;x;y;z;look_x;look_y;look_z;up_x;up_y;up_z\n0;0;0;0;0;0;-1;0;0;1\n",
+            // Looking down (−y) with +z up (an up along the view is refused).
+            "t;x;y;z;look_x;look_y;look_z;up_x;up_y;up_z\n0;0;0;0;0;-1;0;0;0;1\n",
         )
         .unwrap();
         assert_eq!(semi.at(0.0).2, Vec3::Z);
@@ -220,5 +287,46 @@ mod tests {
         ] {
             assert!(CameraPath::parse(text).is_err(), "{text:?}");
         }
+    }
+
+    /// A far position or a degenerate keyframe names the keyframe, its line and the problem,
+    /// in one line; a huge header is echoed cut short.
+    #[test]
+    fn bad_keyframes_name_their_line_and_problem() {
+        let head = "# far away\nt,x,y,z,look_x,look_y,look_z\n0,0,0,5,0,0,0\n";
+        let e = CameraPath::parse(&format!("{head}1,1e30,0,0,0,0,0\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("keyframe 1 (line 4)"), "{e}");
+        assert!(e.contains("within ±1e9 m"), "{e}");
+        assert!(!e.contains("parallel"), "{e}");
+        let e = CameraPath::parse(&format!("{head}1,0,5,0,0,0,0\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("keyframe 1 (line 4)") && e.contains("along the view"),
+            "{e}"
+        );
+        let e = CameraPath::parse(&format!("{head}1,0,0,5,0,0,5\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("away from the position"), "{e}");
+        // 1e39 is finite in f64 but not in f32.
+        let e = CameraPath::parse(&format!("{head}1,1e39,0,0,0,0,0\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("keyframe 1 (line 4)") && e.contains("finite"),
+            "{e}"
+        );
+        // Just inside the bound is a path.
+        assert!(CameraPath::parse(&format!("{head}1,1e9,0,0,0,0,0\n")).is_ok());
+        let header: String = (0..10_000).map(|i| format!("c{i},")).collect();
+        let e = CameraPath::parse(&format!("{header}\n1,2\n"))
+            .unwrap_err()
+            .to_string();
+        assert_eq!(e.lines().count(), 1);
+        assert!(e.len() < 600, "{} chars: {e}", e.len());
+        assert!(e.contains('…'), "{e}");
     }
 }

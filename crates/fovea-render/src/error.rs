@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use fovea_core::error::printable;
+use fovea_core::error::{echoed, printable};
 use thiserror::Error;
 
 /// Every error the render crate returns.
@@ -16,8 +16,8 @@ pub enum RenderError {
     /// A parameter of the renderer outside its valid range.
     #[error(
         "invalid parameter `{}` = {}: expected {}",
-        printable(.name),
-        printable(.value),
+        echoed(.name),
+        echoed(.value),
         printable(.expected)
     )]
     InvalidParameter {

@@ -103,6 +103,9 @@ pub fn run(cfg: ViewerConfig) -> Result<Summary> {
             "cannot connect to the display server ({e}); check DISPLAY (X11) or WAYLAND_DISPLAY (Wayland)"
         ))
     })?;
+    // The event loop holds its own connection now: the server no longer risks a reset
+    // between clients (see `display_server`).
+    drop(cfg.display_hold);
     let (w, h) = (cfg.display.width_px as f64, cfg.display.height_px as f64);
     let (replay, stream) = match cfg.gaze {
         GazeSource::Mouse => (None, None),
@@ -121,7 +124,7 @@ pub fn run(cfg: ViewerConfig) -> Result<Summary> {
     if let Some(dir) = &cfg.frames_out {
         std::fs::create_dir_all(dir).map_err(|e| ViewerError::Io {
             path: dir.clone(),
-            source: e,
+            reason: e,
         })?;
     }
     let mut renderer =
@@ -469,7 +472,7 @@ impl App {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|e| ViewerError::Io {
                 path: dir.to_path_buf(),
-                source: e,
+                reason: e,
             })?;
         }
         write_png(&path, frame)?;
@@ -499,10 +502,7 @@ impl App {
         });
         let text = serde_json::to_string_pretty(&json)
             .map_err(|e| ViewerError::Render(format!("frame statistics: {e}")))?;
-        std::fs::write(&json_path, text + "\n").map_err(|e| ViewerError::Io {
-            path: json_path.clone(),
-            source: e,
-        })?;
+        fovea_core::atomic_file::write_atomic(&json_path, (text + "\n").as_bytes())?;
         self.status = format!("wrote {} and {}", path.display(), json_path.display());
         if !self.quiet {
             eprintln!("{}", self.status);
@@ -871,8 +871,9 @@ fn write_png(path: &Path, frame: &ViewFrame) -> Result<()> {
         .chunks_exact(4)
         .flat_map(|p| [p[0], p[1], p[2]])
         .collect();
-    image::save_buffer_with_format(
-        path,
+    let mut png = std::io::Cursor::new(Vec::new());
+    image::write_buffer_with_format(
+        &mut png,
         &rgb,
         frame.width,
         frame.height,
@@ -881,6 +882,7 @@ fn write_png(path: &Path, frame: &ViewFrame) -> Result<()> {
     )
     .map_err(|e| ViewerError::Io {
         path: path.to_path_buf(),
-        source: std::io::Error::other(e.to_string()),
-    })
+        reason: std::io::Error::other(e.to_string()),
+    })?;
+    Ok(fovea_core::atomic_file::write_atomic(path, png.get_ref())?)
 }

@@ -17,14 +17,18 @@ pub enum ViewerError {
     /// The renderer refused a frame.
     #[error("{0}")]
     Render(String),
-    /// A file could not be written.
-    #[error("cannot write {}: {source}", path.display())]
+    /// A file or folder could not be written.
+    #[error("cannot write {}: {reason}", path.display())]
     Io {
         /// The file.
         path: PathBuf,
-        /// Why.
-        source: std::io::Error,
+        /// Why (in the message, not a `source`: a chain of contexts prints it once).
+        reason: std::io::Error,
     },
+    /// An output file could not be written (through [`fovea_core::atomic_file`]: nothing
+    /// is left under its name).
+    #[error(transparent)]
+    Write(#[from] fovea_core::atomic_file::WriteError),
 }
 
 impl From<fovea_render::RenderError> for ViewerError {

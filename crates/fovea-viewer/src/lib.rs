@@ -14,6 +14,7 @@
 
 pub mod app;
 pub mod controls;
+pub mod display_server;
 pub mod error;
 pub mod frame;
 pub mod gaze_input;
@@ -29,6 +30,7 @@ use fovea_render::pipeline::{Executors, FrameSettings};
 use fovea_render::world::World;
 
 pub use controls::{ViewMethod, ViewSettings};
+pub use display_server::{connect_display_server, DisplayHold};
 pub use error::{Result, ViewerError};
 pub use frame::{Pose, SecondEyeExecutors};
 
@@ -93,6 +95,9 @@ pub struct ViewerConfig {
     pub move_speed_m_s: f32,
     /// No progress lines on stderr.
     pub quiet: bool,
+    /// The connection to the display server made before the GPU was probed
+    /// ([`connect_display_server`]), closed once the window's event loop has its own.
+    pub display_hold: DisplayHold,
 }
 
 /// How a viewing went.

@@ -35,7 +35,7 @@ pub struct Recorder {
 fn io_error(path: &Path, e: std::io::Error) -> ViewerError {
     ViewerError::Io {
         path: path.to_path_buf(),
-        source: e,
+        reason: e,
     }
 }
 

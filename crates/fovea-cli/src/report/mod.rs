@@ -322,7 +322,7 @@ pub fn run(args: ReportArgs) -> Result<()> {
     ];
     for (name, text) in &files {
         let p = args.out.join(name);
-        std::fs::write(&p, text).with_context(|| format!("cannot write {}", p.display()))?;
+        crate::output::write_file(&p, text.as_bytes())?;
     }
     let failed: Vec<String> = report
         .sections

@@ -310,7 +310,12 @@ pub fn parse_csv(
         .collect();
     // Control characters in a header cell (a stray `\r`, a NUL) are escaped when the error
     // is shown (`FoveaError`'s `Display`): the message stays one printable line.
-    let found = || format!("columns [{}]", header.join(", "));
+    // A header of thousands of columns is counted, and quoted cut short (the error's
+    // `Display` shortens the value: `crate::error::echoed`).
+    let found = || match header.len() {
+        n if n > 20 => format!("{n} columns [{}]", header.join(", ")),
+        _ => format!("columns [{}]", header.join(", ")),
+    };
     let missing = |what: &str| {
         FoveaError::invalid(
             format!("gaze CSV header (line {header_line}): missing {what}"),

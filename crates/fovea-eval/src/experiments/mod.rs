@@ -29,13 +29,17 @@ pub mod inset;
 pub mod scenario;
 
 /// Writes `img` as 8-bit sRGB PNG after the Reinhard tone curve (as `fovea render` writes
-/// frames), whatever the extension.
+/// frames), whatever the extension, complete or not at all
+/// ([`fovea_core::atomic_file::write_atomic`]).
 pub fn write_png(path: &Path, img: &Image<Rgb>) -> Result<()> {
     let bytes = to_srgb8(img, 0.0, ToneCurve::Reinhard);
     let buf = image::RgbImage::from_raw(img.width(), img.height(), bytes)
         .ok_or_else(|| EvalError::io(path, "image buffer size"))?;
-    buf.save_with_format(path, image::ImageFormat::Png)
-        .map_err(|e| EvalError::io(path, e))
+    let mut png = std::io::Cursor::new(Vec::new());
+    buf.write_to(&mut png, image::ImageFormat::Png)
+        .map_err(|e| EvalError::io(path, e))?;
+    fovea_core::atomic_file::write_atomic(path, png.get_ref())
+        .map_err(|e| EvalError::io(path, e.reason))
 }
 
 /// Creates `dir` and its parents.

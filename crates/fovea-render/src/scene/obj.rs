@@ -583,6 +583,12 @@ fn check_lines(text: &str) -> std::result::Result<LineCounts, String> {
                 nvn += 1;
             }
             Some(kw @ ("f" | "l")) => {
+                let words: Vec<&str> = words.collect();
+                if words.is_empty() {
+                    return Err(format!(
+                        "line {n}: a face (`{kw}`) without vertex indices; expected e.g. `{kw} 1 2 3`"
+                    ));
+                }
                 for token in words {
                     let parts: Vec<&str> = token.split('/').collect();
                     // As `tobj`: empty parts are skipped, a fourth non-empty one is an error.
@@ -793,6 +799,11 @@ mod tests {
         // A trailing slash is accepted (as `tobj` does), a fourth index is not.
         assert!(check_indices("v 0 0 0\nvt 0 0\nvn 0 0 1\nf 1/1/1/ 1/1/1 1/1/1\n").is_ok());
         assert!(check_indices("v 0 0 0\nf 1/1/1/1 1 1\n").is_err());
+        // A bare `f` (or `l`) names its line.
+        for kw in ["f", "l"] {
+            let e = check_indices(&format!("v 0 0 0\n{kw}\nf 1 1 1\n")).unwrap_err();
+            assert!(e.starts_with("line 2: a face"), "{e}");
+        }
         // Statements tobj would reject come with their line.
         assert!(check_indices("v 0 0 0\nv 1 2\n")
             .unwrap_err()

@@ -35,6 +35,44 @@ fn local_transform(node: &::gltf::Node) -> Mat4 {
     }
 }
 
+/// A node on a cycle of the child links, when some node cannot be reached from `roots` (in a
+/// file without scenes, the nodes that are nobody's child); `None` when every node can. An
+/// unreachable node has a parent (else it would be a root) and so has each of its ancestors,
+/// none of them reachable either: following parent links from it must repeat a node, and the
+/// first repeated node lies on a cycle. Linear in the number of nodes and links.
+fn unrooted_cycle(doc: &::gltf::Document, roots: &[usize]) -> Option<usize> {
+    let n = doc.nodes().len();
+    let children: Vec<Vec<usize>> = doc
+        .nodes()
+        .map(|node| node.children().map(|c| c.index()).collect())
+        .collect();
+    let mut reached = vec![false; n];
+    let mut stack: Vec<usize> = roots.to_vec();
+    while let Some(i) = stack.pop() {
+        if !std::mem::replace(&mut reached[i], true) {
+            stack.extend(children[i].iter().copied().filter(|&c| !reached[c]));
+        }
+    }
+    let start = reached.iter().position(|&r| !r)?;
+    let mut parent = vec![usize::MAX; n];
+    for (p, cs) in children.iter().enumerate() {
+        for &c in cs {
+            parent[c] = p;
+        }
+    }
+    let mut seen = vec![false; n];
+    let mut i = start;
+    while !std::mem::replace(&mut seen[i], true) {
+        i = parent[i];
+        if i == usize::MAX {
+            // Not reachable yet without a parent: cannot happen when `roots` are the nodes
+            // without one; reported at the node where the walk stopped.
+            return Some(start);
+        }
+    }
+    Some(i)
+}
+
 impl Loader<'_> {
     /// Walks the chosen scene's node trees depth-first (iteratively, with cycle detection):
     /// a counting pass, then the pass that bakes meshes, lights and cameras.
@@ -49,7 +87,19 @@ impl Loader<'_> {
                         is_child[c.index()] = true;
                     }
                 }
-                (0..is_child.len()).filter(|&i| !is_child[i]).collect()
+                let roots: Vec<usize> = (0..is_child.len()).filter(|&i| !is_child[i]).collect();
+                // Without a scene the roots are the nodes nobody lists as a child; nodes that
+                // cannot be reached from them hang on a cycle (their walk would find nothing).
+                if let Some(i) = unrooted_cycle(doc, &roots) {
+                    return Err(RenderError::bad(
+                        self.path,
+                        format!(
+                            "the node hierarchy has a cycle through node {i} (the file has no \
+                             scene, and the nodes of the cycle have no root node)"
+                        ),
+                    ));
+                }
+                roots
             }
         };
         let nodes: Vec<::gltf::Node> = doc.nodes().collect();
