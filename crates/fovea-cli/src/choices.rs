@@ -129,9 +129,11 @@ impl From<ReconstructFilterChoice> for fovea_post::inverse_map::ReconstructFilte
     }
 }
 
-/// `--shading`: direct lighting or path tracing (the numbers are separate options).
+/// `--shading`: direct lighting plus indirect light (the default), direct lighting alone, or
+/// path tracing (the numbers are separate options).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Shading {
+    Indirect,
     Direct,
     Path,
 }

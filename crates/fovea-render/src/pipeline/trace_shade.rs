@@ -32,9 +32,10 @@ use crate::cull_fill::{fill_culled, shade_or_cull, CullBuffers, SampleCull};
 use crate::error::{RenderError, Result};
 use crate::plan::{FramePlan, RayRings};
 use crate::scene::Light;
+use crate::shade::frame_noise::with_frame;
 use crate::shade::{
-    shade, shade_direct_batch, subsample_key, texel_key, EnvLight, RayCounts, ShadingMode,
-    ShadowRays,
+    indirect, shade, shade_direct_batch, subsample_key, texel_key, EnvLight, RayCounts,
+    ShadingMode, ShadowRays,
 };
 use crate::trace::{surface, GSample};
 use crate::world::World;
@@ -492,13 +493,25 @@ pub fn shade_chunk(
     let shading = plan.settings.shading;
     let cull = plan.culling.as_ref();
     // The key of the chunk's texel `k` (row-major in the chunk's rows): its random numbers.
-    let key_of_texel = |k: u32| texel_key(layer, k % row_len as u32, j0 + k / row_len as u32);
+    // The frame and the eye enter every key (`crate::shade::frame_noise`).
+    let key_of_texel = |k: u32| {
+        with_frame(
+            texel_key(layer, k % row_len as u32, j0 + k / row_len as u32),
+            plan.noise,
+        )
+    };
+    // Indirect light on top of direct shading, added per surface sample.
+    let bounces = match shading {
+        ShadingMode::Indirect { bounces, .. } => bounces,
+        _ => 0,
+    };
+    let bounce = bounces > 0;
     // Direct shading of one ray per texel without culling (the default frame): on the CPU
     // each light's shadow rays of a batch of neighbouring texels are cast together; `tracer`
     // gets the shadow rays of many batches at once (gathered first) and may compute the
     // lights' part itself.
-    if let (ShadingMode::Direct { env_light }, None, true) = (
-        shading,
+    if let (Some(env_light), None, true) = (
+        shading.direct_env_light(),
         cull,
         plan.rays.per_column.is_empty() && plan.rays.uniform == 1,
     ) {
@@ -572,7 +585,7 @@ pub fn shade_chunk(
         // Each texel's colour and depth once its batch's rays are answered (`blocked`), with
         // the lights' and the environment's parts given per surface sample or summed from the
         // rays.
-        let finish = |(reps, rays, rc, _): Gathered<'_>,
+        let finish = |(reps, rays, rc, hit_keys): Gathered<'_>,
                       blocked: &[bool],
                       (direct, environment): Given<'_>|
          -> Batch {
@@ -596,6 +609,18 @@ pub fn shade_chunk(
                     &mut values,
                 );
             }
+            if bounce {
+                // The keys of the hits, in order; misses get no bounce.
+                let mut keys = hit_keys.iter().copied();
+                let keys = gs.iter().map(|g| {
+                    if g.is_hit() {
+                        keys.next().unwrap_or(0)
+                    } else {
+                        0
+                    }
+                });
+                add_bounces(world, &gs, (env_light, bounces), keys, &mut values, &mut rc);
+            }
             (emit(&reps, values), rc)
         };
         // Per batch: each texel's colour and depth, and the batch's secondary rays.
@@ -615,6 +640,16 @@ pub fn shade_chunk(
                     let mut rc = RayCounts::default();
                     let mut values = vec![Vec3::ZERO; gs.len()];
                     shade_direct_batch(world, &gs, &keys, env_light, &mut values, &mut rc);
+                    if bounce {
+                        add_bounces(
+                            world,
+                            &gs,
+                            (env_light, bounces),
+                            keys.iter().copied(),
+                            &mut values,
+                            &mut rc,
+                        );
+                    }
                     (emit(&reps, values), rc)
                 })
                 .collect(),
@@ -762,6 +797,24 @@ pub fn shade_chunk(
         }
     }
     Ok(ShadeCast::default())
+}
+
+/// Adds [`indirect`] light of `bounces` bounces (the primary hits' environment light being
+/// `env_light`) to the radiance of every surface sample of `gs` (`keys`: one per sample), its
+/// rays counted in `counts`.
+fn add_bounces(
+    world: &World,
+    gs: &[&GSample],
+    (env_light, bounces): (EnvLight, u32),
+    keys: impl Iterator<Item = u64>,
+    values: &mut [Vec3],
+    counts: &mut RayCounts,
+) {
+    for ((g, key), v) in gs.iter().zip(keys).zip(values.iter_mut()) {
+        if g.is_hit() {
+            *v += indirect(world, g, env_light, bounces, key, counts);
+        }
+    }
 }
 
 /// What another executor did in a chunk's shading ([`shade_chunk`]).
