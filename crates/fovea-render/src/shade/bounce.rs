@@ -119,7 +119,7 @@ pub fn indirect(
         throughput *= f / pdf;
         if depth > 0 {
             let survive = throughput.max_element().min(ROULETTE_MAX);
-            if !(survive > 0.0) || rotated_unit(step(&mut later), 0) >= survive {
+            if survive.is_nan() || survive <= 0.0 || rotated_unit(step(&mut later), 0) >= survive {
                 break;
             }
             throughput /= survive;
