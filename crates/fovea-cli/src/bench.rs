@@ -52,11 +52,11 @@ pub struct BenchArgs {
     #[command(flatten)]
     pub frame: FrameOptions,
     /// Shading: direct or path.
-    #[arg(long, value_enum, ignore_case = true, default_value_t = Shading::Direct)]
+    #[arg(long, value_enum, ignore_case = true, default_value_t = Shading::Indirect)]
     pub shading: Shading,
-    /// Indirect bounces of --shading path.
-    #[arg(long, default_value_t = 2)]
-    pub bounces: u32,
+    /// Indirect bounces of --shading indirect (default 3) or path (default 2), 1 to 16.
+    #[arg(long)]
+    pub bounces: Option<u32>,
     /// Paths per sample of --shading path.
     #[arg(long, default_value_t = 1)]
     pub spp: u32,

@@ -156,9 +156,11 @@ impl From<DenoiseKernelChoice> for fovea_post::denoise::Kernel {
     }
 }
 
-/// `--shading`: direct lighting or path tracing (the numbers are separate options).
+/// `--shading`: direct lighting plus indirect light (the default), direct lighting alone, or
+/// path tracing (the numbers are separate options).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Shading {
+    Indirect,
     Direct,
     Path,
 }

@@ -40,6 +40,10 @@ pub struct DemoArgs {
     /// Frames along the built-in gaze trajectory (30 per second of gaze).
     #[arg(long, default_value_t = 12)]
     pub frames: u32,
+    /// Temporal accumulation of the foveated frames (reprojection of the previous frame,
+    /// default settings): on (default) or off.
+    #[arg(long, value_enum, ignore_case = true, default_value_t = crate::choices::Switch::On)]
+    pub temporal: crate::choices::Switch,
     /// Output folder.
     #[arg(long, default_value = "fovea-out")]
     pub out: PathBuf,
@@ -113,7 +117,11 @@ pub fn run(args: DemoArgs) -> Result<()> {
     if !args.quiet {
         println!("backend: {}", backend.describe);
     }
-    let mut track = Track::new("vafr", settings.clone(), None)?;
+    let temporal = args
+        .temporal
+        .is_on()
+        .then(fovea_render::temporal::TemporalSettings::default);
+    let mut track = Track::new("vafr", settings.clone(), temporal)?;
     backend.install(track.context_mut());
     let mut driver = SequenceDriver::new(&world, &seq, vec![track])?;
     let mut kept = None;

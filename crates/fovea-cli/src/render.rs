@@ -14,7 +14,7 @@ use fovea_render::pipeline::{
     StageTimes, Stopwatch,
 };
 use fovea_render::plan::FramePlan;
-use fovea_render::shade::{EnvLight, ShadingMode, DEFAULT_ENV_SAMPLES};
+use fovea_render::shade::{EnvLight, ShadingMode, DEFAULT_BOUNCES, DEFAULT_ENV_SAMPLES};
 
 use crate::choices::{
     Aa, BackendArg, EnvLightChoice, Eyes, Headset, LockstepArg, MethodChoice, Shading, Stereo,
@@ -54,12 +54,15 @@ pub struct RenderArgs {
     /// Sample-space anti-aliasing: auto (the method's own), none, fxaa, gaussian.
     #[arg(long, value_enum, ignore_case = true, default_value_t = Aa::Auto)]
     pub aa: Aa,
-    /// Shading: direct (lights + shadows) or path (path tracing with next-event estimation).
-    #[arg(long, value_enum, ignore_case = true, default_value_t = Shading::Direct)]
+    /// Shading: indirect (direct light plus --bounces bounces of indirect light, default 3,
+    /// with next-event estimation at every bounce, the environment included), direct (lights,
+    /// shadows and the environment: the default before issue 38) or path (path tracing with
+    /// next-event estimation of the lights).
+    #[arg(long, value_enum, ignore_case = true, default_value_t = Shading::Indirect)]
     pub shading: Shading,
-    /// Indirect bounces of --shading path.
-    #[arg(long, default_value_t = 2)]
-    pub bounces: u32,
+    /// Indirect bounces of --shading indirect (default 3) or path (default 2), 1 to 16.
+    #[arg(long)]
+    pub bounces: Option<u32>,
     /// Paths per sample of --shading path.
     #[arg(long, default_value_t = 4)]
     pub spp: u32,
@@ -189,16 +192,16 @@ impl EnvLightArgs {
     pub fn warn_inapplicable(&self, kind: Shading, default: EnvLightChoice) {
         if kind == Shading::Path && self.env_light.is_some() {
             eprintln!(
-                "warning: --env-light applies to --shading direct only (path tracing sees the \
-                 environment through its bounces); ignored"
+                "warning: --env-light applies to --shading direct and indirect only (path \
+                 tracing sees the environment through its bounces); ignored"
             );
         }
         if self.env_samples.is_some()
             && (kind == Shading::Path || self.choice(default) == EnvLightChoice::Unshadowed)
         {
             eprintln!(
-                "warning: --env-samples applies to --shading direct with --env-light occluded \
-                 only; ignored"
+                "warning: --env-samples applies to --shading direct or indirect with \
+                 --env-light occluded only; ignored"
             );
         }
     }
@@ -209,7 +212,7 @@ impl EnvLightArgs {
 /// warns about environment options the mode ignores.
 pub fn shading(
     kind: Shading,
-    bounces: u32,
+    bounces: Option<u32>,
     spp: u32,
     seed: u64,
     env: &EnvLightArgs,
@@ -217,14 +220,24 @@ pub fn shading(
 ) -> Result<ShadingMode> {
     env.warn_inapplicable(kind, default_env);
     match kind {
-        Shading::Direct => {
-            let mode = ShadingMode::Direct {
-                env_light: env.env_light(default_env),
+        Shading::Direct | Shading::Indirect => {
+            let env_light = env.env_light(default_env);
+            let mode = if kind == Shading::Direct {
+                if bounces.is_some() {
+                    eprintln!("warning: --bounces applies to --shading indirect and path; ignored");
+                }
+                ShadingMode::Direct { env_light }
+            } else {
+                ShadingMode::Indirect {
+                    env_light,
+                    bounces: bounces.unwrap_or(DEFAULT_BOUNCES),
+                }
             };
             mode.validate()?;
             Ok(mode)
         }
         Shading::Path => {
+            let bounces = bounces.unwrap_or(2);
             if !(1..=16).contains(&bounces) {
                 bail!("invalid parameter `bounces` = {bounces}: expected 1 to 16");
             }

@@ -72,12 +72,18 @@ pub struct SequenceArgs {
     /// Frames to render.
     #[arg(long, default_value_t = 120)]
     pub frames: u32,
-    /// Temporal accumulation (reprojection of the previous frame): on or off. A resumed run
+    /// Temporal accumulation (reprojection of the previous frame): on (default) or off. Each
+    /// frame's shading draws its own random numbers (issue 38), so a still view converges
+    /// towards the many-ray frame. A resumed run
     /// rebuilds the history from the (up to) 32 frames before the first missing one, without
     /// writing them: identical frames when it falls within the first 32, otherwise history
     /// older than 32 frames (weight ≤ (1 − α_min)³² ≈ 3 %) is lost.
-    #[arg(long, value_enum, ignore_case = true, default_value_t = Switch::Off)]
+    #[arg(long, value_enum, ignore_case = true, default_value_t = Switch::On)]
     pub temporal: Switch,
+    /// Shading: indirect (direct light plus three bounces of indirect light), direct, or path
+    /// (path tracing, two bounces, one path per sample).
+    #[arg(long, value_enum, ignore_case = true, default_value_t = crate::choices::Shading::Indirect)]
+    pub shading: crate::choices::Shading,
     #[command(flatten)]
     pub temporal_opts: TemporalArgs,
     /// Frames per second (the gaze trajectory is sampled at these times).
@@ -235,8 +241,8 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     settings.dof = dof;
     args.frame.apply(&mut settings);
     settings.shading = crate::render::shading(
-        crate::choices::Shading::Direct,
-        1,
+        args.shading,
+        None,
         1,
         0,
         &args.env,

@@ -180,8 +180,8 @@ pub fn run(args: ViewArgs) -> Result<()> {
     base.dof = dof.clone();
     args.frame.apply(&mut base);
     base.shading = crate::render::shading(
-        Shading::Direct,
-        1,
+        Shading::Indirect,
+        None,
         1,
         0,
         &args.env,

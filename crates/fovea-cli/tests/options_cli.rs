@@ -197,7 +197,7 @@ fn a_bad_name_is_one_line_listing_the_valid_names() {
         ),
         (
             &["dof-compare", "--shading", "raster"][..],
-            &["expected: direct, path"][..],
+            &["expected: indirect, direct, path"][..],
         ),
         (
             &["curves", "--vp-inverse", "approx"][..],

@@ -58,7 +58,8 @@ struct EnvParams {
     off_cond_int: u32,
     off_cos_edge: u32,
     marginal_int: f32,
-    _pad0: u32,
+    // The shading key's frame field in the key's high word (`frame_noise`).
+    frame_mask_hi: u32,
 }
 
 @group(0) @binding(9) var<uniform> env: EnvParams;
@@ -409,14 +410,40 @@ fn next_random(rng: ptr<function, vec2<u32>>) -> vec2<u32> {
     return u64_shl(u64_shr(*rng, 64u - env.mix_shifts.w), 64u - env.mix_shifts.w);
 }
 
+// The `i`-th point of the (0, 2)-sequence in base 2 as 32-bit fractions
+// (`frame_noise::sobol02_bits`): the radical inverse, and the Pascal matrix's image.
+fn sobol02(i: u32) -> vec2<u32> {
+    var y = 0u;
+    var v = 0x80000000u;
+    var k = i;
+    for (; k != 0u; k = k >> 1u) {
+        if (k & 1u) != 0u {
+            y = y ^ v;
+        }
+        v = v ^ (v >> 1u);
+    }
+    return vec2<u32>(reverseBits(i), y);
+}
+
+// A random number of `next_random` rotated by the frame's point (its top bits, as
+// `frame_noise::rotated_unit`): the 0.64 fixed-point sum, wrapping at 1.
+fn rotated(r: vec2<u32>, rotation: u32) -> vec2<u32> {
+    let keep = ~((1u << (32u - env.mix_shifts.w)) - 1u);
+    return vec2<u32>(r.x, r.y + (rotation & keep));
+}
+
 fn environment_at(s: Surface) -> vec4<f32> {
     let key = vec2<u32>(s.key_lo, s.key_hi);
     let rank = key.x & 15u;
-    var rng = mix64(u64_shr(key, 4u) ^ env.salt);
-    let shift_map_x = next_random(&rng);
-    let shift_map_y = next_random(&rng);
-    let shift_brdf_x = next_random(&rng);
-    let shift_brdf_y = next_random(&rng);
+    // The tile's shifts hash the key without its frame; the frame rotates them
+    // (`frame_noise`).
+    let frame = (key.y & env.frame_mask_hi) >> countTrailingZeros(env.frame_mask_hi);
+    let rotation = sobol02(frame);
+    var rng = mix64(u64_shr(vec2<u32>(key.x, key.y & ~env.frame_mask_hi), 4u) ^ env.salt);
+    let shift_map_x = rotated(next_random(&rng), rotation.x);
+    let shift_map_y = rotated(next_random(&rng), rotation.y);
+    let shift_brdf_x = rotated(next_random(&rng), rotation.x);
+    let shift_brdf_y = rotated(next_random(&rng), rotation.y);
     let is_map = env.kind == ENV_MAP;
     let brdf = brdf_new(s);
     let origin = s.position + s.face_normal * (params.offset_per_t * (1.0 + min(s.t, params.offset_t_cap)));

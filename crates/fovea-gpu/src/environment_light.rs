@@ -66,7 +66,8 @@ pub struct EnvUniform {
     off_cond_int: u32,
     off_cos_edge: u32,
     marginal_int: f32,
-    _pad0: u32,
+    /// The shading key's frame field in its high word (`fovea_render::shade::frame_noise`).
+    frame_mask_hi: u32,
 }
 
 /// `kind` of a constant environment.
@@ -215,6 +216,7 @@ fn constants() -> EnvUniform {
         turns_per_rad: 1.0 / std::f32::consts::TAU,
         below_one: model::BELOW_ONE,
         x_max: fovea_render::scene::environment::distribution::Distribution1D::X_MAX,
+        frame_mask_hi: (fovea_render::shade::frame_noise::FRAME_MASK >> 32) as u32,
         ..EnvUniform::zeroed()
     }
 }

@@ -24,7 +24,8 @@ use fovea_gpu::{GpuEnvironment, GpuError, GpuSurface, GpuTracer};
 use fovea_render::bvh::Backend;
 use fovea_render::camera::EyeCamera;
 use fovea_render::scene::{builtin, EnvMap, Environment};
-use fovea_render::shade::{environment_light, texel_key, EnvLight, RayCounts};
+use fovea_render::shade::frame_noise::with_frame;
+use fovea_render::shade::{environment_light, texel_key, EnvLight, FrameNoise, RayCounts};
 use fovea_render::trace::{trace_sample, GSample};
 use fovea_render::world::World;
 use glam::{Mat3, Vec3};
@@ -128,7 +129,10 @@ fn scene_samples(env: Environment) -> (World, Vec<(GSample, u64)>) {
         .flat_map(|y| (0..display.width_px).step_by(4).map(move |x| (x, y)))
         .map(|(x, y)| {
             let ray = camera.ray(ScreenPoint::new(x as f64 + 0.5, y as f64 + 0.5));
-            (trace_sample(&world, &ray, 1e-3), texel_key(0, x, y))
+            // Frames and eyes vary from sample to sample, so the frame's rotation is checked.
+            let noise = FrameNoise::new(u64::from(x / 4 + 3 * (y / 4)) % 97, (x / 4) & 1);
+            let key = with_frame(texel_key(0, x, y), noise);
+            (trace_sample(&world, &ray, 1e-3), key)
         })
         .filter(|(g, _)| g.is_hit())
         .enumerate()

@@ -203,13 +203,18 @@ const BAYER8: [[u8; 8]; 8] = [
     [63, 31, 55, 23, 61, 29, 53, 21],
 ];
 
-/// The roulette's `ε` ∈ (0, 1) for buffer pixel `(i, j)` with unique sample `index`.
+/// The roulette's `ε` ∈ (0, 1) for buffer pixel `(i, j)` with unique sample `index` (a
+/// shading key: its frame and eye, `crate::shade::frame_noise`, rotate the ordered dither by
+/// the golden-ratio sequence, so a pixel's `ε` is stratified over successive frames; the
+/// white noise hashes them with the rest of the key).
 #[inline]
 pub fn roulette_epsilon(noise: CullNoise, seed: u64, i: u32, j: u32, index: u64) -> f64 {
+    use crate::shade::frame_noise::{frame_rotation_1d, key_eye, key_frame};
     match noise {
         CullNoise::Ordered => {
             let (si, sj) = ((seed % 8) as u32, ((seed / 8) % 8) as u32);
-            (BAYER8[((j + sj) % 8) as usize][((i + si) % 8) as usize] as f64 + 0.5) / 64.0
+            let e = (BAYER8[((j + sj) % 8) as usize][((i + si) % 8) as usize] as f64 + 0.5) / 64.0;
+            (e + frame_rotation_1d(key_frame(index), key_eye(index))).fract()
         }
         CullNoise::White => fovea_core::math::unit_from_seed(fovea_core::math::mix64(
             seed ^ index.wrapping_mul(0xD1B5_4A32_D192_ED03),

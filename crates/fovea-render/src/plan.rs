@@ -25,6 +25,7 @@ use crate::dof::Culling;
 use crate::error::{RenderError, Result};
 use crate::eye::EyeState;
 use crate::settings::{AaMode, FrameSettings};
+use crate::shade::FrameNoise;
 use crate::trace::GSample;
 use crate::world::World;
 
@@ -112,6 +113,10 @@ pub struct FramePlan {
     pub aa: AaMode,
     /// Sub-texel jitter of every sample (temporal accumulation), buffer texels.
     pub jitter_texels: [f64; 2],
+    /// The frame index and the eye, which enter every random number of the shading
+    /// (`crate::shade::frame_noise`): frame 0 of eye 0 from [`FramePlan::new`]; a sequence
+    /// sets its frame's ([`FramePlan::with_noise`]).
+    pub noise: FrameNoise,
     /// The primary rays of every texel: how many, and where inside the texel.
     pub rays: TexelRays,
     /// Ray-cone angle of the samples.
@@ -231,6 +236,7 @@ impl FramePlan {
             sample_count: mapping.sample_count(),
             aa: settings.aa.resolve(settings.method),
             jitter_texels,
+            noise: FrameNoise::default(),
             footprint: SampleFootprint::with_floor(
                 mapping.as_ref(),
                 display,
@@ -249,6 +255,13 @@ impl FramePlan {
             settings,
             mapping,
         })
+    }
+
+    /// The plan of frame `noise.frame` of eye `noise.eye`: the same rays, other random
+    /// numbers in the shading.
+    pub fn with_noise(mut self, noise: FrameNoise) -> Self {
+        self.noise = noise;
+        self
     }
 
     /// The mapping.

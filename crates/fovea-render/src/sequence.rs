@@ -27,6 +27,7 @@ use crate::pipeline::{
     render_planned, Frame, FrameContext, FrameInputs, FrameSettings, Stage, StageTimes, Stopwatch,
 };
 use crate::plan::FramePlan;
+use crate::shade::FrameNoise;
 use crate::temporal::{TemporalAccumulator, TemporalSettings};
 use crate::world::World;
 
@@ -189,7 +190,9 @@ impl Track {
             .accumulator
             .as_ref()
             .map_or([0.0, 0.0], |a| a.jitter(self.settings.method));
-        let plan = FramePlan::new(world, camera, &self.settings, &seq.eyes[i], jitter)?;
+        // Frame `i`'s own random numbers in the shading (`crate::shade::frame_noise`).
+        let plan = FramePlan::new(world, camera, &self.settings, &seq.eyes[i], jitter)?
+            .with_noise(FrameNoise::new(i as u64, 0));
         times.add(Stage::Plan, &t);
         let inputs = FrameInputs {
             accumulator: self.accumulator.as_mut(),

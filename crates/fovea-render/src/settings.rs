@@ -115,13 +115,14 @@ pub struct FrameSettings {
 
 impl FrameSettings {
     /// Defaults: direct shading (the environment through shadow rays,
-    /// [`crate::shade::EnvLight::DEFAULT`]), the method's own AA, a memory limit from
+    /// [`crate::shade::EnvLight::DEFAULT`]) plus one bounce of indirect light
+    /// ([`ShadingMode::DEFAULT`]), the method's own AA, a memory limit from
     /// [`default_memory_limit`].
     pub fn new(method: Method) -> Self {
         Self {
             method,
             mapping: MappingConfig::default(),
-            shading: ShadingMode::DIRECT,
+            shading: ShadingMode::DEFAULT,
             aa: AaMode::Auto,
             density_view: false,
             memory_limit_bytes: default_memory_limit(),

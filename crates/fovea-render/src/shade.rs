@@ -25,15 +25,19 @@ use glam::Vec3;
 use crate::bvh::Ray;
 use crate::scene::Light;
 
+mod bounce;
 mod env_light;
+pub mod frame_noise;
 mod shadow_batch;
 
 use crate::trace::{trace_sample, GSample};
 use crate::world::World;
+pub use bounce::{bounce_env_light, indirect, BOUNCE_ENV_SAMPLES, DEFAULT_BOUNCES};
 pub use env_light::{
     env_constants, environment_light, subsample_key, texel_key, unoccluded_estimate, EnvLight,
     DEFAULT_ENV_SAMPLES, MAX_ENV_SAMPLES,
 };
+pub use frame_noise::FrameNoise;
 pub use shadow_batch::{direct_batch, shade_direct_batch, ShadowRays};
 
 /// Ray counts of one shading call.
@@ -72,6 +76,17 @@ pub enum ShadingMode {
         /// How the environment lights surfaces.
         env_light: EnvLight,
     },
+    /// Direct shading (as [`ShadingMode::Direct`]) plus indirect light: `bounces` bounces
+    /// with next-event estimation at every bounce, the environment included ([`indirect`]):
+    /// an interior lit through its windows is lit beyond the sunlit patches.
+    Indirect {
+        /// How the environment lights surfaces at the primary hit (each bounce's surface takes
+        /// [`BOUNCE_ENV_SAMPLES`] occluded rays, none where this casts none:
+        /// [`bounce_env_light`]).
+        env_light: EnvLight,
+        /// Bounces of indirect light (1–16; default [`DEFAULT_BOUNCES`]).
+        bounces: u32,
+    },
     /// Path tracing with next-event estimation: `bounces` indirect bounces, `spp` paths per
     /// sample, deterministic for a given `seed`.
     Path {
@@ -100,16 +115,40 @@ impl ShadingMode {
         env_light: EnvLight::Unshadowed,
     };
 
+    /// The default: direct shading with the default environment light plus
+    /// [`DEFAULT_BOUNCES`] bounces of indirect light ([`ShadingMode::Indirect`]).
+    pub const DEFAULT: ShadingMode = ShadingMode::Indirect {
+        env_light: EnvLight::DEFAULT,
+        bounces: DEFAULT_BOUNCES,
+    };
+
     /// Whether this is direct shading.
     pub fn is_direct(&self) -> bool {
         matches!(self, ShadingMode::Direct { .. })
     }
 
+    /// The environment light of the primary hit in direct shading, with or without a bounce.
+    pub fn direct_env_light(&self) -> Option<EnvLight> {
+        match *self {
+            ShadingMode::Direct { env_light } | ShadingMode::Indirect { env_light, .. } => {
+                Some(env_light)
+            }
+            ShadingMode::Path { .. } => None,
+        }
+    }
+
     /// Checks the ranges: 0–[`MAX_ENV_SAMPLES`] environment rays, 1–16 bounces and 1–1024
     /// paths per sample.
     pub fn validate(&self) -> crate::error::Result<()> {
-        if let ShadingMode::Direct { env_light } = self {
+        if let Some(env_light) = self.direct_env_light() {
             env_light.validate()?;
+        }
+        if let ShadingMode::Indirect { bounces, .. } = *self {
+            if !(1..=16).contains(&bounces) {
+                return Err(crate::error::RenderError::invalid(
+                    "bounces", bounces, "1 to 16",
+                ));
+            }
         }
         if let ShadingMode::Path { bounces, spp, .. } = *self {
             if !(1..=16).contains(&bounces) {
@@ -244,7 +283,7 @@ pub fn culled_basis(world: &World, g: &GSample, mode: ShadingMode) -> (Vec3, Vec
                 direct_unshadowed(world, g) + culled_env_basis(world, g, mode),
             )
         }
-        ShadingMode::Path { .. } => (g.emissive, g.albedo),
+        ShadingMode::Path { .. } | ShadingMode::Indirect { .. } => (g.emissive, g.albedo),
     }
 }
 
@@ -383,16 +422,29 @@ pub fn shade_parts(
             let env = environment_light(world, g, env_light, key, counts);
             (g.emissive + d + env, monte_carlo_part(env_light, env))
         }
+        ShadingMode::Indirect { env_light, bounces } => {
+            let d = direct(world, g, counts);
+            let env = environment_light(world, g, env_light, key, counts);
+            // The bounces' light is Monte Carlo throughout.
+            let bounced = indirect(world, g, env_light, bounces, key, counts);
+            (
+                g.emissive + d + env + bounced,
+                monte_carlo_part(env_light, env) + bounced,
+            )
+        }
         ShadingMode::Path { bounces, spp, seed } => {
             let mut acc = Vec3::ZERO;
+            // The first bounce's numbers are rotated by the frame's point (`frame_noise`).
+            let rotation = frame_noise::frame_rotation(frame_noise::key_frame(key));
             for s in 0..spp {
-                acc += path_trace(
+                acc += path_trace_rotated(
                     world,
                     g,
                     bounces,
                     fovea_core::math::mix64(
                         seed ^ key.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ s as u64,
                     ),
+                    rotation,
                     counts,
                 );
             }
@@ -411,10 +463,34 @@ pub fn path_trace(
     seed: u64,
     counts: &mut RayCounts,
 ) -> Vec3 {
+    path_trace_rotated(world, first, bounces, seed, [0, 0], counts)
+}
+
+/// [`path_trace`] with the first bounce direction's two random numbers rotated by
+/// `rotation / 2^24` (a Cranley-Patterson rotation: the frame's point,
+/// [`frame_noise::frame_rotation`]), so that successive frames of a sample stratify its first
+/// bounce.
+pub fn path_trace_rotated(
+    world: &World,
+    first: &GSample,
+    bounces: u32,
+    seed: u64,
+    rotation: [u32; 2],
+    counts: &mut RayCounts,
+) -> Vec3 {
     let mut rng = fovea_core::math::mix64(seed);
+    let mut draws = 0u32;
     let mut next = || {
         rng = fovea_core::math::mix64(rng);
-        (rng >> 40) as f32 / (1u64 << 24) as f32
+        let bits = (rng >> 40) as u32;
+        // Draws 2 and 3 are the first bounce's direction (draw 1 picks its lobe).
+        draws += 1;
+        let r = match draws {
+            2 => rotation[0],
+            3 => rotation[1],
+            _ => 0,
+        };
+        frame_noise::rotated_unit(bits, r)
     };
     let mut g = *first;
     let mut throughput = Vec3::ONE;

@@ -240,7 +240,10 @@ pub fn render_stereo_in(
             let t = Stopwatch::start();
             let mut s = settings.clone();
             s.keep_samples |= keep;
-            let plan = FramePlan::new(world, camera, &s, eye, [0.0, 0.0])?;
+            // The right eye draws its own random numbers (`crate::shade::frame_noise`).
+            let index = u32::from(std::ptr::eq(camera, right_camera));
+            let plan = FramePlan::new(world, camera, &s, eye, [0.0, 0.0])?
+                .with_noise(crate::shade::FrameNoise::new(0, index));
             times.add(Stage::Plan, &t);
             Ok((plan, times))
         };

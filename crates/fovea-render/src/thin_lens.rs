@@ -288,7 +288,7 @@ pub fn render_window(
                 );
                 primary += 1;
                 drow[i] = camera.view_depth(dir, g0.t);
-                let key = ((window.y0 as u64 + j as u64) << 32) | (window.x0 as u64 + i as u64);
+                let key = crate::shade::texel_key(0, window.x0 + i as u32, window.y0 + j as u32);
                 let mut acc = [[0.0f32; 3]; 2];
                 for (s, u) in lens_pts.iter().enumerate() {
                     let c = if u[0] == 0.0 && u[1] == 0.0 && !aa {
@@ -320,7 +320,12 @@ pub fn render_window(
                             world,
                             &g,
                             shading,
-                            key ^ ((s as u64 + 1) << 52),
+                            // Each lens sample shades as its own frame: the frames' rotations
+                            // stratify the samples' random numbers (`frame_noise`).
+                            crate::shade::frame_noise::with_frame(
+                                key,
+                                crate::shade::FrameNoise::new(s as u64 + 1, 0),
+                            ),
                             &mut counts,
                         )
                     };

@@ -157,7 +157,7 @@ impl ViewSettings {
             dof,
             focus: FocusChoice::Auto,
             pupil: PupilChoice::Mm(EyeModel::default().pupil.0),
-            temporal: false,
+            temporal: true,
             lod: false,
             lights: LightsChoice::All,
             overlays: Overlays::default(),

@@ -273,7 +273,10 @@ impl FrameRenderer {
                     .accumulator
                     .as_ref()
                     .map_or([0.0, 0.0], |(a, _)| a.jitter(settings.method));
-                let plan = FramePlan::new(world, &camera, &settings, &eye, jitter)?;
+                // Each accumulated frame draws its own random numbers (issue 38).
+                let noise = self.accumulator.as_ref().map_or(0, |(a, _)| a.frame());
+                let plan = FramePlan::new(world, &camera, &settings, &eye, jitter)?
+                    .with_noise(fovea_render::shade::FrameNoise::new(noise, 0));
                 let inputs = FrameInputs {
                     accumulator: self.accumulator.as_mut().map(|(a, _)| a),
                     prefill: None,

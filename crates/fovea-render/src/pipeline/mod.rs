@@ -271,6 +271,8 @@ pub fn render_frame_temporal(
 ) -> Result<Frame> {
     let jitter = accumulator.jitter(settings.method);
     let (plan, times) = plan_frame(world, camera, settings, gaze, jitter)?;
+    // The accumulator's frame count is the frame index of its random numbers.
+    let plan = plan.with_noise(crate::shade::FrameNoise::new(accumulator.frame(), 0));
     let inputs = FrameInputs {
         accumulator: Some(accumulator),
         prefill: None,

@@ -33,9 +33,10 @@ use crate::cull_fill::{fill_culled, shade_or_cull, CullBuffers, SampleCull};
 use crate::error::{RenderError, Result};
 use crate::plan::{FramePlan, RayRings};
 use crate::scene::Light;
+use crate::shade::frame_noise::with_frame;
 use crate::shade::{
-    shade_direct_batch, shade_parts, subsample_key, texel_key, EnvLight, RayCounts, ShadingMode,
-    ShadowRays,
+    indirect, shade_direct_batch, shade_parts, subsample_key, texel_key, EnvLight, RayCounts,
+    ShadingMode, ShadowRays,
 };
 use crate::trace::{surface, GSample};
 use crate::world::World;
@@ -499,13 +500,25 @@ pub fn shade_chunk(
     let shading = plan.settings.shading;
     let cull = plan.culling.as_ref();
     // The key of the chunk's texel `k` (row-major in the chunk's rows): its random numbers.
-    let key_of_texel = |k: u32| texel_key(layer, k % row_len as u32, j0 + k / row_len as u32);
+    // The frame and the eye enter every key (`crate::shade::frame_noise`).
+    let key_of_texel = |k: u32| {
+        with_frame(
+            texel_key(layer, k % row_len as u32, j0 + k / row_len as u32),
+            plan.noise,
+        )
+    };
+    // Indirect light on top of direct shading, added per surface sample.
+    let bounces = match shading {
+        ShadingMode::Indirect { bounces, .. } => bounces,
+        _ => 0,
+    };
+    let bounce = bounces > 0;
     // Direct shading of one ray per texel without culling (the default frame): on the CPU
     // each light's shadow rays of a batch of neighbouring texels are cast together; `tracer`
     // gets the shadow rays of many batches at once (gathered first) and may compute the
     // lights' part itself.
-    if let (ShadingMode::Direct { env_light }, None, true) = (
-        shading,
+    if let (Some(env_light), None, true) = (
+        shading.direct_env_light(),
         cull,
         plan.rays.per_column.is_empty() && plan.rays.uniform == 1,
     ) {
@@ -579,7 +592,7 @@ pub fn shade_chunk(
         // Each texel's colour and depth once its batch's rays are answered (`blocked`), with
         // the lights' and the environment's parts given per surface sample or summed from the
         // rays.
-        let finish = |(reps, rays, rc, _): Gathered<'_>,
+        let finish = |(reps, rays, rc, hit_keys): Gathered<'_>,
                       blocked: &[bool],
                       (direct, environment): Given<'_>|
          -> Batch {
@@ -605,8 +618,9 @@ pub fn shade_chunk(
                 );
                 given_env = env;
             }
-            // The Monte Carlo part: the environment's, given or summed from its rays.
-            let mc = if want_noisy {
+            // The Monte Carlo part: the environment's, given or summed from its rays (the
+            // bounces' light is added below).
+            let mut mc = if want_noisy {
                 let env = given_env.unwrap_or_else(|| rays.environment_sums(blocked, gs.len()));
                 gs.iter()
                     .zip(env)
@@ -618,6 +632,19 @@ pub fn shade_chunk(
             } else {
                 Vec::new()
             };
+            if bounce {
+                // The keys of the hits, in order; misses get no bounce.
+                let mut keys = hit_keys.iter().copied();
+                let keys = gs.iter().map(|g| {
+                    if g.is_hit() {
+                        keys.next().unwrap_or(0)
+                    } else {
+                        0
+                    }
+                });
+                let noisy = want_noisy.then_some(mc.as_mut_slice());
+                add_bounces(world, &gs, (env_light, bounces), keys, (&mut values, noisy), &mut rc);
+            }
             (emit(&reps, values), rc, mc)
         };
         // Per batch: each texel's colour and depth, the batch's secondary rays, and the Monte
@@ -640,6 +667,17 @@ pub fn shade_chunk(
                     let mut mc = vec![Vec3::ZERO; if want_noisy { gs.len() } else { 0 }];
                     let parts = want_noisy.then_some(mc.as_mut_slice());
                     shade_direct_batch(world, &gs, &keys, env_light, &mut values, parts, &mut rc);
+                    if bounce {
+                        let noisy = want_noisy.then_some(mc.as_mut_slice());
+                        add_bounces(
+                            world,
+                            &gs,
+                            (env_light, bounces),
+                            keys.iter().copied(),
+                            (&mut values, noisy),
+                            &mut rc,
+                        );
+                    }
                     (emit(&reps, values), rc, mc)
                 })
                 .collect(),
@@ -803,6 +841,29 @@ pub fn shade_chunk(
         }
     }
     Ok(ShadeCast::default())
+}
+
+/// Adds [`indirect`] light of `bounces` bounces (the primary hits' environment light being
+/// `env_light`) to the radiance of every surface sample of `gs` (`keys`: one per sample), its
+/// rays counted in `counts`, and to the Monte Carlo part `noisy` when the denoiser wants it.
+fn add_bounces(
+    world: &World,
+    gs: &[&GSample],
+    (env_light, bounces): (EnvLight, u32),
+    keys: impl Iterator<Item = u64>,
+    (values, mut noisy): (&mut [Vec3], Option<&mut [Vec3]>),
+    counts: &mut RayCounts,
+) {
+    for (i, (g, key)) in gs.iter().zip(keys).enumerate() {
+        if g.is_hit() {
+            let light = indirect(world, g, env_light, bounces, key, counts);
+            values[i] += light;
+            // The bounces' light is Monte Carlo throughout: the denoiser's to filter.
+            if let Some(n) = noisy.as_deref_mut() {
+                n[i] += light;
+            }
+        }
+    }
 }
 
 /// What another executor did in a chunk's shading ([`shade_chunk`]).

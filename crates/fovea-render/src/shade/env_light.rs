@@ -35,7 +35,10 @@
 //! points of one sequence instead of 16 independent sets of `n`, so where a pixel averages
 //! several texels (the footprint reconstruction of the polar methods' fovea) their errors
 //! cancel, and elsewhere the remaining noise is of high spatial frequency. Tiles are
-//! independent, so the error carries no pattern larger than a tile.
+//! independent, so the error carries no pattern larger than a tile. From frame to frame both
+//! shifts are rotated once more by the frame's point of the (0, 2)-sequence
+//! (`frame_noise`), so each ray of a texel is stratified over successive frames and temporal
+//! accumulation converges; frame 0's rotation is zero.
 
 use std::f32::consts::PI;
 
@@ -43,6 +46,7 @@ use glam::Vec3;
 use serde::Serialize;
 
 use super::constants::GGX_D_FLOOR;
+use super::frame_noise::{frame_rotation, key_frame, rotated_unit, without_frame};
 use super::{brdf_cos, cosine_hemisphere, offset_origin, RayCounts};
 use crate::bvh::Ray;
 use crate::error::{RenderError, Result};
@@ -77,25 +81,26 @@ use env_constants::*;
 /// the Bayer matrix, so every 2×2 block of a tile also spreads its ranks (module header).
 const TILE_RANK: [[u64; 4]; 4] = [[0, 8, 2, 10], [12, 4, 14, 6], [3, 11, 1, 9], [15, 7, 13, 5]];
 
-/// The shading key of texel `(i, j)` of buffer `layer` (below 64 layers, `i`, `j` below 2²⁶):
-/// bits 0–3 the texel's rank in its 4×4 tile, bits 4–27 the tile's column, 28–51 its row,
-/// 52–57 a sub-sample ([`subsample_key`]), 58–63 the layer. Distinct texels get distinct
-/// keys; every random number of a sample is drawn from its key, and the environment rays also
-/// read the tile and the rank from it (module header). Any other key is valid too: its low
-/// four bits are taken as the rank.
+/// The shading key of texel `(i, j)` of buffer `layer` (below 64 layers, `i`, `j` below 2¹⁶)
+/// in frame 0 of eye 0: bits 0–3 the texel's rank in its 4×4 tile, bits 4–17 the tile's
+/// column, 18–31 its row, 32–37 a sub-sample ([`subsample_key`]), 38 the eye and 39–57 the
+/// frame ([`super::frame_noise::with_frame`] sets them), 58–63 the layer. Distinct texels get
+/// distinct keys; every random number of a sample is drawn from its key, and the environment
+/// rays also read the tile, the rank and the frame from it (module header). Any other key is
+/// valid too: its low four bits are taken as the rank.
 pub fn texel_key(layer: u32, i: u32, j: u32) -> u64 {
-    const MASK24: u64 = (1 << 24) - 1;
+    const MASK14: u64 = (1 << 14) - 1;
     let rank = TILE_RANK[(j % 4) as usize][(i % 4) as usize];
     ((u64::from(layer) & 63) << 58)
-        | ((u64::from(j / 4) & MASK24) << 28)
-        | ((u64::from(i / 4) & MASK24) << 4)
+        | ((u64::from(j / 4) & MASK14) << 18)
+        | ((u64::from(i / 4) & MASK14) << 4)
         | rank
 }
 
 /// The key of sub-sample `s` (below 64) of the texel keyed `key` ([`texel_key`]): its own
 /// random numbers, in the same place of its own tile's sequence.
 pub fn subsample_key(key: u64, s: usize) -> u64 {
-    key ^ ((s as u64 & 63) << 52)
+    key ^ ((s as u64 & 63) << 32)
 }
 
 /// How direct shading lights a surface with the environment.
@@ -185,7 +190,7 @@ fn luminance(c: Vec3) -> f32 {
 
 /// The BRDF side of the estimator: cosine-weighted and GGX sampling mixed by the lobes'
 /// weights (module header).
-struct BrdfSampler {
+pub(super) struct BrdfSampler {
     n: Vec3,
     v: Vec3,
     tangent: Vec3,
@@ -197,7 +202,7 @@ struct BrdfSampler {
 }
 
 impl BrdfSampler {
-    fn new(g: &GSample) -> Self {
+    pub(super) fn new(g: &GSample) -> Self {
         let f0 = g.specular.lerp(g.albedo, g.metallic);
         let w_spec = luminance(f0).max(0.0);
         let w_diff = (luminance(g.albedo) * (1.0 - g.metallic)).max(0.0);
@@ -220,7 +225,7 @@ impl BrdfSampler {
 
     /// A direction from `u ∈ [0, 1)²` (`u[0]` also picks the lobe); `None` when the mirrored
     /// GGX direction points below the surface.
-    fn sample(&self, u: [f32; 2]) -> Option<Vec3> {
+    pub(super) fn sample(&self, u: [f32; 2]) -> Option<Vec3> {
         if u[0] >= self.q_spec {
             let u0 = ((u[0] - self.q_spec) / (1.0 - self.q_spec)).min(BELOW_ONE);
             return Some(cosine_hemisphere(self.n, u0, u[1]));
@@ -238,7 +243,7 @@ impl BrdfSampler {
     }
 
     /// Density of [`Self::sample`] at `l`: `q p_ggx + (1 − q) p_cos`.
-    fn pdf(&self, l: Vec3) -> f32 {
+    pub(super) fn pdf(&self, l: Vec3) -> f32 {
         let nl = self.n.dot(l);
         if nl <= 0.0 {
             return 0.0;
@@ -286,15 +291,23 @@ pub(crate) fn environment_rays(
     if env.is_black() {
         return;
     }
-    // The tile's offset and the texel's place in the tile's sequence (module header).
+    // The tile's offset and the texel's place in the tile's sequence, rotated by the frame's
+    // point (module header).
     let rank = (key & 15) as u32;
-    let mut rng = fovea_core::math::mix64((key >> 4) ^ ENV_SALT);
+    let mut rng = fovea_core::math::mix64((without_frame(key) >> 4) ^ ENV_SALT);
     let mut next = || {
         rng = fovea_core::math::mix64(rng);
-        (rng >> (64 - RANDOM_BITS)) as f32 / (1u64 << RANDOM_BITS) as f32
+        (rng >> (64 - RANDOM_BITS)) as u32
     };
-    let shift_map = [next(), next()];
-    let shift_brdf = [next(), next()];
+    let frame = frame_rotation(key_frame(key));
+    let mut shift = || {
+        [
+            rotated_unit(next(), frame[0]),
+            rotated_unit(next(), frame[1]),
+        ]
+    };
+    let shift_map = shift();
+    let shift_brdf = shift();
     let map = env.as_map();
     let n_map = if map.is_some() { n.div_ceil(2) } else { 0 };
     let n_brdf = n - n_map;

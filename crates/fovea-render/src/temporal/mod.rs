@@ -169,6 +169,11 @@ impl TemporalAccumulator {
         }
     }
 
+    /// Frames accumulated so far (the index of the next frame).
+    pub fn frame(&self) -> u64 {
+        self.frame
+    }
+
     /// Statistics of the last frame.
     pub fn last_stats(&self) -> TemporalStats {
         self.last
