@@ -480,6 +480,36 @@ impl fovea_render::pipeline::Lockstep for GpuContext {
     }
 }
 
+impl GpuContext {
+    /// What this device has moved and waited for so far
+    /// ([`TrafficCounts`](crate::traffic::TrafficCounts)).
+    pub fn traffic(&self) -> crate::traffic::TrafficCounts {
+        self.traffic_counters()
+            .snapshot(self.submission_counts().submissions)
+    }
+
+    /// `wgpu::Device::create_buffer`, counted.
+    pub(crate) fn create_buffer(&self, desc: &wgpu::BufferDescriptor<'_>) -> wgpu::Buffer {
+        self.traffic_counters().buffer(desc.size);
+        self.device().create_buffer(desc)
+    }
+
+    /// `wgpu::Queue::write_buffer`, counted.
+    pub(crate) fn write_buffer(&self, buffer: &wgpu::Buffer, offset: u64, data: &[u8]) {
+        self.traffic_counters().uploaded(data.len() as u64);
+        self.queue().write_buffer(buffer, offset, data);
+    }
+
+    /// `wgpu::Device::create_bind_group`, counted.
+    pub(crate) fn create_bind_group(
+        &self,
+        desc: &wgpu::BindGroupDescriptor<'_>,
+    ) -> wgpu::BindGroup {
+        self.traffic_counters().bind_group();
+        self.device().create_bind_group(desc)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,16 +1,14 @@
 //! What crosses the bus and what the host waits for, counted where it happens (issue 37:
 //! "counted, not estimated").
 //!
-//! Every buffer, bind group and upload of this crate goes through [`GpuContext`]'s
-//! counting wrappers ([`GpuContext::create_buffer`], [`GpuContext::write_buffer`],
-//! [`GpuContext::create_bind_group`]), every readback through `transfer::read_buffers`,
-//! and every blocking wait through [`GpuContext::wait_idle`]; the submissions are the
-//! device's gate's ([`crate::lockstep::SubmissionCounts`]). A frame's traffic is the
-//! difference of two snapshots, [`TrafficCounts::since`].
+//! Every buffer, bind group and upload of this crate goes through `GpuContext`'s
+//! counting wrappers (`create_buffer`, `write_buffer`, `create_bind_group`), every readback
+//! through `transfer::read_buffers`, and every blocking wait through `GpuContext::wait_idle`
+//! (the device owns the counters: this module depends on no other of the crate); the
+//! submissions are the device's gate's (`lockstep::SubmissionCounts`). A frame's traffic is
+//! the difference of two snapshots, [`TrafficCounts::since`].
 
 use std::sync::atomic::{AtomicU64, Ordering};
-
-use crate::device::GpuContext;
 
 /// What a device has moved and waited for since it was opened (or, from
 /// [`TrafficCounts::since`], between two snapshots).
@@ -117,34 +115,5 @@ impl Traffic {
             blocked_ns: self.blocked_ns.load(Ordering::Relaxed),
             submissions,
         }
-    }
-}
-
-impl GpuContext {
-    /// What this device has moved and waited for so far ([`TrafficCounts`]).
-    pub fn traffic(&self) -> TrafficCounts {
-        self.traffic_counters()
-            .snapshot(self.submission_counts().submissions)
-    }
-
-    /// `wgpu::Device::create_buffer`, counted.
-    pub(crate) fn create_buffer(&self, desc: &wgpu::BufferDescriptor<'_>) -> wgpu::Buffer {
-        self.traffic_counters().buffer(desc.size);
-        self.device().create_buffer(desc)
-    }
-
-    /// `wgpu::Queue::write_buffer`, counted.
-    pub(crate) fn write_buffer(&self, buffer: &wgpu::Buffer, offset: u64, data: &[u8]) {
-        self.traffic_counters().uploaded(data.len() as u64);
-        self.queue().write_buffer(buffer, offset, data);
-    }
-
-    /// `wgpu::Device::create_bind_group`, counted.
-    pub(crate) fn create_bind_group(
-        &self,
-        desc: &wgpu::BindGroupDescriptor<'_>,
-    ) -> wgpu::BindGroup {
-        self.traffic_counters().bind_group();
-        self.device().create_bind_group(desc)
     }
 }

@@ -643,7 +643,14 @@ pub fn shade_chunk(
                     }
                 });
                 let noisy = want_noisy.then_some(mc.as_mut_slice());
-                add_bounces(world, &gs, (env_light, bounces), keys, (&mut values, noisy), &mut rc);
+                add_bounces(
+                    world,
+                    &gs,
+                    (env_light, bounces),
+                    keys,
+                    (&mut values, noisy),
+                    &mut rc,
+                );
             }
             (emit(&reps, values), rc, mc)
         };
