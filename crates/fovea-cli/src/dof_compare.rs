@@ -173,9 +173,10 @@ pub fn params(args: &DofCompareArgs, display: &DisplayProfile) -> Result<DofComp
         margin_px: args.margin,
         lens_samples: args.lens_samples,
         pixel_samples: args.pixel_samples,
+        // No bounce count of its own: the mode's default (path tracing's 2, indirect's 3).
         shading: shading(
             args.shading,
-            Some(2),
+            None,
             4,
             1,
             &args.env,

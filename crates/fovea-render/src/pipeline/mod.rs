@@ -318,16 +318,33 @@ pub fn render_planned<'c>(
     let known = prefill.map(|p| p.known.as_slice());
 
     // 3–4. Trace and shade into the sample buffers.
-    let (samples, tracer, guides) = ctx.samples_and_tracer(plan, prefill)?;
+    let (samples, tracer, mut guides) = ctx.samples_and_tracer(plan, prefill)?;
     let (counts, casters) = trace_shade::trace_and_shade(
-        world, camera, plan, known, samples, guides, &mut times, tracer, progress,
+        world,
+        camera,
+        plan,
+        known,
+        samples,
+        guides.as_deref_mut(),
+        &mut times,
+        tracer,
+        progress,
     )?;
 
-    // 5. Sample-space post: temporal accumulation, denoising, then anti-aliasing.
+    // 5. Sample-space post: temporal accumulation, denoising, then anti-aliasing. With both,
+    // the denoiser's Monte Carlo part follows the colour through the blend (the exact part
+    // set aside before, the accumulated colour less it after).
     let temporal = match accumulator.as_deref_mut() {
         Some(acc) => {
             let t = Stopwatch::start();
+            let mut guides = guides.filter(|_| plan.settings.denoise.is_some());
+            if let Some(g) = guides.as_deref_mut() {
+                sample_post::exact_part_before_accumulation(samples, g);
+            }
             let s = sample_post::accumulate(plan, camera, acc, samples)?;
+            if let Some(g) = guides {
+                sample_post::noisy_part_after_accumulation(samples, g);
+            }
             times.add(Stage::Temporal, &t);
             Some(s)
         }
@@ -338,8 +355,7 @@ pub fn render_planned<'c>(
         Some(params) => {
             let t = Stopwatch::start();
             let (samples, guides, scratch) = ctx.samples_and_denoiser();
-            let accumulated = temporal.is_some();
-            let s = sample_post::denoise(plan, &params, samples, guides, scratch, accumulated)?;
+            let s = sample_post::denoise(plan, &params, samples, guides, scratch)?;
             times.add(Stage::Denoise, &t);
             Some(s)
         }

@@ -42,16 +42,14 @@ pub fn accumulate(
 /// Guenter's layers, the inset) is a rectangle. Texels with no surface record (sky, unshaded,
 /// Weier's unsampled pixels, prefilled) are left as they are and never read.
 ///
-/// `accumulated`: temporal accumulation blended history into the colour this frame. The
-/// history's Monte Carlo part is not tracked, so the fresh frame's no longer says which part of
-/// the blend is noise; the whole colour is filtered then.
+/// After temporal accumulation, `guides.noisy` must hold the accumulated colour's Monte Carlo
+/// part ([`exact_part_before_accumulation`], [`noisy_part_after_accumulation`]).
 pub fn denoise(
     plan: &FramePlan,
     params: &DenoiseParams,
     samples: &mut SampleBuffers,
     guides: &DenoiseGuides,
     scratch: &mut DenoiseScratch,
-    accumulated: bool,
 ) -> Result<DenoiseStats> {
     let polar = plan.mapping().polar_layout();
     let mut stats = DenoiseStats::default();
@@ -75,10 +73,42 @@ pub fn denoise(
                 height: c.height(),
             },
         };
-        let noisy = guides.noisy.get(l).filter(|_| !accumulated);
+        let noisy = guides.noisy.get(l);
         stats += fovea_post::denoise::denoise(c, d, albedo, normal, noisy, &grid, params, scratch)?;
     }
     Ok(stats)
+}
+
+/// Before temporal accumulation blends history into the colour: turns each texel's Monte
+/// Carlo part in `guides.noisy` into the exact part of its colour, `colour − noisy` (the
+/// lights' shadow rays and the emission; NaN, unknown, stays NaN). Layers without a Monte
+/// Carlo part are left alone.
+pub fn exact_part_before_accumulation(samples: &SampleBuffers, guides: &mut DenoiseGuides) {
+    for (c, n) in samples.color.iter().zip(guides.noisy.iter_mut()) {
+        if c.width() != n.width() || c.height() != n.height() {
+            continue;
+        }
+        for (n, c) in n.data_mut().iter_mut().zip(c.data()) {
+            *n = [c[0] - n[0], c[1] - n[1], c[2] - n[2]];
+        }
+    }
+}
+
+/// After temporal accumulation: the accumulated colour's Monte Carlo part, `colour − exact`
+/// (`guides.noisy` holding the exact part, [`exact_part_before_accumulation`]). Where the
+/// view is still the history's exact light is this frame's, so what the blend adds beyond it
+/// is the averaged Monte Carlo estimate, which the denoiser filters while the exact part (the
+/// point lights' highlights and shadow edges) is kept as it is. Where the history moved or was
+/// rejected the difference also carries its change, and is filtered with the rest.
+pub fn noisy_part_after_accumulation(samples: &SampleBuffers, guides: &mut DenoiseGuides) {
+    for (c, n) in samples.color.iter().zip(guides.noisy.iter_mut()) {
+        if c.width() != n.width() || c.height() != n.height() {
+            continue;
+        }
+        for (n, c) in n.data_mut().iter_mut().zip(c.data()) {
+            *n = [c[0] - n[0], c[1] - n[1], c[2] - n[2]];
+        }
+    }
 }
 
 /// Another executor of the AA filter (e.g. the GPU's), kept in a [`super::FrameContext`] from
