@@ -279,10 +279,13 @@ pub fn neighbour(grid: &Grid, i: u32, j: u32, di: i32, dj: i32) -> Option<(u32, 
     row_of(grid, row, rows, dj).map(|r| (c, r))
 }
 
-/// Column `i + di` (mirrored across the centre where negative), the row at `(i, j)`'s angle in
-/// it (unwrapped), and its row count.
+/// The column `di` columns from texel `(i, j)` with the row there that keeps its angle and
+/// that column's row count, `turn = (j + ½)/period[i]` (the texel's angle in turns, given:
+/// one lookup per tap column without a division): on a rect grid the same row, `None` past
+/// the border; on a polar grid a step inside the innermost ring continues in column
+/// `−1 − k`, half a turn on.
 #[inline]
-fn column_of(grid: &Grid, i: u32, j: u32, di: i32) -> Option<(u32, i64, u32)> {
+fn column_at(grid: &Grid, i: u32, j: u32, turn: f64, di: i32) -> Option<(u32, i64, u32)> {
     match grid {
         Grid::Rect { width, height } => {
             let c = i as i64 + di as i64;
@@ -290,34 +293,6 @@ fn column_of(grid: &Grid, i: u32, j: u32, di: i32) -> Option<(u32, i64, u32)> {
                 .contains(&c)
                 .then_some((c as u32, j as i64, *height))
         }
-        Grid::Polar { rows, period } => {
-            let mut c = i as i64 + di as i64;
-            let mut half = 0.0;
-            if c < 0 {
-                c = -1 - c;
-                half = 0.5;
-            }
-            let n = *rows.get(c as usize)?;
-            if n == 0 {
-                return None;
-            }
-            let row = if c == i as i64 && half == 0.0 {
-                j as i64
-            } else {
-                let turn = ((j as f64 + 0.5) / period[i as usize].max(1e-12) + half).fract();
-                (turn * period[c as usize] - 0.5).round() as i64
-            };
-            Some((c as u32, row, n))
-        }
-    }
-}
-
-/// [`column_of`] with `(j + ½)/period[i]` (the texel's angle in turns) given: one lookup per
-/// tap column without a division.
-#[inline]
-fn column_at(grid: &Grid, i: u32, j: u32, turn: f64, di: i32) -> Option<(u32, i64, u32)> {
-    match grid {
-        Grid::Rect { .. } => column_of(grid, i, j, di),
         Grid::Polar { rows, period } => {
             let mut c = i as i64 + di as i64;
             let mut half = 0.0;

@@ -339,11 +339,11 @@ pub fn render_planned<'c>(
             let t = Stopwatch::start();
             let mut guides = guides.filter(|_| plan.settings.denoise.is_some());
             if let Some(g) = guides.as_deref_mut() {
-                sample_post::exact_part_before_accumulation(samples, g);
+                sample_post::complement_part(samples, g);
             }
             let s = sample_post::accumulate(plan, camera, acc, samples)?;
             if let Some(g) = guides {
-                sample_post::noisy_part_after_accumulation(samples, g);
+                sample_post::complement_part(samples, g);
             }
             times.add(Stage::Temporal, &t);
             Some(s)

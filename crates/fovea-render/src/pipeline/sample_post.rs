@@ -43,7 +43,7 @@ pub fn accumulate(
 /// Weier's unsampled pixels, prefilled) are left as they are and never read.
 ///
 /// After temporal accumulation, `guides.noisy` must hold the accumulated colour's Monte Carlo
-/// part ([`exact_part_before_accumulation`], [`noisy_part_after_accumulation`]).
+/// part ([`complement_part`] before and after it).
 pub fn denoise(
     plan: &FramePlan,
     params: &DenoiseParams,
@@ -79,28 +79,16 @@ pub fn denoise(
     Ok(stats)
 }
 
-/// Before temporal accumulation blends history into the colour: turns each texel's Monte
-/// Carlo part in `guides.noisy` into the exact part of its colour, `colour − noisy` (the
-/// lights' shadow rays and the emission; NaN, unknown, stays NaN). Layers without a Monte
-/// Carlo part are left alone.
-pub fn exact_part_before_accumulation(samples: &SampleBuffers, guides: &mut DenoiseGuides) {
-    for (c, n) in samples.color.iter().zip(guides.noisy.iter_mut()) {
-        if c.width() != n.width() || c.height() != n.height() {
-            continue;
-        }
-        for (n, c) in n.data_mut().iter_mut().zip(c.data()) {
-            *n = [c[0] - n[0], c[1] - n[1], c[2] - n[2]];
-        }
-    }
-}
-
-/// After temporal accumulation: the accumulated colour's Monte Carlo part, `colour − exact`
-/// (`guides.noisy` holding the exact part, [`exact_part_before_accumulation`]). Where the
-/// view is still the history's exact light is this frame's, so what the blend adds beyond it
-/// is the averaged Monte Carlo estimate, which the denoiser filters while the exact part (the
-/// point lights' highlights and shadow edges) is kept as it is. Where the history moved or was
-/// rejected the difference also carries its change, and is filtered with the rest.
-pub fn noisy_part_after_accumulation(samples: &SampleBuffers, guides: &mut DenoiseGuides) {
+/// Replaces each texel's part in `guides.noisy` by its colour less that part (NaN, unknown,
+/// stays NaN; layers of another size are left alone). Called twice around temporal
+/// accumulation so the denoiser's Monte Carlo part follows the colour through the blend:
+/// before it, the fresh frame's Monte Carlo part becomes the exact part of its colour (the
+/// lights' shadow rays, the emission); after it, the accumulated colour less that exact part
+/// is the accumulated Monte Carlo part. Where the view is still the history's exact light is
+/// the frame's, so that difference is the averaged estimate the denoiser filters while the
+/// exact light (the point lights' highlights and shadow edges) is kept; where the history
+/// moved or was rejected, what it changed is filtered with it.
+pub fn complement_part(samples: &SampleBuffers, guides: &mut DenoiseGuides) {
     for (c, n) in samples.color.iter().zip(guides.noisy.iter_mut()) {
         if c.width() != n.width() || c.height() != n.height() {
             continue;
