@@ -328,21 +328,11 @@ impl SharedDevice for fovea_gpu::GpuContext {
     }
 
     fn traffic(&self) -> std::collections::BTreeMap<String, u64> {
-        let t = fovea_gpu::GpuContext::traffic(self);
-        [
-            ("bytes_uploaded", t.bytes_uploaded),
-            ("bytes_read_back", t.bytes_read_back),
-            ("buffers_created", t.buffers_created),
-            ("buffer_bytes_created", t.buffer_bytes_created),
-            ("bind_groups_created", t.bind_groups_created),
-            ("buffer_maps", t.buffer_maps),
-            ("blocking_waits", t.blocking_waits),
-            ("blocked_ns", t.blocked_ns),
-            ("submissions", t.submissions),
-        ]
-        .into_iter()
-        .map(|(k, v)| (k.to_string(), v))
-        .collect()
+        fovea_gpu::GpuContext::traffic(self)
+            .named()
+            .into_iter()
+            .map(|(k, v)| (k.to_string(), v))
+            .collect()
     }
 }
 

@@ -37,6 +37,21 @@ pub struct TrafficCounts {
 }
 
 impl TrafficCounts {
+    /// Every counter with its field's name, in declaration order (for JSON and reports).
+    pub fn named(&self) -> [(&'static str, u64); 9] {
+        [
+            ("bytes_uploaded", self.bytes_uploaded),
+            ("bytes_read_back", self.bytes_read_back),
+            ("buffers_created", self.buffers_created),
+            ("buffer_bytes_created", self.buffer_bytes_created),
+            ("bind_groups_created", self.bind_groups_created),
+            ("buffer_maps", self.buffer_maps),
+            ("blocking_waits", self.blocking_waits),
+            ("blocked_ns", self.blocked_ns),
+            ("submissions", self.submissions),
+        ]
+    }
+
     /// The counts from `earlier` to `self`, two snapshots of one device (each field
     /// saturating at 0).
     pub fn since(&self, earlier: &Self) -> Self {

@@ -95,6 +95,9 @@ fn since_is_the_difference_of_two_snapshots() {
         (0, 2, 1, 5)
     );
     assert_eq!(d.blocked_ns, 2_500);
+    let names: Vec<&str> = d.named().iter().map(|&(k, _)| k).collect();
+    assert_eq!(names.len(), 9);
+    assert!(d.named().contains(&("blocked_ns", 2_500)), "{names:?}");
     // Snapshots in the wrong order saturate instead of wrapping.
     assert_eq!(a.since(&b).bytes_uploaded, 0);
 }
