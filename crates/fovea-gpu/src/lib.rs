@@ -36,6 +36,7 @@
 //! * [`dof`]: the signed CoC map from depth with the eye model and the scatter-as-gather
 //!   depth-of-field filter ([`GpuDof`]).
 //! * [`tonemap`]: exposure, tone curve and 8-bit sRGB encoding ([`GpuToneMap`]).
+//! * [`frame`]: the resident frame's buffers on the device ([`frame::DeviceSamples`]).
 //! * [`shaders`]: the WGSL sources, validated with naga in a plain `cargo test`.
 //!
 //! ```no_run
@@ -64,6 +65,7 @@ pub mod direct_light;
 pub mod dof;
 pub mod environment_light;
 pub mod error;
+pub mod frame;
 pub mod lockstep;
 pub mod mapping;
 pub mod pull_push;
