@@ -4,7 +4,19 @@
 //!
 //! * [`samples`]: the sample buffers of one eye's frame on the device ([`DeviceSamples`]),
 //!   the record every sample-space pass writes or reads.
+//! * [`screen`]: the screen side — reconstruction, depth of field and tone map of one eye's
+//!   [`DeviceSamples`] recorded into the caller's encoder ([`ScreenContext`]).
+//! * [`reconstruct`]: the polar reconstruction the screen side records ([`ResidentPolar`]).
+//! * [`timing`]: per-pass GPU times read back frames late, never blocking ([`FrameTimer`]).
 
+pub mod reconstruct;
 pub mod samples;
+pub mod screen;
+pub mod timing;
 
+pub use reconstruct::{PolarCapacity, ResidentPolar, TableUpload};
 pub use samples::{DeviceSamples, SampleLayer};
+pub use screen::{
+    ScreenConfig, ScreenContext, ScreenDof, ScreenInput, ScreenLimits, SCREEN_PASSES,
+};
+pub use timing::{FrameGpuTimes, FrameTimer};
