@@ -288,6 +288,47 @@ fn vafr_screen_side_equals_the_cpu_chain_on_random_samples() {
 }
 
 #[test]
+fn the_other_polar_mappings_equal_the_cpu_chain() {
+    let Some(ctx) = common::gpu_or_skip("the_other_polar_mappings_equal_the_cpu_chain") else {
+        return;
+    };
+    let display = display();
+    let (w, h) = (display.width_px as f64, display.height_px as f64);
+    for method in [Method::Kfr, Method::Lafr, Method::VisualPolar] {
+        let at = |x: f64, y: f64| {
+            build(
+                method,
+                &display,
+                display.gaze(x, y).unwrap(),
+                &MappingConfig::default(),
+            )
+            .unwrap()
+        };
+        let corners: Vec<Box<dyn FoveationMapping>> =
+            [(0.5, 0.5), (0.0, 0.0), (1.0, 1.0), (1.0, 0.0), (0.0, 1.0)]
+                .iter()
+                .map(|&(fx, fy)| at(fx * (w - 1.0), fy * (h - 1.0)))
+                .collect();
+        let refs: Vec<&dyn FoveationMapping> = corners.iter().map(|m| m.as_ref()).collect();
+        let cfg = config(ReconstructFilter::Footprint, Some(dof_of(&display)));
+        let mut screen =
+            ScreenContext::new(&ctx, &display, method, cfg.clone(), ScreenLimits::of(&refs))
+                .unwrap();
+        let mapping = at(0.3 * w, 0.6 * h);
+        let samples = random_samples(mapping.as_ref(), 21);
+        check(
+            &format!("{method} off-centre"),
+            &ctx,
+            &mut screen,
+            mapping.as_ref(),
+            &samples,
+            &cfg,
+            Some(Metres(1.5)),
+        );
+    }
+}
+
+#[test]
 fn vafr_screen_side_equals_the_cpu_chain_on_a_rendered_frame() {
     use fovea_render::bvh::Backend;
     use fovea_render::camera::EyeCamera;
