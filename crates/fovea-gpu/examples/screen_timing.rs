@@ -11,7 +11,7 @@
 //! The gaze walks a saccade-sized step (160 px) each frame, back and forth through the
 //! screen's centre, mirrored so that the screen-covering buffer keeps its size between the two
 //! sides; the samples (random texels) go up once per buffer size before the frames and are not
-//! part of any frame's traffic. VaFR with the footprint filter, the gather DOF focused at
+//! part of any frame's traffic. VaFR with FXAA in sample space, the footprint filter, the gather DOF focused at
 //! 1.2 m and the Reinhard tone map. After each frame the example waits for the device (so that
 //! frames do not pile up on a software device; a renderer paces on its swapchain instead) —
 //! outside the timed recording. Timing only; correctness is `tests/frame_screen.rs`.
@@ -27,9 +27,10 @@ use fovea_gpu::frame::{
     DeviceSamples, FrameTimer, ScreenConfig, ScreenContext, ScreenDof, ScreenInput, ScreenLimits,
     SCREEN_PASSES,
 };
-use fovea_gpu::{GpuContext, GpuRequest};
+use fovea_gpu::{GpuContext, GpuRequest, SampleFilter};
 use fovea_post::dof::coc::CocParams;
 use fovea_post::dof::gather::ScatterAsGather;
+use fovea_post::fxaa::FxaaParams;
 use fovea_post::inverse_map::{ReconstructFilter, SampleBuffers};
 use fovea_post::tonemap::ToneCurve;
 
@@ -64,6 +65,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let refs: Vec<&dyn FoveationMapping> = corners.iter().map(|m| m.as_ref()).collect();
     let limits = ScreenLimits::of(&refs);
     let config = ScreenConfig {
+        aa: (method != Method::Full).then_some(SampleFilter::Fxaa(FxaaParams::default())),
         filter: ReconstructFilter::Footprint,
         dof: Some(ScreenDof {
             filter: ScatterAsGather::default(),

@@ -14,6 +14,11 @@
 // weighted by their overlap); w ≥ n gives the column's mean. The CPU sums the same overlaps
 // through f64 prefix sums; here they are summed directly in f32 (≤ n + 2 terms a texel).
 //
+// With sample-space AA (`aa != 0`), a column's colour comes from the AA pass's output (RGB
+// f32, row-major at the layer's width) unless the column is kept (`keep[i] != 0`: its texels
+// are denser than the screen both ways, and the CPU restores them after AA:
+// `fovea_render::pipeline::sample_post`'s `restore_columns`); depth always from the samples.
+//
 // Colour and depth are moved as u32 bits; depth is never read as a float (+∞ for misses, and
 // WGSL lets an implementation assume no float is infinite).
 
@@ -26,6 +31,11 @@ struct PadParams {
     n_columns: u32,
     // Most stored texels of any column (rows + 2).
     stored_max: u32,
+    // 1: colour from the AA output where the column is not kept.
+    aa: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 }
 
 // The reconstruction's column record (polar_reconstruct.wgsl's `Column`).
@@ -41,10 +51,16 @@ struct PadColumn {
 @group(0) @binding(2) var<storage, read> extra: array<f32>;
 @group(0) @binding(3) var<storage, read> samples: array<vec4<u32>>;
 @group(0) @binding(4) var<storage, read_write> texels: array<vec4<u32>>;
+@group(0) @binding(5) var<storage, read> aa_rgb: array<f32>;
+@group(0) @binding(6) var<storage, read> keep: array<u32>;
 
-// The colour of column i's row j (j < n).
+// The colour of column i's row j (j < n): the AA output's, or the samples'.
 fn sample_rgb(i: u32, j: u32) -> vec3<f32> {
-    return bitcast<vec3<f32>>(samples[params.offset + j * params.width + i].xyz);
+    let k = j * params.width + i;
+    if params.aa != 0u && keep[i] == 0u {
+        return vec3<f32>(aa_rgb[3u * k], aa_rgb[3u * k + 1u], aa_rgb[3u * k + 2u]);
+    }
+    return bitcast<vec3<f32>>(samples[params.offset + k].xyz);
 }
 
 // The mean colour over the cyclic box of `w` rows centred on row j of column i (n rows).
@@ -101,11 +117,11 @@ fn pad_columns(@builtin(global_invocation_id) gid: vec3<u32>) {
     } else if p == n + 1u {
         j = 0u;
     }
-    let src = samples[params.offset + j * params.width + i];
-    var bits = src.xyz;
+    let depth_bits = samples[params.offset + j * params.width + i].w;
+    var rgb = sample_rgb(i, j);
     let w = extra[i];
     if w > 1e-3 {
-        bits = bitcast<vec3<u32>>(box_along_column(i, j, n, w));
+        rgb = box_along_column(i, j, n, w);
     }
-    texels[col.base + p] = vec4<u32>(bits, src.w);
+    texels[col.base + p] = vec4<u32>(bitcast<vec3<u32>>(rgb), depth_bits);
 }

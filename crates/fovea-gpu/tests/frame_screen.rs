@@ -28,11 +28,17 @@ use fovea_gpu::frame::{
     DeviceSamples, FrameTimer, ScreenConfig, ScreenContext, ScreenDof, ScreenInput, ScreenLimits,
     SCREEN_PASSES,
 };
+use fovea_gpu::SampleFilter;
 use fovea_gpu::{GpuContext, GpuError};
 use fovea_post::dof::coc::{coc_map, CocParams};
 use fovea_post::dof::gather::ScatterAsGather;
 use fovea_post::dof::{DofFilter, DofInput};
-use fovea_post::inverse_map::{reconstruct_into, ReconstructFilter, SampleBuffers};
+use fovea_post::fxaa::{fxaa, FxaaParams};
+use fovea_post::gaussian_aa::gaussian_3x3;
+use fovea_post::grid::Grid;
+use fovea_post::inverse_map::{
+    minified_columns, reconstruct_into, ReconstructFilter, SampleBuffers,
+};
 use fovea_post::tonemap::{to_srgb8, ToneCurve};
 use fovea_post::Rgb;
 
@@ -56,6 +62,7 @@ fn dof_of(display: &DisplayProfile) -> ScreenDof {
 
 fn config(filter: ReconstructFilter, dof: Option<ScreenDof>) -> ScreenConfig {
     ScreenConfig {
+        aa: None,
         filter,
         dof,
         exposure_stops: 0.5,
@@ -98,6 +105,35 @@ fn random_samples(mapping: &dyn FoveationMapping, seed: u64) -> SampleBuffers {
     s
 }
 
+/// Stage 5 as `fovea_render::pipeline::sample_post::anti_alias` runs it when `cfg` has AA: the
+/// filter on the polar grid, then the minified columns restored (footprint filter).
+fn cpu_aa(
+    mapping: &dyn FoveationMapping,
+    mut s: SampleBuffers,
+    cfg: &ScreenConfig,
+) -> SampleBuffers {
+    if let Some(aa) = cfg.aa {
+        let layout = mapping.polar_layout().unwrap();
+        let grid = Grid::polar(&layout);
+        let c = &s.color[0];
+        let mut out = match aa {
+            SampleFilter::Fxaa(p) => fxaa(c, &grid, &p),
+            SampleFilter::Gaussian => gaussian_3x3(c, &grid),
+        };
+        if cfg.filter == ReconstructFilter::Footprint {
+            let keep = minified_columns(mapping).unwrap();
+            let bw = c.width() as usize;
+            for (k, px) in out.data_mut().iter_mut().enumerate() {
+                if keep.get(k % bw).copied().unwrap_or(false) {
+                    *px = c.data()[k];
+                }
+            }
+        }
+        s.color[0] = out;
+    }
+    s
+}
+
 /// The CPU's chain: reconstruction, then the DOF (with a focus), then the tone map.
 fn cpu_chain(
     mapping: &dyn FoveationMapping,
@@ -109,7 +145,7 @@ fn cpu_chain(
     let (w, h) = (display.width_px, display.height_px);
     let mut color = Image::new(w, h, [0.0f32; 3]).unwrap();
     let mut depth = Image::new(w, h, 0.0f32).unwrap();
-    let mut s = samples.clone();
+    let mut s = cpu_aa(mapping, samples.clone(), cfg);
     reconstruct_into(mapping, display, &mut s, &mut color, &mut depth, cfg.filter).unwrap();
     let post = match (&cfg.dof, focus) {
         (Some(d), Some(f)) => {
@@ -213,11 +249,18 @@ fn check(
     // The per-call path (the CPU's padded, prefiltered columns uploaded) on the same samples:
     // the resident column pass must give the same screen.
     // (Full resolution has no per-call reconstruction: its samples are the screen.)
+    // With AA, on the CPU's anti-aliased samples (the per-call AA equals the CPU's within
+    // 1e-5, tests/sample_aa.rs).
     let per_call = match mapping.polar_layout() {
         Some(_) => {
             let f = fovea_gpu::GpuReconstructor::new(ctx)
                 .unwrap()
-                .reconstruct(mapping, &display, samples, cfg.filter)
+                .reconstruct(
+                    mapping,
+                    &display,
+                    &cpu_aa(mapping, samples.clone(), cfg),
+                    cfg.filter,
+                )
                 .unwrap()
                 .0;
             (f.color, f.depth)
@@ -329,6 +372,55 @@ fn the_other_polar_mappings_equal_the_cpu_chain() {
 }
 
 #[test]
+fn sample_space_aa_on_the_device_equals_the_cpus() {
+    let Some(ctx) = common::gpu_or_skip("sample_space_aa_on_the_device_equals_the_cpus") else {
+        return;
+    };
+    let display = display();
+    let (w, h) = (display.width_px as f64, display.height_px as f64);
+    for (method, aa) in [
+        (Method::Vafr, SampleFilter::Fxaa(FxaaParams::default())),
+        (Method::Kfr, SampleFilter::Gaussian),
+    ] {
+        let at = |x: f64, y: f64| {
+            build(
+                method,
+                &display,
+                display.gaze(x, y).unwrap(),
+                &MappingConfig::default(),
+            )
+            .unwrap()
+        };
+        let corners: Vec<Box<dyn FoveationMapping>> =
+            [(0.5, 0.5), (0.0, 0.0), (1.0, 1.0), (1.0, 0.0), (0.0, 1.0)]
+                .iter()
+                .map(|&(fx, fy)| at(fx * (w - 1.0), fy * (h - 1.0)))
+                .collect();
+        let refs: Vec<&dyn FoveationMapping> = corners.iter().map(|m| m.as_ref()).collect();
+        for filter in [ReconstructFilter::Footprint, ReconstructFilter::Bilinear] {
+            let mut cfg = config(filter, Some(dof_of(&display)));
+            cfg.aa = Some(aa);
+            let mut screen =
+                ScreenContext::new(&ctx, &display, method, cfg.clone(), ScreenLimits::of(&refs))
+                    .unwrap();
+            for (gname, gx, gy) in [("centre", 0.5 * w, 0.5 * h), ("corner", 0.1 * w, 0.85 * h)] {
+                let mapping = at(gx, gy);
+                let samples = random_samples(mapping.as_ref(), 31);
+                check(
+                    &format!("{method} AA {aa:?} {filter:?} {gname}"),
+                    &ctx,
+                    &mut screen,
+                    mapping.as_ref(),
+                    &samples,
+                    &cfg,
+                    Some(Metres(1.5)),
+                );
+            }
+        }
+    }
+}
+
+#[test]
 fn vafr_screen_side_equals_the_cpu_chain_on_a_rendered_frame() {
     use fovea_render::bvh::Backend;
     use fovea_render::camera::EyeCamera;
@@ -382,7 +474,8 @@ fn a_steady_state_frame_creates_nothing_and_reads_nothing_back() {
     };
     let display = display();
     let limits = limits(&display);
-    let cfg = config(ReconstructFilter::Footprint, Some(dof_of(&display)));
+    let mut cfg = config(ReconstructFilter::Footprint, Some(dof_of(&display)));
+    cfg.aa = Some(SampleFilter::Fxaa(FxaaParams::default()));
     let mut screen = ScreenContext::new(&ctx, &display, Method::Vafr, cfg.clone(), limits).unwrap();
     let (w, h) = (display.width_px as f64, display.height_px as f64);
     // A saccade-sized step mirrored about the screen's vertical centre line: the farthest
@@ -506,7 +599,8 @@ fn timestamps_arrive_late_without_waiting() {
     };
     let display = display();
     let limits = limits(&display);
-    let cfg = config(ReconstructFilter::Footprint, Some(dof_of(&display)));
+    let mut cfg = config(ReconstructFilter::Footprint, Some(dof_of(&display)));
+    cfg.aa = Some(SampleFilter::Fxaa(FxaaParams::default()));
     let mut screen = ScreenContext::new(&ctx, &display, Method::Vafr, cfg, limits).unwrap();
     let Some(mut timer) = FrameTimer::new(&ctx, &SCREEN_PASSES, 3).unwrap() else {
         println!("the device has no timestamps: nothing to check");

@@ -3,8 +3,14 @@
 //! the screen, recorded into the caller's command encoder — nothing is read back and, from one
 //! frame to the next, only what changed goes up.
 //!
-//! Two passes per frame:
+//! Passes per frame:
 //!
+//! 0. With sample-space AA: the layer's colour into a planar RGB buffer
+//!    (`frame_screen_split.wgsl`), then FXAA (`fxaa.wgsl`: luma, then edge search and blend;
+//!    VaFR Sec. 3.4) or the 3×3 Gaussian (`gaussian_aa.wgsl`), the per-call path's shaders on
+//!    the grid tables of `fovea_post::grid::Grid` (built on the CPU when the layout changes,
+//!    sent as the entries that changed); columns whose texels are denser than the screen keep
+//!    their samples' colour (`minified_columns`, as the CPU's `restore_columns`).
 //! 1. `frame_polar_columns.wgsl::pad_columns`: the sample layer laid out column by column,
 //!    each column padded by one row on either side, and for [`ReconstructFilter::Footprint`]
 //!    each column's colour boxed along its rows to a pixel's width — on the device, where
@@ -25,15 +31,22 @@
 use bytemuck::{Pod, Zeroable};
 use fovea_core::display::DisplayProfile;
 use fovea_core::mapping::FoveationMapping;
+use fovea_post::fxaa::FxaaParams;
+use fovea_post::grid::Grid;
 use fovea_post::inverse_map::{
-    column_footprints, polar_lut, PolarColumns, ReconstructFilter, LUT_STEP_PX,
+    column_footprints, minified_columns, polar_lut, PolarColumns, ReconstructFilter, LUT_STEP_PX,
 };
 
 use crate::device::GpuContext;
 use crate::error::{GpuError, Result};
 use crate::frame::samples::DeviceSamples;
+use crate::frame::screen::{SplitUniform, SPLIT_SHADER};
 use crate::mapping::vafr::split_f64;
 use crate::reconstruct::ReconstructUniform;
+use crate::sample_aa::{
+    GridTables, SampleAaUniform, SampleFilter, FXAA_SHADER, GAUSSIAN_SHADER, MAX_POLAR_ROWS,
+    MAX_SEARCH_STEPS,
+};
 use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
 use crate::transfer::bind_group;
 
@@ -68,6 +81,10 @@ pub struct PadUniform {
     pub n_columns: u32,
     /// Most stored texels of any column (rows + 2).
     pub stored_max: u32,
+    /// 1: colour from the AA output where the column is not kept.
+    pub aa: u32,
+    /// Padding to 32 bytes.
+    pub pad: [u32; 3],
 }
 
 /// One column as both shaders read it (`Column` / `PadColumn`).
@@ -94,6 +111,8 @@ pub struct PolarCapacity {
     pub rows: u32,
     /// Padded texels of the columns (every column's rows and the two copies around them).
     pub texels: u64,
+    /// Texels of the buffer's rectangle (width × height; the sample-space AA's buffers).
+    pub rect_texels: u64,
     /// Entries of the `u(r)` table.
     pub lut_entries: u32,
 }
@@ -130,6 +149,27 @@ pub struct TableUpload {
     pub rebuilt: bool,
 }
 
+/// The sample-space AA passes' pipelines, buffers and tables.
+struct AaStage {
+    filter: SampleFilter,
+    split: wgpu::ComputePipeline,
+    luma: Option<wgpu::ComputePipeline>,
+    main: wgpu::ComputePipeline,
+    uniform: wgpu::Buffer,
+    split_uniform: wgpu::Buffer,
+    input: wgpu::Buffer,
+    depth_scratch: wgpu::Buffer,
+    columns: wgpu::Buffer,
+    align: wgpu::Buffer,
+    out: wgpu::Buffer,
+    luma_bind: Option<wgpu::BindGroup>,
+    main_bind: wgpu::BindGroup,
+    /// The split's bindings (they name the caller's sample buffer).
+    split_bind: Option<wgpu::BindGroup>,
+    /// The grid tables as the device holds them.
+    tables: Option<GridTables>,
+}
+
 /// The resident polar reconstruction of one eye (see the module).
 pub struct ResidentPolar {
     ctx: GpuContext,
@@ -151,6 +191,11 @@ pub struct ResidentPolar {
     pad_bind: Option<(wgpu::Buffer, wgpu::BindGroup)>,
     tables: Tables,
     last_upload: TableUpload,
+    aa: Option<AaStage>,
+    keep: wgpu::Buffer,
+    keep_sent: Vec<u32>,
+    /// The layer's size at the last [`Self::prepare`].
+    layer_size: (u32, u32),
 }
 
 impl ResidentPolar {
@@ -161,6 +206,7 @@ impl ResidentPolar {
         ctx: &GpuContext,
         display: &DisplayProfile,
         filter: ReconstructFilter,
+        aa: Option<SampleFilter>,
         capacity: PolarCapacity,
     ) -> Result<Self> {
         let (w, h) = (display.width_px, display.height_px);
@@ -186,6 +232,18 @@ impl ResidentPolar {
         ] {
             ctx.check_storage_binding(what, bytes)?;
         }
+        let aa_stage = match aa {
+            Some(f) => Some(AaStage::new(ctx, f, capacity)?),
+            None => None,
+        };
+        let keep = ctx.scoped("building the resident polar reconstruction", || {
+            ctx.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("kept columns"),
+                size: u64::from(capacity.columns.max(1)) * 4,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        })?;
         let device = ctx.device();
         ctx.scoped("building the resident polar reconstruction", || {
             let pad = PAD_SHADER.pipelines(device).pop();
@@ -269,6 +327,10 @@ impl ResidentPolar {
                     pad_bind: None,
                     tables: Tables::default(),
                     last_upload: TableUpload::default(),
+                    aa: aa_stage,
+                    keep,
+                    keep_sent: Vec::new(),
+                    layer_size: (0, 0),
                 })
             },
         )
@@ -302,6 +364,8 @@ impl ResidentPolar {
             b.width <= self.capacity.columns
                 && b.height <= self.capacity.rows
                 && PolarColumns::texel_count(&layout, b.height) <= self.capacity.texels
+                && b.pixels() <= self.capacity.rect_texels
+                && (self.aa.is_none() || b.height <= MAX_POLAR_ROWS)
         })
     }
 
@@ -351,14 +415,18 @@ impl ResidentPolar {
         if self.tables.key.as_deref() != Some(key.as_str()) {
             let t = self.build_tables(mapping, display, layer.height)?;
             upload = self.send_tables(t, key)?;
+            upload.column_bytes += self.send_aa_tables(mapping, (layer.width, layer.height))?;
         }
         self.last_upload = upload;
+        self.layer_size = (layer.width, layer.height);
         let t = &self.tables;
         let pad = PadUniform {
             offset: layer.offset,
             width: layer.width,
             n_columns: t.columns.len() as u32,
             stored_max: t.stored_max,
+            aa: u32::from(self.aa.is_some()),
+            pad: [0; 3],
         };
         let (px_hi, px_lo) = split_f64(t.centre.0);
         let (py_hi, py_lo) = split_f64(t.centre.1);
@@ -389,7 +457,34 @@ impl ResidentPolar {
                     .write_buffer(&self.pad_uniform, 0, bytemuck::bytes_of(&pad));
                 self.ctx
                     .write_buffer(&self.rec_uniform, 0, bytemuck::bytes_of(&rec));
+                if let Some(aa) = &self.aa {
+                    let params = match aa.filter {
+                        SampleFilter::Fxaa(p) => p,
+                        SampleFilter::Gaussian => FxaaParams::default(),
+                    };
+                    let u = SampleAaUniform {
+                        width: layer.width,
+                        height: layer.height,
+                        polar: 1,
+                        search_steps: params.search_steps,
+                        edge_threshold: params.edge_threshold,
+                        edge_threshold_min: params.edge_threshold_min,
+                        subpix: params.subpix,
+                        pad: 0,
+                    };
+                    let split = SplitUniform {
+                        offset: layer.offset,
+                        width: layer.width,
+                        height: layer.height,
+                        pad: 0,
+                    };
+                    self.ctx
+                        .write_buffer(&aa.uniform, 0, bytemuck::bytes_of(&u));
+                    self.ctx
+                        .write_buffer(&aa.split_uniform, 0, bytemuck::bytes_of(&split));
+                }
                 if !same_samples {
+                    let aa_rgb = self.aa.as_ref().map_or(&self.keep, |a| &a.out);
                     let bind = bind_group(
                         &self.ctx,
                         "resident column layout",
@@ -400,15 +495,31 @@ impl ResidentPolar {
                             (2, &self.extra),
                             (3, samples.buffer()),
                             (4, &self.texels),
+                            (5, aa_rgb),
+                            (6, &self.keep),
                         ],
                     );
                     self.pad_bind = Some((samples.buffer().clone(), bind));
+                    if let Some(aa) = &mut self.aa {
+                        aa.split_bind = Some(bind_group(
+                            &self.ctx,
+                            "resident AA input",
+                            &aa.split,
+                            &[
+                                (0, &aa.split_uniform),
+                                (1, samples.buffer()),
+                                (2, &aa.input),
+                                (3, &aa.depth_scratch),
+                            ],
+                        ));
+                    }
                 }
             })
     }
 
-    /// Records the two passes (column layout, then reconstruction) into `encoder`, each timed
-    /// by `timer` at its pass index when given. [`Self::prepare`] first.
+    /// Records the passes (sample-space AA when configured, column layout, reconstruction)
+    /// into `encoder`, timed by `timer` at `pass_index`, `+ 1`, `+ 2` when given.
+    /// [`Self::prepare`] first.
     pub fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -421,10 +532,32 @@ impl ResidentPolar {
             ));
         };
         let t = &self.tables;
+        if let Some(aa) = &self.aa {
+            let Some(split_bind) = &aa.split_bind else {
+                return Err(GpuError::Input("the AA input has no bindings".into()));
+            };
+            let (w, h) = self.layer_size;
+            let groups = w.div_ceil(WORKGROUP_SIZE);
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("sample-space AA"),
+                timestamp_writes: timer.as_deref_mut().and_then(|t| t.writes(pass_index)),
+            });
+            pass.set_pipeline(&aa.split);
+            pass.set_bind_group(0, split_bind, &[]);
+            pass.dispatch_workgroups(groups, h, 1);
+            if let (Some(luma), Some(bind)) = (&aa.luma, &aa.luma_bind) {
+                pass.set_pipeline(luma);
+                pass.set_bind_group(0, bind, &[]);
+                pass.dispatch_workgroups(groups, h, 1);
+            }
+            pass.set_pipeline(&aa.main);
+            pass.set_bind_group(0, &aa.main_bind, &[]);
+            pass.dispatch_workgroups(groups, h, 1);
+        }
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("polar columns"),
-                timestamp_writes: timer.as_deref_mut().and_then(|t| t.writes(pass_index)),
+                timestamp_writes: timer.as_deref_mut().and_then(|t| t.writes(pass_index + 1)),
             });
             pass.set_pipeline(&self.pad);
             pass.set_bind_group(0, pad_bind, &[]);
@@ -436,7 +569,7 @@ impl ResidentPolar {
         }
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("polar reconstruct"),
-            timestamp_writes: timer.and_then(|t| t.writes(pass_index + 1)),
+            timestamp_writes: timer.and_then(|t| t.writes(pass_index + 2)),
         });
         pass.set_pipeline(&self.reconstruct);
         pass.set_bind_group(0, &self.rec_bind, &[]);
@@ -536,6 +669,166 @@ impl ResidentPolar {
             lut_bytes,
             column_bytes,
             rebuilt: true,
+        })
+    }
+}
+
+impl ResidentPolar {
+    /// With AA: the grid tables of `mapping`'s layout (rebuilt only when the layout changed)
+    /// and the kept columns, each sent as the entries that changed. Returns the bytes sent.
+    fn send_aa_tables(&mut self, mapping: &dyn FoveationMapping, size: (u32, u32)) -> Result<u64> {
+        let Some(aa) = &mut self.aa else {
+            return Ok(0);
+        };
+        let layout = mapping.polar_layout().ok_or_else(|| {
+            GpuError::Unsupported(format!("{} is not a polar mapping", mapping.method()))
+        })?;
+        let grid = Grid::polar(&layout);
+        let ctx = &self.ctx;
+        let mut bytes = 0;
+        if !aa.tables.as_ref().is_some_and(|t| t.is_for(&grid, size)) {
+            let new = GridTables::new(&grid, size)?;
+            let (old_cols, old_align) = aa
+                .tables
+                .as_ref()
+                .map_or((&[][..], &[][..]), |t| (&t.columns[..], &t.align[..]));
+            bytes += ctx.scoped("uploading the AA grid tables", || {
+                write_changed(ctx, &aa.columns, old_cols, &new.columns)
+                    + write_changed(ctx, &aa.align, old_align, &new.align)
+            })?;
+            aa.tables = Some(new);
+        }
+        let mut keep: Vec<u32> = match self.filter {
+            ReconstructFilter::Footprint => minified_columns(mapping)
+                .unwrap_or_default()
+                .into_iter()
+                .map(u32::from)
+                .collect(),
+            ReconstructFilter::Bilinear => Vec::new(),
+        };
+        keep.resize(size.0 as usize, 0);
+        bytes += ctx.scoped("uploading the kept columns", || {
+            write_changed(ctx, &self.keep, &self.keep_sent, &keep)
+        })?;
+        self.keep_sent = keep;
+        Ok(bytes)
+    }
+}
+
+impl AaStage {
+    /// Pipelines, buffers (sized for `capacity`) and the bind groups that name no caller's
+    /// buffer.
+    fn new(ctx: &GpuContext, filter: SampleFilter, capacity: PolarCapacity) -> Result<Self> {
+        if let SampleFilter::Fxaa(p) = filter {
+            if p.search_steps > MAX_SEARCH_STEPS {
+                return Err(GpuError::Input(format!(
+                    "an FXAA edge search of {} steps each way (at most {MAX_SEARCH_STEPS} on \
+                     the GPU)",
+                    p.search_steps
+                )));
+            }
+        }
+        if capacity.rows > MAX_POLAR_ROWS {
+            return Err(GpuError::Unsupported(format!(
+                "sample-space AA in a buffer of {} rows (at most {MAX_POLAR_ROWS})",
+                capacity.rows
+            )));
+        }
+        let n = capacity.rect_texels.max(1);
+        for (what, bytes) in [
+            ("the AA pass's sample colour", n * 12),
+            ("the AA pass's alignment table", n * 4),
+        ] {
+            ctx.check_storage_binding(what, bytes)?;
+        }
+        let device = ctx.device();
+        let missing = || GpuError::Input("an AA module lacks an entry point".into());
+        let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
+            ctx.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: size.max(4),
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let storage = wgpu::BufferUsages::STORAGE;
+        let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
+        let what = "building the resident sample-space AA";
+        let (split, luma, main) = ctx.scoped(what, || {
+            let split = SPLIT_SHADER.pipelines(device).pop();
+            let (luma, main) = match filter {
+                SampleFilter::Fxaa(_) => {
+                    let mut p = FXAA_SHADER.pipelines(device);
+                    let main = p.pop();
+                    (p.pop(), main)
+                }
+                SampleFilter::Gaussian => (None, GAUSSIAN_SHADER.pipelines(device).pop()),
+            };
+            (split, luma, main)
+        })?;
+        let split = split.ok_or_else(missing)?;
+        let main = main.ok_or_else(missing)?;
+        ctx.scoped(what, || {
+            let aa_uniform = buffer(
+                "AA parameters",
+                std::mem::size_of::<SampleAaUniform>() as u64,
+                uniform,
+            );
+            let split_uniform = buffer(
+                "AA input parameters",
+                std::mem::size_of::<SplitUniform>() as u64,
+                uniform,
+            );
+            let input = buffer("AA input", n * 12, storage);
+            let depth_scratch = buffer("AA input depth (unused)", n * 4, storage);
+            let columns = buffer(
+                "AA columns",
+                u64::from(capacity.columns.max(1)) * 16,
+                storage | wgpu::BufferUsages::COPY_DST,
+            );
+            let align = buffer(
+                "AA alignment",
+                n * 4,
+                storage | wgpu::BufferUsages::COPY_DST,
+            );
+            let lum = buffer("FXAA luma", n * 4, storage);
+            let out = buffer("AA output", n * 12, storage);
+            let luma_bind = luma.as_ref().map(|l| {
+                bind_group(
+                    ctx,
+                    "resident FXAA luma",
+                    l,
+                    &[(0, &aa_uniform), (1, &input), (4, &lum)],
+                )
+            });
+            let mut entries = vec![
+                (0, &aa_uniform),
+                (1, &input),
+                (2, &columns),
+                (3, &align),
+                (5, &out),
+            ];
+            if luma.is_some() {
+                entries.push((4, &lum));
+            }
+            let main_bind = bind_group(ctx, "resident AA", &main, &entries);
+            Self {
+                filter,
+                split,
+                luma,
+                main,
+                uniform: aa_uniform,
+                split_uniform,
+                input,
+                depth_scratch,
+                columns,
+                align,
+                out,
+                luma_bind,
+                main_bind,
+                split_bind: None,
+                tables: None,
+            }
         })
     }
 }

@@ -7,6 +7,7 @@
 //!
 //! | pass | what | shader |
 //! |---|---|---|
+//! | `aa` | sample-space FXAA or 3×3 Gaussian on the polar layer (when configured) | `frame_screen_split.wgsl`, `fxaa.wgsl` / `gaussian_aa.wgsl` |
 //! | `columns` | the polar layer padded column by column and angularly prefiltered | `frame_polar_columns.wgsl` |
 //! | `reconstruct` | every pixel's `u(r)`, angle, bilinear or footprint lookup (VaFR Sec. 3.4) | `polar_reconstruct.wgsl` |
 //! | `split` | the screen's `vec4` pixels into planar colour (3 × f32) and depth bits | `frame_screen_split.wgsl` |
@@ -40,6 +41,7 @@ use crate::error::{GpuError, Result};
 use crate::frame::reconstruct::{PolarCapacity, ResidentPolar, TableUpload};
 use crate::frame::samples::DeviceSamples;
 use crate::frame::timing::FrameTimer;
+use crate::sample_aa::SampleFilter;
 use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
 use crate::tonemap::ToneUniform;
 use crate::transfer::{bind_group, read_buffers};
@@ -56,7 +58,7 @@ pub const SPLIT_SHADER: ShaderSource = ShaderSource {
 };
 
 /// The passes [`ScreenContext::record`] times, in order ([`FrameTimer::new`]'s `passes`).
-pub const SCREEN_PASSES: [&str; 5] = ["columns", "reconstruct", "split", "dof", "tonemap"];
+pub const SCREEN_PASSES: [&str; 6] = ["aa", "columns", "reconstruct", "split", "dof", "tonemap"];
 
 /// Workgroups along x of one row of the tone map's dispatch (its shader's `65535u`).
 const TONE_GROUPS_PER_ROW: u32 = 65535;
@@ -88,6 +90,8 @@ pub struct ScreenDof {
 /// What a [`ScreenContext`] is built for besides the display and method.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ScreenConfig {
+    /// Sample-space AA before the reconstruction (polar mappings; `None`: off).
+    pub aa: Option<SampleFilter>,
     /// How polar buffers are read at each pixel.
     pub filter: ReconstructFilter,
     /// The depth of field, if any.
@@ -109,6 +113,8 @@ pub struct ScreenLimits {
     /// Texels of a polar buffer's columns as the reconstruction lays them out, each padded
     /// by a row on either side (`fovea_post::inverse_map::PolarColumns::texel_count`).
     pub max_padded_texels: u64,
+    /// Texels of the buffer's rectangle, width × height (the AA pass's buffers).
+    pub max_texels: u64,
 }
 
 impl ScreenLimits {
@@ -119,12 +125,14 @@ impl ScreenLimits {
             max_columns: 1,
             max_rows: 1,
             max_padded_texels: 1,
+            max_texels: 1,
         };
         for m in mappings {
             let buffers = m.buffers();
             for b in &buffers {
                 l.max_columns = l.max_columns.max(b.width);
                 l.max_rows = l.max_rows.max(b.height);
+                l.max_texels = l.max_texels.max(b.pixels());
             }
             if let (Some(layout), Some(b)) = (m.polar_layout(), buffers.first()) {
                 l.max_padded_texels = l
@@ -266,15 +274,24 @@ impl ScreenContext {
             None => None,
         };
         let polar = match method {
+            Method::Full if config.aa.is_some() => {
+                return Err(GpuError::Unsupported(
+                    "sample-space AA on the resident screen side at full resolution (it runs \
+                     on polar buffers)"
+                        .into(),
+                ))
+            }
             Method::Full => None,
             _ => Some(ResidentPolar::new(
                 ctx,
                 display,
                 config.filter,
+                config.aa,
                 PolarCapacity {
                     columns: limits.max_columns,
                     rows: limits.max_rows,
                     texels: limits.max_padded_texels,
+                    rect_texels: limits.max_texels,
                     lut_entries: PolarCapacity::lut_for_screen(w, h),
                 },
             )?),
@@ -534,6 +551,7 @@ impl ScreenContext {
             && limits.max_columns <= self.limits.max_columns
             && limits.max_rows <= self.limits.max_rows
             && limits.max_padded_texels <= self.limits.max_padded_texels
+            && limits.max_texels <= self.limits.max_texels
     }
 
     /// Whether `mapping`'s buffers fit this context (its method and limits).
@@ -668,7 +686,7 @@ impl ScreenContext {
             {
                 let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                     label: Some("split"),
-                    timestamp_writes: timer.as_deref_mut().and_then(|t| t.writes(2)),
+                    timestamp_writes: timer.as_deref_mut().and_then(|t| t.writes(3)),
                 });
                 pass.set_pipeline(&self.split);
                 pass.set_bind_group(0, split_bind, &[]);
@@ -678,7 +696,7 @@ impl ScreenContext {
             if let (Some(d), Some(_)) = (&self.dof, &dof_coc) {
                 let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                     label: Some("depth of field"),
-                    timestamp_writes: timer.as_deref_mut().and_then(|t| t.writes(3)),
+                    timestamp_writes: timer.as_deref_mut().and_then(|t| t.writes(4)),
                 });
                 let tile_groups = d.tiles.0.div_ceil(WORKGROUP_SIZE);
                 pass.set_pipeline(&d.coc);
@@ -703,7 +721,7 @@ impl ScreenContext {
             let gy = groups.div_ceil(u64::from(TONE_GROUPS_PER_ROW)) as u32;
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("tone map"),
-                timestamp_writes: timer.and_then(|t| t.writes(4)),
+                timestamp_writes: timer.and_then(|t| t.writes(5)),
             });
             pass.set_pipeline(&self.tone);
             pass.set_bind_group(0, tone_bind, &[]);
