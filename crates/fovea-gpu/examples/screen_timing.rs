@@ -5,7 +5,7 @@
 //!
 //! ```sh
 //! XDG_RUNTIME_DIR=$(mktemp -d) cargo run --release -p fovea-gpu --example screen_timing \
-//!     [-- vive-pro-eye [frames [vafr|full]]]
+//!     [-- vive-pro-eye [frames [vafr|full [fxaa|none]]]]
 //! ```
 //!
 //! The gaze walks a saccade-sized step (160 px) each frame, back and forth through the
@@ -48,6 +48,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some("full") => Method::Full,
         Some(other) => return Err(format!("method `{other}`: expected vafr or full").into()),
     };
+    let aa = match args.next().as_deref() {
+        None | Some("fxaa") => {
+            (method != Method::Full).then_some(SampleFilter::Fxaa(FxaaParams::default()))
+        }
+        Some("none") => None,
+        Some(other) => return Err(format!("AA `{other}`: expected fxaa or none").into()),
+    };
     let ctx = GpuContext::new(&GpuRequest::default())?;
     println!("device: {} — {}", ctx.adapter(), ctx.adapter().driver);
     let display = DisplayProfile::preset(&preset)?;
@@ -65,7 +72,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let refs: Vec<&dyn FoveationMapping> = corners.iter().map(|m| m.as_ref()).collect();
     let limits = ScreenLimits::of(&refs);
     let config = ScreenConfig {
-        aa: (method != Method::Full).then_some(SampleFilter::Fxaa(FxaaParams::default())),
+        aa,
         filter: ReconstructFilter::Footprint,
         dof: Some(ScreenDof {
             filter: ScatterAsGather::default(),
@@ -77,7 +84,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let t = Instant::now();
     let mut screen = ScreenContext::new(&ctx, &display, method, config, limits)?;
     println!(
-        "{preset} {}x{}, {method}: context built in {:.1} ms (limits {limits:?})",
+        "{preset} {}x{}, {method}, AA {aa:?}: context built in {:.1} ms (limits {limits:?})",
         display.width_px,
         display.height_px,
         t.elapsed().as_secs_f64() * 1e3
