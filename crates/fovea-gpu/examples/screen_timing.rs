@@ -79,6 +79,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             coc: CocParams::thin_lens(EyeModel::default(), display.focal_y_px()),
         }),
         exposure_stops: 0.0,
+        texture: true,
         curve: ToneCurve::Reinhard,
     };
     let t = Instant::now();

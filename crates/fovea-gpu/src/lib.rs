@@ -115,4 +115,5 @@ pub const ALL_SHADERS: &[shaders::ShaderSource] = &[
     tonemap::SHADER,
     frame::reconstruct::PAD_SHADER,
     frame::screen::SPLIT_SHADER,
+    frame::screen::PRESENT_SHADER,
 ];

@@ -66,6 +66,7 @@ fn config(filter: ReconstructFilter, dof: Option<ScreenDof>) -> ScreenConfig {
         filter,
         dof,
         exposure_stops: 0.5,
+        texture: false,
         curve: ToneCurve::Reinhard,
     }
 }
@@ -654,6 +655,86 @@ fn timestamps_arrive_late_without_waiting() {
             }
         }
     }
+}
+
+#[test]
+fn the_presenter_texture_holds_the_tone_mapped_frame() {
+    let Some(ctx) = common::gpu_or_skip("the_presenter_texture_holds_the_tone_mapped_frame") else {
+        return;
+    };
+    let display = display();
+    let limits = limits(&display);
+    let mut cfg = config(ReconstructFilter::Footprint, Some(dof_of(&display)));
+    cfg.texture = true;
+    let mut screen = ScreenContext::new(&ctx, &display, Method::Vafr, cfg, limits).unwrap();
+    let mapping = vafr(&display, display.gaze(600.0, 900.0).unwrap());
+    let device = DeviceSamples::for_mapping(&ctx, mapping.as_ref()).unwrap();
+    device
+        .upload(&ctx, &random_samples(mapping.as_ref(), 41))
+        .unwrap();
+    let before = ctx.traffic();
+    let mut encoder = ctx
+        .device()
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+    screen
+        .record(
+            &mut encoder,
+            &device,
+            &ScreenInput {
+                mapping: mapping.as_ref(),
+                focus: Some(Metres(1.0)),
+            },
+            None,
+        )
+        .unwrap();
+    let moved = ctx.traffic().since(&before);
+    assert_eq!(moved.bytes_read_back, 0);
+    assert_eq!(moved.submissions, 0);
+    // The texture read back with the test's own (uncounted) buffer.
+    let (w, h) = (display.width_px, display.height_px);
+    let row = (4 * w).div_ceil(256) * 256;
+    let read = ctx.device().create_buffer(&wgpu::BufferDescriptor {
+        label: None,
+        size: u64::from(row) * u64::from(h),
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    encoder.copy_texture_to_buffer(
+        screen.texture().unwrap().as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &read,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(row),
+                rows_per_image: Some(h),
+            },
+        },
+        wgpu::Extent3d {
+            width: w,
+            height: h,
+            depth_or_array_layers: 1,
+        },
+    );
+    ctx.submit([encoder.finish()]);
+    let rgb = screen.read_srgb8().unwrap();
+    read.map_async(wgpu::MapMode::Read, .., |r| r.unwrap());
+    ctx.wait_idle("the texture's readback").unwrap();
+    let texels = read.get_mapped_range(..).unwrap().to_vec();
+    let mut differ = 0usize;
+    for y in 0..h as usize {
+        for x in 0..w as usize {
+            let t = &texels[y * row as usize + 4 * x..][..4];
+            let c = &rgb[3 * (y * w as usize + x)..][..3];
+            if t[..3] != *c || t[3] != 255 {
+                differ += 1;
+            }
+        }
+    }
+    println!(
+        "presenter texture: {differ} of {} pixels differ from read_srgb8",
+        w * h
+    );
+    assert_eq!(differ, 0);
 }
 
 #[test]

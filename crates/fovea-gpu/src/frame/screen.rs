@@ -57,8 +57,50 @@ pub const SPLIT_SHADER: ShaderSource = ShaderSource {
     uniform: ("SplitParams", std::mem::size_of::<SplitUniform>()),
 };
 
+/// The presenter module: entry point `present_rgba`, [`PresentUniform`] at binding 0.
+pub const PRESENT_SHADER: ShaderSource = ShaderSource {
+    file: "frame_present.wgsl",
+    source: concat!(
+        include_str!("../../shaders/common.wgsl"),
+        include_str!("../../shaders/frame_present.wgsl")
+    ),
+    entry_points: &["present_rgba"],
+    uniform: ("PresentParams", std::mem::size_of::<PresentUniform>()),
+};
+
 /// The passes [`ScreenContext::record`] times, in order ([`FrameTimer::new`]'s `passes`).
-pub const SCREEN_PASSES: [&str; 6] = ["aa", "columns", "reconstruct", "split", "dof", "tonemap"];
+pub const SCREEN_PASSES: [&str; 7] = [
+    "aa",
+    "columns",
+    "reconstruct",
+    "split",
+    "dof",
+    "tonemap",
+    "present",
+];
+
+/// The uniform block `PresentParams` of `frame_present.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, bytemuck::Pod, Zeroable)]
+pub struct PresentUniform {
+    /// Screen width, pixels.
+    pub width: u32,
+    /// Screen height, pixels.
+    pub height: u32,
+    /// u32 words per padded row (the copy's 256-byte row pitch).
+    pub row_words: u32,
+    /// Padding.
+    pub pad: u32,
+}
+
+/// The presenter's texture and what fills it.
+struct Present {
+    pipeline: wgpu::ComputePipeline,
+    bind: wgpu::BindGroup,
+    rgba: wgpu::Buffer,
+    texture: wgpu::Texture,
+    row_bytes: u32,
+}
 
 /// Workgroups along x of one row of the tone map's dispatch (its shader's `65535u`).
 const TONE_GROUPS_PER_ROW: u32 = 65535;
@@ -98,6 +140,9 @@ pub struct ScreenConfig {
     pub dof: Option<ScreenDof>,
     /// Exposure, stops.
     pub exposure_stops: f32,
+    /// Also fill an `Rgba8Unorm` texture with the tone-mapped frame, for a presenter on the
+    /// same device ([`ScreenContext::texture`]).
+    pub texture: bool,
     /// Tone curve.
     pub curve: ToneCurve,
 }
@@ -195,6 +240,7 @@ pub struct ScreenContext {
     staging: Option<wgpu::Buffer>,
     /// Whether the last recorded frame ran the DOF.
     last_dof: bool,
+    present: Option<Present>,
 }
 
 impl ScreenContext {
@@ -512,6 +558,11 @@ impl ScreenContext {
             };
             (bind(&color), dof.as_ref().map(|d| bind(&d.out)))
         })?;
+        let present = if config.texture {
+            Some(Present::new(ctx, w, h, &out)?)
+        } else {
+            None
+        };
         Ok(Self {
             ctx: ctx.clone(),
             method,
@@ -533,6 +584,7 @@ impl ScreenContext {
             out,
             staging: None,
             last_dof: false,
+            present,
         })
     }
 
@@ -721,11 +773,39 @@ impl ScreenContext {
             let gy = groups.div_ceil(u64::from(TONE_GROUPS_PER_ROW)) as u32;
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("tone map"),
-                timestamp_writes: timer.and_then(|t| t.writes(5)),
+                timestamp_writes: timer.as_deref_mut().and_then(|t| t.writes(5)),
             });
             pass.set_pipeline(&self.tone);
             pass.set_bind_group(0, tone_bind, &[]);
             pass.dispatch_workgroups(gx.max(1), gy.max(1), 1);
+            drop(pass);
+            if let Some(p) = &self.present {
+                {
+                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some("present"),
+                        timestamp_writes: timer.and_then(|t| t.writes(6)),
+                    });
+                    pass.set_pipeline(&p.pipeline);
+                    pass.set_bind_group(0, &p.bind, &[]);
+                    pass.dispatch_workgroups(w.div_ceil(WORKGROUP_SIZE), h, 1);
+                }
+                encoder.copy_buffer_to_texture(
+                    wgpu::TexelCopyBufferInfo {
+                        buffer: &p.rgba,
+                        layout: wgpu::TexelCopyBufferLayout {
+                            offset: 0,
+                            bytes_per_row: Some(p.row_bytes),
+                            rows_per_image: Some(h),
+                        },
+                    },
+                    p.texture.as_image_copy(),
+                    wgpu::Extent3d {
+                        width: w,
+                        height: h,
+                        depth_or_array_layers: 1,
+                    },
+                );
+            }
             Ok(())
         })??;
         self.last_dof = dof_coc.is_some();
@@ -818,5 +898,84 @@ impl ScreenContext {
     /// Whether the last recorded frame ran the depth of field.
     pub fn last_ran_dof(&self) -> bool {
         self.last_dof
+    }
+
+    /// The `Rgba8Unorm` texture each recorded frame ends in (the tone-mapped sRGB codes, alpha
+    /// 255; usage `TEXTURE_BINDING | COPY_SRC | COPY_DST`), when the context was built with
+    /// [`ScreenConfig::texture`]: what a presenter on the same device samples or blits.
+    pub fn texture(&self) -> Option<&wgpu::Texture> {
+        self.present.as_ref().map(|p| &p.texture)
+    }
+}
+
+impl Present {
+    /// The pack pipeline, its padded RGBA buffer, the texture and their bindings for a
+    /// `w × h` screen whose tone-mapped words are `rgb`.
+    fn new(ctx: &GpuContext, w: u32, h: u32, rgb: &wgpu::Buffer) -> Result<Self> {
+        let align = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let row_bytes = (4 * w).div_ceil(align) * align;
+        let bytes = u64::from(row_bytes) * u64::from(h);
+        ctx.check_storage_binding("the presenter's RGBA rows", bytes)?;
+        let limits = ctx.limits();
+        if w > limits.max_texture_dimension_2d || h > limits.max_texture_dimension_2d {
+            return Err(GpuError::Unsupported(format!(
+                "a {w}x{h} texture (the adapter's largest is {})",
+                limits.max_texture_dimension_2d
+            )));
+        }
+        let what = "building the presenter's texture";
+        let pipeline = ctx
+            .scoped(what, || PRESENT_SHADER.pipelines(ctx.device()).pop())?
+            .ok_or_else(|| GpuError::Input("the present module has no entry point".into()))?;
+        ctx.scoped(what, || {
+            let uniform = ctx.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("present parameters"),
+                size: std::mem::size_of::<PresentUniform>() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let u = PresentUniform {
+                width: w,
+                height: h,
+                row_words: row_bytes / 4,
+                pad: 0,
+            };
+            ctx.write_buffer(&uniform, 0, bytemuck::bytes_of(&u));
+            let rgba = ctx.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("presenter RGBA rows"),
+                size: bytes.max(4),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            let texture = ctx.device().create_texture(&wgpu::TextureDescriptor {
+                label: Some("presented frame"),
+                size: wgpu::Extent3d {
+                    width: w.max(1),
+                    height: h.max(1),
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Rgba8Unorm,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING
+                    | wgpu::TextureUsages::COPY_SRC
+                    | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            });
+            let bind = bind_group(
+                ctx,
+                "presenter",
+                &pipeline,
+                &[(0, &uniform), (1, rgb), (2, &rgba)],
+            );
+            Self {
+                pipeline,
+                bind,
+                rgba,
+                texture,
+                row_bytes,
+            }
+        })
     }
 }
