@@ -738,6 +738,74 @@ fn the_presenter_texture_holds_the_tone_mapped_frame() {
 }
 
 #[test]
+fn both_eyes_record_into_one_encoder_and_one_submission() {
+    let Some(ctx) = common::gpu_or_skip("both_eyes_record_into_one_encoder_and_one_submission")
+    else {
+        return;
+    };
+    let display = display();
+    let limits = limits(&display);
+    let cfg = config(ReconstructFilter::Footprint, Some(dof_of(&display)));
+    // Each eye its own context, samples and gaze (the eyes' gazes differ by vergence).
+    let eyes = [(640.0, 780.0, 51u64), (700.0, 780.0, 52u64)];
+    let mut screens: Vec<ScreenContext> = eyes
+        .iter()
+        .map(|_| ScreenContext::new(&ctx, &display, Method::Vafr, cfg.clone(), limits).unwrap())
+        .collect();
+    let mappings: Vec<Box<dyn FoveationMapping>> = eyes
+        .iter()
+        .map(|&(x, y, _)| vafr(&display, display.gaze(x, y).unwrap()))
+        .collect();
+    let samples: Vec<SampleBuffers> = eyes
+        .iter()
+        .zip(&mappings)
+        .map(|(&(_, _, seed), m)| random_samples(m.as_ref(), seed))
+        .collect();
+    let devices: Vec<DeviceSamples> = mappings
+        .iter()
+        .zip(&samples)
+        .map(|(m, s)| {
+            let d = DeviceSamples::for_mapping(&ctx, m.as_ref()).unwrap();
+            d.upload(&ctx, s).unwrap();
+            d
+        })
+        .collect();
+    let focus = Some(Metres(1.1));
+    let before = ctx.traffic();
+    let mut encoder = ctx
+        .device()
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("binocular screen side"),
+        });
+    for ((screen, device), m) in screens.iter_mut().zip(&devices).zip(&mappings) {
+        screen
+            .record(
+                &mut encoder,
+                device,
+                &ScreenInput {
+                    mapping: m.as_ref(),
+                    focus,
+                },
+                None,
+            )
+            .unwrap();
+    }
+    ctx.submit([encoder.finish()]);
+    let moved = ctx.traffic().since(&before);
+    println!("both eyes: {moved:?}");
+    assert_eq!(moved.submissions, 1, "{moved:?}");
+    assert_eq!(moved.bytes_read_back, 0, "{moved:?}");
+    assert_eq!(moved.blocking_waits, 0, "{moved:?}");
+    for (k, ((screen, m), s)) in screens.iter_mut().zip(&mappings).zip(&samples).enumerate() {
+        let gpu = screen.read_srgb8().unwrap();
+        let (_, _, cpu) = cpu_chain(m.as_ref(), &display, s, &cfg, focus);
+        let psnr = luma_psnr(&gpu, &cpu);
+        println!("eye {k}: luma PSNR {psnr:.2} dB");
+        assert!(psnr >= PSNR_MIN_DB, "eye {k}: {psnr}");
+    }
+}
+
+#[test]
 fn unsupported_methods_and_mismatched_frames_are_refused_before_recording() {
     let Some(ctx) = common::gpu_or_skip("unsupported_methods_and_mismatched_frames_are_refused")
     else {
