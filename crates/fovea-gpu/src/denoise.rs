@@ -2,8 +2,9 @@
 //! the edge-avoiding à-trous wavelet filter of SVGF (Schied et al. 2017, "Spatiotemporal
 //! Variance-Guided Filtering", Sec. 4; after Dammertz et al. 2010) — same roles, depth
 //! gradient, 3×3 luminance moments and firefly clamp, same kernels (3×3 linear or 5×5 B3
-//! spline), iterations, edge-stopping weights (`exp(−|Δz|/(σ_z|∇z·Δp| + ε_z) − |Δl|/(σ_l √Var
-//! + ε) − σ_n(1 − n·n'))` with the same degree-5 exponential), the same albedo demodulation
+//! spline), iterations, edge-stopping weights
+//! (`exp(−|Δz|/(σ_z|∇z·Δp| + ε_z) − |Δl|/(σ_l √Var + ε) − σ_n(1 − n·n'))` with the same
+//! degree-5 exponential), the same albedo demodulation
 //! and the same polar seams (rows wrap around the angle axis; a column step keeps the angle;
 //! a step inside the innermost ring continues half a turn on across the fovea, as Koskela et
 //! al., EGSR 2019, filter in visual-polar space). Only the Monte Carlo part of each colour is
