@@ -286,6 +286,8 @@ fn gpu_frames_are_the_cpu_frames_method_by_method() {
                     assert_eq!(s["backend"]["stages"]["aa"], "gpu", "{name}");
                     assert_eq!(s["backend"]["gpu_aa"]["layers"], 1, "{name}");
                 }
+                // The denoiser (on by default) runs on the GPU for every method (issue 38).
+                assert_eq!(s["frame"]["denoise_backend"], "gpu", "{name}");
                 // "display 320x180 …: 1.23 px/deg across, …"
                 let stdout = String::from_utf8_lossy(&cpu.stdout);
                 let ppd: f32 = stdout
