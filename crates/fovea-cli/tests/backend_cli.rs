@@ -445,14 +445,6 @@ fn gpu_backend_traces_and_reconstructs_on_the_gpu() {
     assert_gpu_image_is_the_cpus(dir.path(), "gpu", "cpu");
 }
 
-/// The GPU's image `gpu.exr` against the CPU's `cpu.exr` in `dir`: within the GPU
-/// reconstruction tests' worst-case bound per channel (relative above 1) at all but 0.05 % of
-/// the pixels, and a mean far below theirs (shaded content is smooth where random texels are
-/// not). The few pixels allowed past the bound are shadow rays that graze an edge: the GPU
-/// answers them in its own f32 arithmetic, so one in tens of thousands can differ (measured on
-/// lavapipe, VaFR at 320×180: 7 of 57,600 pixels past 1e-3, 2 past the bound, of 4 million
-/// shadow rays).
-#[cfg(feature = "gpu")]
 /// `--backend gpu --denoise on`: the sample-space denoiser runs on the GPU (issue 38's twin),
 /// the stats say so, and the frame is the CPU's within 40 dB of luma PSNR — far closer than
 /// the frame without denoising is to either.
@@ -530,6 +522,14 @@ fn gpu_backend_denoises_on_the_gpu_and_matches_the_cpu() {
     }
 }
 
+/// The GPU's image `gpu.exr` against the CPU's `cpu.exr` in `dir`: within the GPU
+/// reconstruction tests' worst-case bound per channel (relative above 1) at all but 0.05 % of
+/// the pixels, and a mean far below theirs (shaded content is smooth where random texels are
+/// not). The few pixels allowed past the bound are shadow rays that graze an edge: the GPU
+/// answers them in its own f32 arithmetic, so one in tens of thousands can differ (measured on
+/// lavapipe, VaFR at 320×180: 7 of 57,600 pixels past 1e-3, 2 past the bound, of 4 million
+/// shadow rays).
+#[cfg(feature = "gpu")]
 fn assert_gpu_image_is_the_cpus(dir: &Path, gpu: &str, cpu: &str) {
     let read = |name: &str| {
         image::open(dir.join(format!("{name}.exr")))
