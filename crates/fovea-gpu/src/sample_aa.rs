@@ -191,15 +191,10 @@ impl GridTables {
                         [r, side(-1), side(1), 0]
                     })
                     .collect();
-                let mut align = vec![0u32; w as usize * h as usize];
-                for (i, c) in columns.iter().enumerate() {
-                    let i = i as u32;
-                    for j in 0..c[0] {
-                        let left = grid.step(i, j, -1, 0).1;
-                        let right = grid.step(i, j, 1, 0).1;
-                        align[(j * w + i) as usize] = left | (right << 16);
-                    }
-                }
+                // `Grid::step`'s rows, each column's scale found once, rows in parallel.
+                let align = grid.packed_alignment(w, h).ok_or_else(|| {
+                    GpuError::Input(format!("a polar AA grid that does not fit {w}x{h}"))
+                })?;
                 Ok(Self {
                     size: (w, h),
                     polar: Some((rows.clone(), period.clone())),

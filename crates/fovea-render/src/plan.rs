@@ -5,7 +5,9 @@
 //!
 //! A plan is built once per eye per frame ([`FramePlan::new`]) and every stage reads it: the
 //! trace, temporal accumulation, reconstruction, stereo reprojection and the screen post never
-//! build a mapping of their own. It is data: [`serde::Serialize`] writes it (minus the
+//! build a mapping of their own. What a plan derives from the display, method, parameters, ray
+//! settings and gaze alone — the mapping and its tables — a [`PlanCache`] keeps for the last
+//! gazes and shares ([`FramePlan::cached`]): a still gaze is planned once. It is data: [`serde::Serialize`] writes it (minus the
 //! mapping's internal tables, which its method, parameters, display and gaze determine) so it
 //! can be logged, diffed and handed to another executor.
 
@@ -15,7 +17,7 @@ use serde::Serialize;
 
 use fovea_core::display::DisplayProfile;
 use fovea_core::mapping::footprint::{SampleFootprint, SpacingLut};
-use fovea_core::mapping::{build, BufferSize, FoveationMapping, Method, Ring};
+use fovea_core::mapping::{build, BufferSize, FoveationMapping, MappingConfig, Method, Ring};
 use fovea_core::units::ScreenPoint;
 use fovea_post::inverse_map::ReconstructFilter;
 use fovea_post::Rgb;
@@ -160,6 +162,31 @@ impl FramePlan {
         eye: &EyeState,
         jitter_texels: [f64; 2],
     ) -> Result<Self> {
+        Self::build(world, camera, settings, eye, jitter_texels, None)
+    }
+
+    /// [`FramePlan::new`] with the mapping and its tables taken from `cache` where it holds
+    /// them for this display, method, parameters, rays and gaze, and built and kept there
+    /// otherwise ([`PlanCache`]). The plan is the one [`FramePlan::new`] builds (tested).
+    pub fn cached(
+        world: &World,
+        camera: &EyeCamera,
+        settings: &FrameSettings,
+        eye: &EyeState,
+        jitter_texels: [f64; 2],
+        cache: &mut PlanCache,
+    ) -> Result<Self> {
+        Self::build(world, camera, settings, eye, jitter_texels, Some(cache))
+    }
+
+    fn build(
+        world: &World,
+        camera: &EyeCamera,
+        settings: &FrameSettings,
+        eye: &EyeState,
+        jitter_texels: [f64; 2],
+        cache: Option<&mut PlanCache>,
+    ) -> Result<Self> {
         settings.validate()?;
         if !jitter_texels
             .iter()
@@ -172,12 +199,11 @@ impl FramePlan {
             ));
         }
         let display = &camera.display;
-        let mapping: Arc<dyn FoveationMapping> = Arc::from(build(
-            settings.method,
-            display,
-            eye.gaze,
-            &settings.mapping,
-        )?);
+        let tables = match cache {
+            Some(cache) => cache.tables(display, settings, eye)?,
+            None => Arc::new(GazeTables::new(display, settings, eye)?),
+        };
+        let mapping = Arc::clone(&tables.mapping);
         let mut memory = memory_estimate(mapping.as_ref(), display, settings.density_view);
         if settings.dof.is_some() {
             // CoC map and the filtered image.
@@ -219,31 +245,16 @@ impl FramePlan {
         };
         let mut settings = settings.clone();
         settings.dof = dof;
-        let spacing = SpacingLut::new(mapping.as_ref(), display, eye.gaze);
-        let rays = TexelRays::new(
-            mapping.as_ref(),
-            display,
-            eye,
-            &spacing,
-            settings.pixel_samples,
-            settings.periphery_rays,
-        );
-        let covers_screen = covers_screen(mapping.as_ref(), display);
         Ok(Self {
-            covers_screen,
-            rays,
+            covers_screen: tables.covers_screen,
+            rays: tables.rays.clone(),
             buffers: mapping.buffers(),
             sample_count: mapping.sample_count(),
             aa: settings.aa.resolve(settings.method),
             jitter_texels,
             noise: FrameNoise::default(),
-            footprint: SampleFootprint::with_floor(
-                mapping.as_ref(),
-                display,
-                &eye.gaze,
-                cone_floor_px(mapping.as_ref(), settings.reconstruct_filter),
-            ),
-            spacing,
+            footprint: tables.footprint.clone(),
+            spacing: tables.spacing.clone(),
             culling,
             tiles: TileOrder {
                 tile_px: TRACE_TILE,
@@ -292,6 +303,157 @@ impl FramePlan {
     pub fn to_json(&self) -> Result<String> {
         serde_json::to_string_pretty(self)
             .map_err(|e| RenderError::Unsupported(format!("cannot serialise the plan: {e}")))
+    }
+}
+
+/// What a plan derives from its display, method, mapping parameters, ray settings and gaze,
+/// and from nothing else: the mapping and its tables. [`PlanCache`] keeps them; the rest of a
+/// plan (memory, culling at the eye's focus, jitter, noise) is decided per frame.
+struct GazeTables {
+    mapping: Arc<dyn FoveationMapping>,
+    spacing: SpacingLut,
+    rays: TexelRays,
+    footprint: SampleFootprint,
+    covers_screen: bool,
+}
+
+impl std::fmt::Debug for GazeTables {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GazeTables")
+            .field("method", &self.mapping.method())
+            .field("buffers", &self.mapping.buffers())
+            .finish_non_exhaustive()
+    }
+}
+
+impl GazeTables {
+    fn new(display: &DisplayProfile, settings: &FrameSettings, eye: &EyeState) -> Result<Self> {
+        let mapping: Arc<dyn FoveationMapping> = Arc::from(build(
+            settings.method,
+            display,
+            eye.gaze,
+            &settings.mapping,
+        )?);
+        let spacing = SpacingLut::new(mapping.as_ref(), display, eye.gaze);
+        let rays = TexelRays::new(
+            mapping.as_ref(),
+            display,
+            eye,
+            &spacing,
+            settings.pixel_samples,
+            settings.periphery_rays,
+        );
+        let footprint = SampleFootprint::with_floor(
+            mapping.as_ref(),
+            display,
+            &eye.gaze,
+            cone_floor_px(mapping.as_ref(), settings.reconstruct_filter),
+        );
+        Ok(Self {
+            covers_screen: covers_screen(mapping.as_ref(), display),
+            mapping,
+            spacing,
+            rays,
+            footprint,
+        })
+    }
+}
+
+/// Everything a [`GazeTables`] depends on but the gaze.
+#[derive(Clone, Debug, PartialEq)]
+struct TablesKey {
+    display: DisplayProfile,
+    method: Method,
+    mapping: MappingConfig,
+    pixel_samples: u32,
+    periphery_rays: u32,
+    filter: ReconstructFilter,
+}
+
+impl TablesKey {
+    fn of(display: &DisplayProfile, settings: &FrameSettings) -> Self {
+        Self {
+            display: display.clone(),
+            method: settings.method,
+            mapping: settings.mapping.clone(),
+            pixel_samples: settings.pixel_samples,
+            periphery_rays: settings.periphery_rays,
+            filter: settings.reconstruct_filter,
+        }
+    }
+}
+
+/// Gazes whose tables a [`PlanCache`] keeps: both eyes of the frame and of the one before.
+pub const PLAN_CACHE_GAZES: usize = 4;
+
+/// The mappings and tables of the last [`PLAN_CACHE_GAZES`] gazes planned for one display,
+/// method, mapping parameters and ray settings, shared (`Arc`) by every plan made from them
+/// ([`FramePlan::cached`]). A gaze is the same when its point is, bit for bit: a still gaze,
+/// both eyes looking at one screen point, a frame planned again. Asked for another display,
+/// method or parameters, the cache empties first.
+///
+/// What it saves is the whole mapping: VaFR's exact rings depend on the gaze itself, not only
+/// on the distance from it (each ring is sized by its worst point on the screen), so nothing of
+/// them is shared between two gazes (docs/rendering.md, "What the plan costs per gaze").
+#[derive(Debug, Default)]
+pub struct PlanCache {
+    key: Option<TablesKey>,
+    /// Most recent first.
+    entries: Vec<([u64; 2], Arc<GazeTables>)>,
+    hits: u64,
+    misses: u64,
+}
+
+impl PlanCache {
+    /// An empty cache.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Plans whose tables came from the cache.
+    pub fn hits(&self) -> u64 {
+        self.hits
+    }
+
+    /// Plans whose tables were built (and kept).
+    pub fn misses(&self) -> u64 {
+        self.misses
+    }
+
+    /// Gazes held now.
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// Whether it holds no tables.
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    fn tables(
+        &mut self,
+        display: &DisplayProfile,
+        settings: &FrameSettings,
+        eye: &EyeState,
+    ) -> Result<Arc<GazeTables>> {
+        let key = TablesKey::of(display, settings);
+        if self.key.as_ref() != Some(&key) {
+            self.entries.clear();
+            self.key = Some(key);
+        }
+        let gaze = [eye.gaze.point.x_px.to_bits(), eye.gaze.point.y_px.to_bits()];
+        if let Some(k) = self.entries.iter().position(|(g, _)| *g == gaze) {
+            let entry = self.entries.remove(k);
+            let tables = Arc::clone(&entry.1);
+            self.entries.insert(0, entry);
+            self.hits += 1;
+            return Ok(tables);
+        }
+        let tables = Arc::new(GazeTables::new(display, settings, eye)?);
+        self.entries.insert(0, (gaze, Arc::clone(&tables)));
+        self.entries.truncate(PLAN_CACHE_GAZES);
+        self.misses += 1;
+        Ok(tables)
     }
 }
 

@@ -26,7 +26,7 @@ use crate::eye::{EyePair, EyeState, EyeTracker};
 use crate::pipeline::{
     render_planned, Frame, FrameContext, FrameInputs, FrameSettings, Stage, StageTimes, Stopwatch,
 };
-use crate::plan::FramePlan;
+use crate::plan::{FramePlan, PlanCache};
 use crate::shade::FrameNoise;
 use crate::temporal::{TemporalAccumulator, TemporalSettings};
 use crate::world::World;
@@ -122,6 +122,8 @@ pub struct Track {
     accumulator: Option<TemporalAccumulator>,
     last: Option<usize>,
     ctx: FrameContext,
+    /// The mappings of the last gazes: a still gaze is planned once.
+    plans: PlanCache,
 }
 
 impl Track {
@@ -138,6 +140,7 @@ impl Track {
             accumulator: temporal.map(TemporalAccumulator::new).transpose()?,
             last: None,
             ctx: FrameContext::new(),
+            plans: PlanCache::new(),
         })
     }
 
@@ -191,8 +194,15 @@ impl Track {
             .as_ref()
             .map_or([0.0, 0.0], |a| a.jitter(self.settings.method));
         // Frame `i`'s own random numbers in the shading (`crate::shade::frame_noise`).
-        let plan = FramePlan::new(world, camera, &self.settings, &seq.eyes[i], jitter)?
-            .with_noise(FrameNoise::new(i as u64, 0));
+        let plan = FramePlan::cached(
+            world,
+            camera,
+            &self.settings,
+            &seq.eyes[i],
+            jitter,
+            &mut self.plans,
+        )?
+        .with_noise(FrameNoise::new(i as u64, 0));
         times.add(Stage::Plan, &t);
         let inputs = FrameInputs {
             accumulator: self.accumulator.as_mut(),

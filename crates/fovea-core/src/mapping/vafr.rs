@@ -24,7 +24,7 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::vafr_rings::{column_trig, RingProfile, RingTable};
+use super::vafr_rings::{ColumnRays, RingProfile, RingTable};
 use super::{
     polar_deg, tangential_denominator, BufferSize, Coverage, FoveationMapping, Method, Ring,
     SamplePoint, MAX_COVERAGE_DEG,
@@ -118,6 +118,9 @@ pub struct Vafr {
     u_max: f64,
     /// Rows per buffer column (all shaded with [`VafrRings::Eq3`]).
     rows: Vec<u32>,
+    /// Rows per turn at every column's centre ([`Vafr::period_at_u`] at `i + ½`), the
+    /// angle axis of [`FoveationMapping::polar_layout`].
+    periods: Vec<f64>,
     height: u32,
     count: u64,
     /// With [`VafrRings::Exact`]: the ring table and each column's shaded runs of rows.
@@ -167,10 +170,10 @@ impl Vafr {
             .collect();
         let height = rows.iter().copied().max().unwrap_or(0);
         let runs: Option<Vec<Vec<(u32, u32)>>> = profile.as_ref().map(|p| {
-            let trig = column_trig();
+            let rays = ColumnRays::new(display, &gaze);
             rows.par_iter()
                 .enumerate()
-                .map(|(i, &n)| p.shaded_runs(display, &gaze, i as u32, n, periods[i], &trig))
+                .map(|(i, &n)| p.shaded_runs(i as u32, n, periods[i], &rays))
                 .collect()
         });
         let exact = profile
@@ -197,6 +200,7 @@ impl Vafr {
             gaze: gaze.point,
             u_max,
             rows,
+            periods,
             height,
             count,
             exact,
@@ -393,9 +397,7 @@ impl FoveationMapping for Vafr {
     fn polar_layout(&self) -> Option<super::PolarLayout> {
         Some(super::PolarLayout {
             centre: self.gaze,
-            period: (0..self.rows.len())
-                .map(|i| self.period_at_u(i as f64 + 0.5))
-                .collect(),
+            period: self.periods.clone(),
             rows: self.rows.clone(),
         })
     }
@@ -633,6 +635,40 @@ mod tests {
                 let s = v.forward(p).expect("every screen point is covered");
                 let q = v.inverse(s).unwrap();
                 assert!(q.distance(p) < 1e-6, "({gx},{gy}) {p:?} -> {s:?} -> {q:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn shaded_runs_by_arcs_equal_marking_every_angle() {
+        // The runs found from the rays' spans, a run of crossing angles marked at once, are
+        // exactly those of clipping and marking every angle on its own, column by column, at
+        // gazes in the middle, at and beyond the corners and edges.
+        let small = DisplayProfile::with_vertical_fov("small", 320, 200, Degrees(100.0)).unwrap();
+        let vive = DisplayProfile::preset("vive-pro-eye").unwrap();
+        for d in [small, vive] {
+            let (w, h) = (d.width_px as f64, d.height_px as f64);
+            for (fx, fy) in [
+                (0.5, 0.5),
+                (0.0, 0.0),
+                (1.0, 1.0),
+                (1.0, 0.0),
+                (0.13, 0.77),
+                (-0.05, 0.4),
+                (0.6, 1.04),
+            ] {
+                let g = d.gaze(fx * w, fy * h).unwrap();
+                let v = Vafr::new(&d, g, exact()).unwrap();
+                let x = v.exact.as_ref().unwrap();
+                let mut checked = 0;
+                for (i, &rows) in v.rows.iter().enumerate() {
+                    let want =
+                        x.profile
+                            .shaded_runs_per_angle(&d, &g, i as u32, rows, v.periods[i]);
+                    assert_eq!(x.runs[i], want, "{} gaze ({fx},{fy}) column {i}", d.name);
+                    checked += rows as usize;
+                }
+                assert!(checked > 1000, "{checked}");
             }
         }
     }

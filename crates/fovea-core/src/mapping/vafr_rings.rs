@@ -48,13 +48,125 @@ fn column_step() -> f64 {
     1.0 / ANGLES_PER_COLUMN as f64
 }
 
-/// `(sin, cos)` of the [`ANGLES_PER_COLUMN`] polar angles every column tries in
-/// [`RingProfile::shaded_runs`], computed once per mapping rather than once per column.
-pub(crate) fn column_trig() -> Vec<(f64, f64)> {
-    let step = column_step();
-    (0..ANGLES_PER_COLUMN)
-        .map(|k| (std::f64::consts::TAU * (k as f64 * step)).sin_cos())
-        .collect()
+/// Where the rays from the gaze at the polar angles every column tries in
+/// [`RingProfile::shaded_runs`] enter and leave the screen widened by [`SCREEN_MARGIN_PX`]:
+/// per ray the distances `(t_in, t_out)` from the gaze (`t_in > t_out` for a ray that misses
+/// it), found once per mapping rather than once per column.
+#[derive(Clone, Debug)]
+pub(crate) struct ColumnRays {
+    /// The [`ANGLES_PER_COLUMN`] uniform angles, turn `k / ANGLES_PER_COLUMN`.
+    uniform: Vec<(f64, f64)>,
+    /// The angles of the widened screen's four corners: their turn in `[0, 1)` and span.
+    corners: [(f64, (f64, f64)); 4],
+}
+
+impl ColumnRays {
+    /// The rays from `gaze` on `display`.
+    pub(crate) fn new(display: &DisplayProfile, gaze: &Gaze) -> Self {
+        let m = SCREEN_MARGIN_PX;
+        let (x0, y0) = (-m, -m);
+        let (x1, y1) = (display.width_px as f64 + m, display.height_px as f64 + m);
+        let g = gaze.point;
+        // The ray's parameter interval inside the widened screen, clipped slab by slab as
+        // the per-angle test clips `[r_lo, r_hi]` (max and min are exact, so clipping the
+        // column's radii against this interval later gives the same comparison).
+        let span = |(sn, cs): (f64, f64)| {
+            let (mut t0, mut t1) = (f64::NEG_INFINITY, f64::INFINITY);
+            for (o, d, lo, hi) in [(g.x_px, cs, x0, x1), (g.y_px, sn, y0, y1)] {
+                if d.abs() < 1e-12 {
+                    if o < lo || o > hi {
+                        return (f64::INFINITY, f64::NEG_INFINITY);
+                    }
+                } else {
+                    let (a, b) = ((lo - o) / d, (hi - o) / d);
+                    t0 = t0.max(a.min(b));
+                    t1 = t1.min(a.max(b));
+                }
+            }
+            (t0, t1)
+        };
+        let step = column_step();
+        let uniform = (0..ANGLES_PER_COLUMN)
+            .map(|k| span((std::f64::consts::TAU * (k as f64 * step)).sin_cos()))
+            .collect();
+        let corners = [(x0, y0), (x1, y0), (x0, y1), (x1, y1)].map(|(x, y)| {
+            let turn = ((y - g.y_px).atan2(x - g.x_px) / std::f64::consts::TAU).rem_euclid(1.0);
+            (turn, span((std::f64::consts::TAU * turn).sin_cos()))
+        });
+        Self { uniform, corners }
+    }
+}
+
+/// The rows a column's crossing angles mark, as a difference array over the rows (wrapping
+/// around the turn): the angles from `turn0` to `turn1` mark the rows from
+/// `(turn0 − step)·period − dilate` to `(turn1 + step)·period + dilate`.
+struct RowMarks {
+    diff: Vec<i32>,
+    rows: u32,
+    period: f64,
+    dilate: f64,
+    step: f64,
+    all: bool,
+}
+
+impl RowMarks {
+    fn new(rows: u32, period: f64, dilate: f64, step: f64) -> Self {
+        Self {
+            diff: vec![0; rows as usize + 1],
+            rows,
+            period,
+            dilate,
+            step,
+            all: false,
+        }
+    }
+
+    fn mark(&mut self, turn0: f64, turn1: f64) {
+        let n = self.rows as i64;
+        let j0 = ((turn0 - self.step) * self.period - self.dilate).floor() as i64;
+        let j1 = ((turn1 + self.step) * self.period + self.dilate).floor() as i64 + 1;
+        if j1 - j0 >= n {
+            self.all = true;
+            return;
+        }
+        let (a, b) = (j0.rem_euclid(n), j1.rem_euclid(n));
+        let d = &mut self.diff;
+        if a < b {
+            d[a as usize] += 1;
+            d[b as usize] -= 1;
+        } else {
+            d[a as usize] += 1;
+            d[n as usize] -= 1;
+            d[0] += 1;
+            d[b as usize] -= 1;
+        }
+    }
+
+    /// The marked rows as half-open runs.
+    fn runs(self) -> Vec<(u32, u32)> {
+        let rows = self.rows;
+        if self.all {
+            return vec![(0, rows)];
+        }
+        let mut runs = Vec::new();
+        let mut level = 0;
+        let mut start = None;
+        for (j, d) in self.diff.iter().take(rows as usize).enumerate() {
+            level += d;
+            match (level > 0, start) {
+                (true, None) => start = Some(j as u32),
+                (false, Some(s0)) => {
+                    runs.push((s0, j as u32));
+                    start = None;
+                }
+                _ => {}
+            }
+        }
+        if let Some(s0) = start {
+            runs.push((s0, rows));
+        }
+        runs
+    }
 }
 
 /// Margin, in pixels, around the screen within which a texel counts as on the screen, and the
@@ -306,16 +418,62 @@ impl RingProfile {
     /// exit distance from the screen peaks at the corners), each marking the rows within one
     /// angular step of it.
     ///
-    /// `column_trig` is [`column_trig`]: the angles every column tries, shared by all.
-    #[allow(clippy::too_many_arguments)]
+    /// `rays` is [`ColumnRays::new`] of the same display and gaze: where each of those rays
+    /// enters and leaves the widened screen, computed once per mapping. A run of consecutive
+    /// crossing angles marks the union of its angles' rows at once (their row ranges overlap,
+    /// and each range's ends grow with the angle), so the runs are those of marking every
+    /// angle on its own (tested against that, [`Self::shaded_runs_per_angle`]).
     pub(crate) fn shaded_runs(
+        &self,
+        i: u32,
+        rows: u32,
+        period: f64,
+        rays: &ColumnRays,
+    ) -> Vec<(u32, u32)> {
+        if rows == 0 || period <= 0.0 {
+            return Vec::new();
+        }
+        let m = SCREEN_MARGIN_PX;
+        let r_lo = (self.r_of_u((i as f64 - 1.0).max(0.0)) - m).max(0.0);
+        let r_hi = self.r_of_u(i as f64 + 2.0) + m;
+        // Rows reached by a footprint of `m` pixels along the arc, plus one texel.
+        let dilate = 1.0 + (m * period / (std::f64::consts::TAU * r_lo.max(1.0))).ceil();
+        let crosses = |&(t_in, t_out): &(f64, f64)| r_lo.max(t_in) <= r_hi.min(t_out);
+        let step = column_step();
+        let mut marks = RowMarks::new(rows, period, dilate, step);
+        let mut k = 0;
+        let n = rays.uniform.len();
+        while k < n {
+            if !crosses(&rays.uniform[k]) {
+                k += 1;
+                continue;
+            }
+            let k0 = k;
+            while k + 1 < n && crosses(&rays.uniform[k + 1]) {
+                k += 1;
+            }
+            marks.mark(k0 as f64 * step, k as f64 * step);
+            k += 1;
+        }
+        for (turn, span) in &rays.corners {
+            if crosses(span) {
+                marks.mark(*turn, *turn);
+            }
+        }
+        marks.runs()
+    }
+
+    /// [`Self::shaded_runs`] the way it was first written: every angle's ray clipped against
+    /// the widened screen and its rows marked on their own. The reference the faster one is
+    /// tested against.
+    #[cfg(test)]
+    pub(crate) fn shaded_runs_per_angle(
         &self,
         display: &DisplayProfile,
         gaze: &Gaze,
         i: u32,
         rows: u32,
         period: f64,
-        column_trig: &[(f64, f64)],
     ) -> Vec<(u32, u32)> {
         if rows == 0 || period <= 0.0 {
             return Vec::new();
@@ -326,7 +484,6 @@ impl RingProfile {
         let g = gaze.point;
         let r_lo = (self.r_of_u((i as f64 - 1.0).max(0.0)) - m).max(0.0);
         let r_hi = self.r_of_u(i as f64 + 2.0) + m;
-        // Rows reached by a footprint of `m` pixels along the arc, plus one texel.
         let dilate = 1.0 + (m * period / (std::f64::consts::TAU * r_lo.max(1.0))).ceil();
         let crosses = |(sn, cs): (f64, f64)| {
             let (mut t0, mut t1) = (r_lo, r_hi);
@@ -346,59 +503,19 @@ impl RingProfile {
         let step = column_step();
         let corners = [(x0, y0), (x1, y0), (x0, y1), (x1, y1)]
             .map(|(x, y)| (y - g.y_px).atan2(x - g.x_px) / std::f64::consts::TAU);
-        // Row marks as a difference array over the rows (wrapping around the turn).
-        let n = rows as i64;
-        let mut diff = vec![0i32; rows as usize + 1];
-        let mut all = false;
-        let mut mark = |turn: f64| {
-            let j0 = ((turn - step) * period - dilate).floor() as i64;
-            let j1 = ((turn + step) * period + dilate).floor() as i64 + 1;
-            if j1 - j0 >= n {
-                all = true;
-                return;
-            }
-            let (a, b) = (j0.rem_euclid(n), j1.rem_euclid(n));
-            if a < b {
-                diff[a as usize] += 1;
-                diff[b as usize] -= 1;
-            } else {
-                diff[a as usize] += 1;
-                diff[n as usize] -= 1;
-                diff[0] += 1;
-                diff[b as usize] -= 1;
-            }
-        };
-        for (k, &trig) in column_trig.iter().enumerate() {
-            if crosses(trig) {
-                mark(k as f64 * step);
+        let mut marks = RowMarks::new(rows, period, dilate, step);
+        for k in 0..ANGLES_PER_COLUMN {
+            let turn = k as f64 * step;
+            if crosses((std::f64::consts::TAU * turn).sin_cos()) {
+                marks.mark(turn, turn);
             }
         }
         for t in corners {
             let turn = t.rem_euclid(1.0);
             if crosses((std::f64::consts::TAU * turn).sin_cos()) {
-                mark(turn);
+                marks.mark(turn, turn);
             }
         }
-        if all {
-            return vec![(0, rows)];
-        }
-        let mut runs = Vec::new();
-        let mut level = 0;
-        let mut start = None;
-        for (j, d) in diff.iter().take(rows as usize).enumerate() {
-            level += d;
-            match (level > 0, start) {
-                (true, None) => start = Some(j as u32),
-                (false, Some(s0)) => {
-                    runs.push((s0, j as u32));
-                    start = None;
-                }
-                _ => {}
-            }
-        }
-        if let Some(s0) = start {
-            runs.push((s0, rows));
-        }
-        runs
+        marks.runs()
     }
 }
