@@ -108,6 +108,16 @@ pub struct GpuPolarRay {
     pub turn: f32,
 }
 
+impl GpuPolarRay {
+    /// The ray at `r_px` pixels from the centre and `turn` turns, as the shader reads it.
+    pub fn new(r_px: f64, turn: f64) -> Self {
+        Self {
+            r_px: r_px as f32,
+            turn: turn as f32,
+        }
+    }
+}
+
 /// A primary ray as `closest_hit_screen` reads it: its screen point, pixels.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]

@@ -78,6 +78,28 @@ pub struct GpuSurfaceRay {
     pub spread: f32,
 }
 
+impl GpuSurfaceRay {
+    /// A polar ray at `r_px` pixels from the camera block's centre and `turn` turns, its
+    /// cone `spread_rad` wide.
+    pub fn polar(r_px: f64, turn: f64, spread_rad: f32) -> Self {
+        Self {
+            a: r_px as f32,
+            b: turn as f32,
+            spread: spread_rad,
+        }
+    }
+
+    /// A screen-aligned ray through `(x_px, y_px)`, rounded to f32 as `EyeCamera::ray`
+    /// rounds them, its cone `spread_rad` wide.
+    pub fn screen(x_px: f64, y_px: f64, spread_rad: f32) -> Self {
+        Self {
+            a: x_px as f32,
+            b: y_px as f32,
+            spread: spread_rad,
+        }
+    }
+}
+
 /// A triangle's surface record (`SurfaceTri`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]

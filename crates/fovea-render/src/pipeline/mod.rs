@@ -38,6 +38,7 @@ use crate::temporal::{TemporalAccumulator, TemporalStats};
 use crate::world::World;
 
 pub mod context;
+pub mod device;
 pub mod lockstep;
 pub mod reconstruct;
 pub mod sample_post;
@@ -46,6 +47,7 @@ pub mod timing;
 pub mod trace_shade;
 
 pub use context::{Executors, FrameContext};
+pub use device::{ExecutorDevice, DEVICE_REPORT_KEYS};
 pub use fovea_core::mapping::footprint::sample_spread_rad;
 pub use lockstep::{in_lockstep, Lockstep};
 pub use reconstruct::ReconstructExecutor;
