@@ -72,6 +72,7 @@ pub mod mapping;
 pub mod pull_push;
 pub mod ray_generation;
 pub mod reconstruct;
+mod records;
 pub mod sample_aa;
 pub mod shaders;
 pub mod surface;

@@ -134,9 +134,9 @@ pub type GeneratedHit = ([f32; 3], Option<GpuHit>);
 /// What the shader writes per ray (`GeneratedHit`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-struct GeneratedHitGpu {
-    hit: HitGpu,
-    dir: [f32; 3],
+pub(crate) struct GeneratedHitGpu {
+    pub(crate) hit: HitGpu,
+    pub(crate) dir: [f32; 3],
     _pad: f32,
 }
 

@@ -213,20 +213,20 @@ impl SurfaceModelGpu {
 /// The G-buffer record as the shader writes it (`GRecord`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-struct GRecordGpu {
-    position: [f32; 3],
-    t: f32,
-    normal: [f32; 3],
-    metallic: f32,
-    face_normal: [f32; 3],
-    roughness: f32,
-    to_eye: [f32; 3],
-    material: u32,
-    albedo: [f32; 3],
+pub(crate) struct GRecordGpu {
+    pub(crate) position: [f32; 3],
+    pub(crate) t: f32,
+    pub(crate) normal: [f32; 3],
+    pub(crate) metallic: f32,
+    pub(crate) face_normal: [f32; 3],
+    pub(crate) roughness: f32,
+    pub(crate) to_eye: [f32; 3],
+    pub(crate) material: u32,
+    pub(crate) albedo: [f32; 3],
     _pad0: f32,
-    specular: [f32; 3],
+    pub(crate) specular: [f32; 3],
     _pad1: f32,
-    emissive: [f32; 3],
+    pub(crate) emissive: [f32; 3],
     _pad2: f32,
 }
 
