@@ -94,9 +94,9 @@ fn records() -> Vec<Record> {
         record!(trace::GpuRay => "Ray" in [tr, sf] { origin, t_min, dir, t_max }),
         record!(trace::HitGpu => "Hit" in [tr, sf] { t, prim, u, v }),
         record!(crate::RayGenCamera => "RayGenCamera" in [tr, sf] {
-            origin, fx, forward, fy, right, rad_per_turn, up, centre,
+            origin, fx, forward, fy, right, rad_per_turn, up, px_per_q, centre, centre_lo,
         }),
-        record!(crate::GpuPolarRay => "PolarRay" in [tr, sf] { r_px, turn }),
+        record!(crate::GpuPolarRay => "PolarRay" in [tr, sf] { offset_q }),
         record!(crate::GpuScreenRay => "ScreenRay" in [tr, sf] { x_px, y_px }),
         record!(crate::ray_generation::GeneratedHitGpu => "GeneratedHit" in [tr, sf] {
             hit, dir,
@@ -414,8 +414,8 @@ fn a_moved_member_is_named() {
     // the members.
     let shader = crate::trace::SHADER;
     let moved = shader.source.replacen(
-        "struct PolarRay {\n    r_px: f32,\n    turn: f32,\n}",
-        "struct PolarRay {\n    turn: f32,\n    r_px: f32,\n}",
+        "struct RayGenCamera {\n    // Eye position, world space.\n    origin: vec3<f32>,\n    // Focal length along x, pixels.\n    fx: f32,",
+        "struct RayGenCamera {\n    fx: f32,\n    origin: vec3<f32>,",
         1,
     );
     assert_ne!(moved, shader.source, "the test's edit no longer applies");
@@ -425,11 +425,11 @@ fn a_moved_member_is_named() {
     };
     let record = records()
         .into_iter()
-        .find(|r| r.wgsl == "PolarRay")
+        .find(|r| r.wgsl == "RayGenCamera")
         .unwrap();
     let errors = mismatches(&record, &parse(&moved));
     assert!(
-        errors.iter().any(|e| e.contains("`r_px`")) && errors.iter().any(|e| e.contains("`turn`")),
+        errors.iter().any(|e| e.contains("`origin`")) && errors.iter().any(|e| e.contains("`fx`")),
         "{errors:?}"
     );
     // And an extra member, or a missing one.

@@ -45,6 +45,8 @@ pub const SHADER: ShaderSource = ShaderSource {
         "closest_hit_screen",
         "environment_light",
         "mix64_check",
+        // A probe of `closest_hit_polar`'s point (`GpuTracer::polar_points`), built on use.
+        "polar_point_check",
     ],
     uniform: ("TraceParams", std::mem::size_of::<TraceUniform>()),
 };
@@ -244,6 +246,8 @@ pub struct GpuTracer {
     /// The hash check's pipeline (`mix64_check`; built with the scene's, or on first use
     /// for an empty scene).
     pub(crate) mix64: std::sync::OnceLock<wgpu::ComputePipeline>,
+    /// The polar-point probe's pipeline (`polar_point_check`; built on first use, by tests).
+    pub(crate) polar_probe: std::sync::OnceLock<wgpu::ComputePipeline>,
     /// Each triangle's position in the BVH's leaf order (the device's triangle buffer), by
     /// its index in the caller's list ([`crate::surface`] reads its vertices there).
     pub(crate) slots: Vec<u32>,
@@ -286,6 +290,7 @@ impl GpuTracer {
                 },
                 scene: None,
                 mix64: std::sync::OnceLock::new(),
+                polar_probe: std::sync::OnceLock::new(),
                 slots: Vec::new(),
             });
         }
@@ -354,7 +359,7 @@ impl GpuTracer {
                         bytemuck::cast_slice(&bvh.primitive_indices),
                         wgpu::BufferUsages::STORAGE,
                     ),
-                    SHADER.pipelines(device),
+                    SHADER.pipelines_of(device, &SHADER.entry_points[..7]),
                 )
             },
         )?;
@@ -408,6 +413,7 @@ impl GpuTracer {
             },
             scene: Some(scene),
             mix64: hash.into(),
+            polar_probe: std::sync::OnceLock::new(),
             slots,
         })
     }

@@ -142,10 +142,11 @@ impl TraceExecutor for GpuTraceExecutor {
         rays: &[PolarRay],
     ) -> Result<Vec<(Vec3, Option<Hit>)>, String> {
         let cam = ray_gen_camera(camera, [centre.x_px, centre.y_px]);
-        let polar: Vec<GpuPolarRay> = rays
+        let polar = rays
             .iter()
             .map(|r| GpuPolarRay::new(r.r_px, r.turn))
-            .collect();
+            .collect::<crate::Result<Vec<_>>>()
+            .map_err(|e| e.to_string())?;
         let (out, t) = self
             .gpu
             .closest_hits_polar_timed(&cam, &polar)
@@ -191,7 +192,8 @@ impl TraceExecutor for GpuTraceExecutor {
             .iter()
             .zip(spreads)
             .map(|(r, &spread)| GpuSurfaceRay::polar(r.r_px, r.turn, spread))
-            .collect();
+            .collect::<crate::Result<Vec<_>>>()
+            .map_err(|e| e.to_string())?;
         self.surfaces_of(camera, [centre.x_px, centre.y_px], rays, true)
     }
 
