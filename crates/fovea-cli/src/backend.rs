@@ -96,20 +96,10 @@ impl Backend {
 
     /// The JSON of the frame's stats: what was asked, what ran, which stage ran where.
     pub fn json(&self, frame: &FrameStats) -> Value {
-        use fovea_render::pipeline::Stage;
-        let per_stage: Map<String, Value> = Stage::ALL
+        let per_stage: Map<String, Value> = fovea_render::pipeline::Stage::ALL
             .iter()
             .filter(|&&k| frame.stages_ms.ran(k))
-            .map(|&k| {
-                let on = match k {
-                    Stage::Reconstruct => frame.reconstruct_backend.as_str(),
-                    Stage::Trace => frame.trace_backend.as_str(),
-                    Stage::Dof => frame.dof_backend.as_str(),
-                    Stage::Aa => frame.aa_backend.as_str(),
-                    _ => "cpu",
-                };
-                (k.name().to_string(), on.into())
-            })
+            .map(|&k| (k.name().to_string(), frame.stage_backends.of(k).into()))
             .collect();
         let mut json = serde_json::json!({
             "requested": self.requested,

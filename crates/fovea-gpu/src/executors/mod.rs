@@ -94,17 +94,19 @@ impl GpuExecutors {
                     "texel_bytes": s.texel_bytes,
                     "upload_ms": s.upload_ms,
                 });
-                (Some(Arc::new(surfaces)), json)
+                (Ok(Arc::new(surfaces)), json)
             }
             Err(e @ (GpuError::AdapterTooSmall { .. } | GpuError::Unsupported(_))) => {
-                (None, json!({ "on_cpu_because": e.to_string() }))
+                let why = format!("no surfaces on the device: {e}");
+                (Err(why), json!({ "on_cpu_because": e.to_string() }))
             }
             Err(e) => return Err(e),
         };
         let times = PassTimes::default();
         let tracer = GpuTraceExecutor {
             gpu: Arc::new(tracer),
-            surfaces,
+            no_surfaces: surfaces.as_ref().err().cloned(),
+            surfaces: surfaces.ok(),
             fingerprint: world.tris_fingerprint,
             environment: Arc::new(GpuEnvironment::new(ctx, &world.scene.environment)?),
             times: times.trace.clone(),

@@ -29,6 +29,8 @@ pub struct GpuTraceExecutor {
     pub(crate) gpu: Arc<GpuTracer>,
     /// The world's surfaces on the device (`None`: interpolated on the CPU).
     pub(crate) surfaces: Option<Arc<GpuSurfaces>>,
+    /// Why they are not (the device could not hold them).
+    pub(crate) no_surfaces: Option<String>,
     pub(crate) fingerprint: u64,
     /// The world's environment on the device.
     pub(crate) environment: Arc<GpuEnvironment>,
@@ -179,6 +181,10 @@ impl TraceExecutor for GpuTraceExecutor {
 
     fn interpolates_surfaces(&self) -> bool {
         self.surfaces.is_some()
+    }
+
+    fn why_no_surfaces(&self) -> Option<String> {
+        self.no_surfaces.clone()
     }
 
     fn surfaces_polar(
