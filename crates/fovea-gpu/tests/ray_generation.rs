@@ -373,7 +373,7 @@ fn polar_points_are_the_f64_points_within_1e4_px_at_8k() {
     let mut worst_f32 = 0.0f64;
     for gaze in [
         [w / 2.0, h / 2.0],
-        [1234.567_890_123, 3210.987_654_321],
+        [1_234.567_890_123, 3_210.987_654_321],
         [0.25, h - 0.25],
     ] {
         let cam = RayGenCamera::new([0.0; 3], axes, (4000.0, 4000.0), principal, gaze);
