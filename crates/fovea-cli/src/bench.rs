@@ -25,7 +25,7 @@ use fovea_render::plan::FramePlan;
 use fovea_render::world::World;
 use fovea_render::RenderError;
 
-use crate::backend::{GpuDofMs, GpuReconstructMs, GpuTraceMs, Preflight};
+use crate::backend::Preflight;
 use crate::choices::{BackendArg, EnvLightChoice, Eyes, LockstepArg, Shading};
 use crate::common::{display_of, thousands, FrameOptions, MethodOptions};
 use crate::dof_args::EyeArgs;
@@ -206,11 +206,6 @@ pub fn run(args: BenchArgs) -> Result<()> {
     Ok(())
 }
 
-/// The last frame's value, leaving `None` for the next.
-fn take<T>(slot: &Mutex<Option<T>>) -> Option<T> {
-    slot.lock().ok().and_then(|mut g| g.take())
-}
-
 /// The table's header line: what `--backend` resolved to, and whether GPU figures are
 /// CPU-emulated.
 fn print_backend(requested: BackendArg, p: &Preflight) {
@@ -239,8 +234,6 @@ fn print_backend(requested: BackendArg, p: &Preflight) {
 struct BenchBackend {
     /// `cpu`, or what the preflight found a GPU for.
     requested: BackendArg,
-    /// The installed executors' per-frame times (`None` while the CPU runs every stage).
-    times: Option<ExecutorTimes>,
     /// Whether a binocular Dup frame renders its eyes in lockstep (`--lockstep`).
     lockstep: LockstepArg,
     /// The right eye's context in lockstep, from the last [`BenchExecutors::install`].
@@ -248,8 +241,9 @@ struct BenchBackend {
         FrameContext,
         Arc<dyn fovea_render::pipeline::Lockstep + Send + Sync>,
     )>,
-    /// The installed executors' device, for its transfer counters.
-    device: Option<Arc<dyn crate::backend::SharedDevice>>,
+    /// The installed executors' device, for their per-frame times and its transfer
+    /// counters (`None` while the CPU runs every stage).
+    device: Option<Arc<dyn fovea_render::pipeline::ExecutorDevice>>,
 }
 
 impl BenchBackend {
@@ -261,23 +255,11 @@ impl BenchBackend {
             } else {
                 BackendArg::Cpu
             },
-            times: None,
             lockstep,
             second: None,
             device: None,
         }
     }
-}
-
-/// Where the installed GPU executors leave each frame's times.
-struct ExecutorTimes {
-    reconstruct: Arc<Mutex<Option<GpuReconstructMs>>>,
-    trace: Arc<Mutex<Option<GpuTraceMs>>>,
-    shadow: Arc<Mutex<Option<GpuTraceMs>>>,
-    direct_light: Arc<Mutex<Option<GpuTraceMs>>>,
-    environment_light: Arc<Mutex<Option<GpuTraceMs>>>,
-    dof: Arc<Mutex<Option<GpuDofMs>>>,
-    aa: Arc<Mutex<Option<crate::backend::GpuAaMs>>>,
 }
 
 impl BenchExecutors for BenchBackend {
@@ -287,22 +269,12 @@ impl BenchExecutors for BenchBackend {
         _plan: &FramePlan,
         ctx: &mut FrameContext,
     ) -> fovea_eval::Result<()> {
-        self.times = None;
         self.device = None;
         if self.requested == BackendArg::Cpu {
             return Ok(());
         }
         let mut backend = crate::backend::resolve(self.requested, world)
             .map_err(|e| EvalError::Scene(format!("{e:#}")))?;
-        self.times = Some(ExecutorTimes {
-            reconstruct: backend.times.clone(),
-            trace: backend.trace_times.clone(),
-            shadow: backend.shadow_times.clone(),
-            direct_light: backend.direct_times.clone(),
-            environment_light: backend.environment_times.clone(),
-            dof: backend.dof_times.clone(),
-            aa: backend.aa_times.clone(),
-        });
         backend.install(ctx);
         self.second = backend.second_eye(self.lockstep);
         self.device = backend.device.clone();
@@ -326,40 +298,12 @@ impl BenchExecutors for BenchBackend {
     }
 
     fn pass_ms(&mut self) -> BTreeMap<String, f64> {
-        let mut out = BTreeMap::new();
-        if let Some(ExecutorTimes {
-            reconstruct,
-            trace,
-            shadow,
-            direct_light,
-            environment_light,
-            dof,
-            aa,
-        }) = &self.times
-        {
-            if let Some(ms) = take(aa).and_then(|t| t.gpu_pass_ms) {
-                out.insert("aa".to_string(), ms);
-            }
-            if let Some(ms) = take(direct_light).and_then(|t| t.gpu_pass_ms) {
-                out.insert("direct_light".to_string(), ms);
-            }
-            if let Some(ms) = take(environment_light).and_then(|t| t.gpu_pass_ms) {
-                out.insert("environment_light".to_string(), ms);
-            }
-            if let Some(ms) = take(trace).and_then(|t| t.gpu_pass_ms) {
-                out.insert("trace".to_string(), ms);
-            }
-            if let Some(ms) = take(shadow).and_then(|t| t.gpu_pass_ms) {
-                out.insert("shadow".to_string(), ms);
-            }
-            if let Some(ms) = take(reconstruct).and_then(|t| t.gpu_pass_ms) {
-                out.insert("reconstruct".to_string(), ms);
-            }
-            if let Some(ms) = take(dof).and_then(|t| t.gpu_pass_ms) {
-                out.insert("dof".to_string(), ms);
-            }
-        }
-        out
+        let passes = self.device.as_ref().map(|d| d.take_pass_ms());
+        passes
+            .into_iter()
+            .flatten()
+            .map(|(k, ms)| (k.to_string(), ms))
+            .collect()
     }
 }
 

@@ -698,7 +698,7 @@ fn backend_line(
     s: &fovea_render::pipeline::FrameStats,
 ) -> String {
     // The tone map ran on the GPU when its executor recorded a call.
-    let toned = match backend.tone_times.lock().is_ok_and(|t| t.is_some()) {
+    let toned = match backend.tone_mapped() {
         true => "gpu".to_string(),
         false => "cpu".to_string(),
     };

@@ -197,11 +197,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .collect();
     let with_cones: Vec<fovea_gpu::GpuSurfaceRay> = points
         .iter()
-        .map(|p| fovea_gpu::GpuSurfaceRay {
-            a: p.x_px as f32,
-            b: p.y_px as f32,
-            spread,
-        })
+        .map(|p| fovea_gpu::GpuSurfaceRay::screen(p.x_px, p.y_px, spread))
         .collect();
     let bare: Vec<fovea_gpu::GpuScreenRay> = points
         .iter()

@@ -16,12 +16,12 @@
 //
 // Output per ray: the record, or a miss (`material == MISS`, `to_eye` = −direction).
 
-// A ray's screen point and its cone: (r_px, turn) around the camera block's centre
-// (`surface_polar`), or (x_px, y_px) from the screen's origin (`surface_screen`); the cone's
-// angle, radians.
+// A ray's screen point and its cone: a polar ray's fixed-point offset from the camera
+// block's centre (`surface_polar`, i32 bits, as `PolarRay`), or (x_px, y_px) from the
+// screen's origin (`surface_screen`, f32 bits); the cone's angle, radians.
 struct SurfaceRay {
-    a: f32,
-    b: f32,
+    a: u32,
+    b: u32,
     spread: f32,
 }
 
@@ -318,7 +318,8 @@ fn surface_polar(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let r = surface_rays[i];
-    surface_of_camera_ray(i, camera.centre + r.a * cos_sin_turns(r.b, camera.rad_per_turn), r.spread);
+    let p = polar_point(bitcast<vec2<i32>>(vec2<u32>(r.a, r.b)));
+    surface_of_camera_ray(i, p.xy + p.zw, r.spread);
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -328,5 +329,5 @@ fn surface_screen(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let r = surface_rays[i];
-    surface_of_camera_ray(i, camera.centre + vec2<f32>(r.a, r.b), r.spread);
+    surface_of_camera_ray(i, camera.centre + bitcast<vec2<f32>>(vec2<u32>(r.a, r.b)), r.spread);
 }

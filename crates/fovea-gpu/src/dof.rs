@@ -62,9 +62,23 @@ pub const GATHER_SHADER: ShaderSource = ShaderSource {
     uniform: ("GatherParams", std::mem::size_of::<GatherUniform>()),
 };
 
-/// The shaders' `Offset` and `Plane`, bytes.
-pub const OFFSET_BYTES: u64 = 16;
-/// Bytes per pixel of the planes buffer.
+/// A disc offset as `dof_gather.wgsl` reads it (`Offset`): pixels from the centre and the
+/// distance, pixels.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct OffsetGpu {
+    /// Columns from the centre.
+    pub dx: i32,
+    /// Rows from the centre.
+    pub dy: i32,
+    /// Distance from the centre, pixels.
+    pub d: f32,
+    pad: u32,
+}
+
+/// The shaders' `Offset`, bytes.
+pub const OFFSET_BYTES: u64 = std::mem::size_of::<OffsetGpu>() as u64;
+/// The shaders' `Plane` (written and read on the device only: depth, radius, 1/A, hit), bytes.
 pub const PLANE_BYTES: u64 = 16;
 
 /// The uniform block `DofCocParams` of `dof_coc.wgsl` (same field order; see there).
@@ -328,10 +342,10 @@ impl GpuDof {
             far_factor: 1.0 + filter.depth_tolerance,
             pad: [0; 2],
         };
-        let offsets: Vec<[u32; 4]> = tables
+        let offsets: Vec<OffsetGpu> = tables
             .offsets
             .iter()
-            .map(|&(dx, dy, d)| [dx as u32, dy as u32, d.to_bits(), 0])
+            .map(|&(dx, dy, d)| OffsetGpu { dx, dy, d, pad: 0 })
             .collect();
         let mut inv_area = tables.inv_area.clone();
         if inv_area.len() < 2 {

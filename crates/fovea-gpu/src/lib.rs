@@ -10,6 +10,8 @@
 //! * [`device`]: opening a device with typed, one-line errors and no panics
 //!   ([`GpuContext`], [`GpuRequest`], [`AdapterSummary`]).
 //! * [`backend`]: `--backend cpu|gpu|auto` ([`BackendChoice`]).
+//! * [`executors`]: this crate's passes as the render pipeline's executors, handed out for a
+//!   world ([`executors::GpuExecutors::new`]).
 //! * [`mapping`]: VaFR (Eq. 3 or exact rings), KFR, LaFR and visual-polar forward/inverse
 //!   mappings on the GPU ([`GpuMapping`]).
 //! * [`reconstruct`]: polar sample buffers back to the screen, bilinear or footprint-filtered
@@ -78,6 +80,7 @@ pub mod mapping;
 pub mod pull_push;
 pub mod ray_generation;
 pub mod reconstruct;
+mod records;
 pub mod sample_aa;
 pub mod shaders;
 pub mod surface;

@@ -51,11 +51,16 @@ pub struct RayGenCamera {
     pub rad_per_turn: f32,
     /// Unit up vector (screen −y).
     pub up: [f32; 3],
-    _pad0: f32,
+    /// Pixels per unit of a polar ray's fixed-point offset (`1 / GpuPolarRay::Q_PER_PX`).
+    pub px_per_q: f32,
     /// The origin of the rays' coordinates minus the principal point, pixels: the rings'
-    /// centre for polar rays, the screen's `(0, 0)` for screen rays.
+    /// centre for polar rays, the screen's `(0, 0)` for screen rays (`f32` of the f64
+    /// difference).
     pub centre: [f32; 2],
-    _pad1: [f32; 2],
+    /// The f64 difference minus `floor(centre)`, pixels (within ~3e-8 px): polar rays add
+    /// their offset to the centre as `(floor(centre) + whole pixels) + (centre_lo + fraction)`,
+    /// integers first, so no sum needs its rounding error kept.
+    pub centre_lo: [f32; 2],
 }
 
 impl RayGenCamera {
@@ -71,6 +76,12 @@ impl RayGenCamera {
         principal_px: (f32, f32),
         centre_px: [f64; 2],
     ) -> Self {
+        let split = |d: f64| {
+            let hi = d as f32;
+            (hi, (d - hi.floor() as f64) as f32)
+        };
+        let (cx_hi, cx_lo) = split(centre_px[0] - principal_px.0 as f64);
+        let (cy_hi, cy_lo) = split(centre_px[1] - principal_px.1 as f64);
         Self {
             origin,
             fx: focal_px.0,
@@ -79,12 +90,9 @@ impl RayGenCamera {
             right,
             rad_per_turn: std::f32::consts::TAU,
             up,
-            _pad0: 0.0,
-            centre: [
-                (centre_px[0] - principal_px.0 as f64) as f32,
-                (centre_px[1] - principal_px.1 as f64) as f32,
-            ],
-            _pad1: [0.0; 2],
+            px_per_q: (1.0 / GpuPolarRay::Q_PER_PX) as f32,
+            centre: [cx_hi, cy_hi],
+            centre_lo: [cx_lo, cy_lo],
         }
     }
 
@@ -97,15 +105,63 @@ impl RayGenCamera {
     }
 }
 
-/// A primary ray as `ray_generation.wgsl` reads it: its screen point's distance from the
-/// centre (pixels) and angle (turns, from +x towards +y).
+/// A polar buffer's primary ray as `ray_generation.wgsl` reads it: its screen point's offset
+/// from the rings' centre, in fixed point (`Q_PER_PX` units a pixel), computed on the CPU
+/// from the mapping's f64 polar coordinates `(r_px, turn)`.
+///
+/// Why not the polar coordinates themselves, as before: f32 `r_px` and `turn` (and f32
+/// `cos`/`sin` on the device) put the point up to ~1.7e-3 px off at 8K, where a radius
+/// reaches 5,000 px, against the mappings' 0.01 px bound; f32 `cos`/`sin` alone cost
+/// `r · 6e-8` ≈ 3e-4 px there. The fixed-point offset is exact to `0.5 / Q_PER_PX` ≈ 7.6e-6 px
+/// anywhere within ±32,768 px, and splits on the device into two f32s that hold it exactly
+/// (`polar_point`: whole pixels and the fraction), still 8 bytes a ray. The device
+/// compiler may rearrange float sums (Mesa does), so the shader keeps no rounding error
+/// (no two-sum): the integers add exactly, the fractions are small.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuPolarRay {
-    /// Distance from the centre, pixels.
-    pub r_px: f32,
-    /// Angle, turns.
-    pub turn: f32,
+    /// `(x, y)` offset from the centre, `1 / Q_PER_PX` px units (screen +y down).
+    pub offset_q: [i32; 2],
+}
+
+impl GpuPolarRay {
+    /// Fixed-point units per pixel of [`Self::offset_q`] (2¹⁶: ±32,768 px, 1.5e-5 px steps).
+    pub const Q_PER_PX: f64 = 65536.0;
+
+    /// The ray at `r_px` pixels from the centre and `turn` turns (from +x towards +y), its
+    /// offset computed in f64. Errors: a non-finite or negative radius, a non-finite angle,
+    /// or an offset beyond ±32,767 px.
+    pub fn new(r_px: f64, turn: f64) -> Result<Self> {
+        if !(r_px.is_finite() && r_px >= 0.0 && turn.is_finite()) {
+            return Err(GpuError::Input(format!(
+                "polar ray (r = {r_px} px, {turn} turns) is not a finite point"
+            )));
+        }
+        let (s, c) = (turn * std::f64::consts::TAU).sin_cos();
+        let q = |d: f64| {
+            let q = (d * Self::Q_PER_PX).round();
+            (q.abs() < i32::MAX as f64).then_some(q as i32)
+        };
+        match (q(r_px * c), q(r_px * s)) {
+            (Some(x), Some(y)) => Ok(Self { offset_q: [x, y] }),
+            _ => Err(GpuError::Input(format!(
+                "polar ray at {r_px} px from its centre: beyond the ±32,767 px a ray can reach"
+            ))),
+        }
+    }
+
+    /// The offset as the shader splits it: whole pixels and the fraction, both exact in f32.
+    pub fn offset_parts(&self) -> [[f32; 2]; 2] {
+        let part = |q: i32| {
+            let whole = q >> 16;
+            [
+                whole as f32,
+                (q - (whole << 16)) as f32 / Self::Q_PER_PX as f32,
+            ]
+        };
+        let (x, y) = (part(self.offset_q[0]), part(self.offset_q[1]));
+        [[x[0], y[0]], [x[1], y[1]]]
+    }
 }
 
 /// A primary ray as `closest_hit_screen` reads it: its screen point, pixels.
@@ -124,9 +180,9 @@ pub type GeneratedHit = ([f32; 3], Option<GpuHit>);
 /// What the shader writes per ray (`GeneratedHit`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-struct GeneratedHitGpu {
-    hit: HitGpu,
-    dir: [f32; 3],
+pub(crate) struct GeneratedHitGpu {
+    pub(crate) hit: HitGpu,
+    pub(crate) dir: [f32; 3],
     _pad: f32,
 }
 
@@ -145,15 +201,6 @@ impl GpuTracer {
         camera: &RayGenCamera,
         rays: &[GpuPolarRay],
     ) -> Result<(Vec<GeneratedHit>, TraceTimes)> {
-        let bad = rays
-            .iter()
-            .position(|r| !(r.r_px.is_finite() && r.turn.is_finite() && r.r_px >= 0.0));
-        if let Some(k) = bad {
-            return Err(GpuError::Input(format!(
-                "polar ray {k} is not a finite point ({:?})",
-                rays[k]
-            )));
-        }
         self.generate(camera, rays, |s| &s.polar, |r| polar_offset(camera, r))
     }
 
@@ -180,6 +227,47 @@ impl GpuTracer {
             |s| &s.screen,
             |r| [camera.centre[0] + r.x_px, camera.centre[1] + r.y_px],
         )
+    }
+
+    /// The screen point of each of `rays` relative to the principal point as the device
+    /// reconstructs it for [`closest_hits_polar_timed`](Self::closest_hits_polar_timed)
+    /// (`polar_point` in `ray_generation.wgsl`), the f64 sum of the shader's f32 pair
+    /// `hi + lo`: a probe of the frame's own function, for the tests of its precision. The
+    /// scene needs a triangle (the pass binds the BVH).
+    pub fn polar_points(
+        &self,
+        camera: &RayGenCamera,
+        rays: &[GpuPolarRay],
+    ) -> Result<Vec<[f64; 2]>> {
+        if self.scene.is_none() {
+            return Err(GpuError::Input(
+                "the polar-point probe needs a scene with a triangle".into(),
+            ));
+        }
+        let probe = match self.polar_probe.get() {
+            Some(p) => p,
+            None => {
+                let built = self.ctx.scoped("building the polar-point probe", || {
+                    crate::trace::SHADER
+                        .pipelines_of(self.ctx.device(), &["polar_point_check"])
+                        .pop()
+                })?;
+                let Some(p) = built else {
+                    return Err(GpuError::Input(
+                        "the trace module lacks its polar_point_check entry point".into(),
+                    ));
+                };
+                self.polar_probe.get_or_init(|| p)
+            }
+        };
+        let (out, _) = self.generated(
+            camera,
+            rays,
+            |_| Some((probe, Vec::new())),
+            |_, _| [f64::NAN; 2],
+            |p: &[f32; 4]| [p[0] as f64 + p[2] as f64, p[1] as f64 + p[3] as f64],
+        )?;
+        Ok(out)
     }
 
     /// Runs `rays` (checked finite) through the ray-generation entry point `pipeline` of the
@@ -279,13 +367,16 @@ impl GpuTracer {
     }
 }
 
-/// The shader's point of `ray` relative to the principal point, on the CPU (f32 `cos`/`sin`).
+/// The shader's point of `ray` relative to the principal point, on the CPU (as
+/// `polar_point` adds it up).
 pub(crate) fn polar_offset(camera: &RayGenCamera, ray: &GpuPolarRay) -> [f32; 2] {
-    let (s, c) = (ray.turn * camera.rad_per_turn).sin_cos();
-    [
-        camera.centre[0] + ray.r_px * c,
-        camera.centre[1] + ray.r_px * s,
-    ]
+    let [whole, frac] = ray.offset_parts();
+    let at = |k: usize| {
+        let exact =
+            camera.centre[k] as f64 + camera.centre_lo[k] as f64 + whole[k] as f64 + frac[k] as f64;
+        exact as f32
+    };
+    [at(0), at(1)]
 }
 
 /// The shader's direction through the point `[x, y]` pixels from the principal point, on the

@@ -108,11 +108,11 @@ pub struct ReconstructUniform {
 /// The shader's `Column`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-struct GpuColumn {
-    base: u32,
-    rows: u32,
-    period: f32,
-    texels_per_px: f32,
+pub(crate) struct GpuColumn {
+    pub(crate) base: u32,
+    pub(crate) rows: u32,
+    pub(crate) period: f32,
+    pub(crate) texels_per_px: f32,
 }
 
 /// Where the time of one GPU reconstruction went.

@@ -51,6 +51,7 @@ pub const SHADER: ShaderSource = ShaderSource {
         "any_hit",
         "closest_hit_polar",
         "closest_hit_screen",
+        "polar_point_check",
         "surface_polar",
         "surface_screen",
     ],
@@ -64,18 +65,54 @@ pub const ENTRY_POINTS: [&str; 2] = ["surface_polar", "surface_screen"];
 /// records, and the five of the surfaces).
 pub const STORAGE_BUFFERS: u32 = 10;
 
-/// A primary ray as the surface pass reads it (`SurfaceRay`): its screen point — polar
-/// `(r_px, turn)` around the camera block's centre, or `(x_px, y_px)` from the screen's
-/// origin — and its cone's angle, radians.
+/// A primary ray as the surface pass reads it (`SurfaceRay`): its screen point — a polar
+/// ray's fixed-point offset from the camera block's centre
+/// ([`GpuPolarRay::offset_q`](crate::GpuPolarRay)), or `(x_px, y_px)` from the screen's
+/// origin as f32 bits — and its cone's angle, radians.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuSurfaceRay {
-    /// `r_px` (polar) or `x_px` (screen).
-    pub a: f32,
-    /// `turn` (polar) or `y_px` (screen).
-    pub b: f32,
+    /// The offset's x (polar, `i32` bits) or `x_px` (screen, `f32` bits).
+    pub a: u32,
+    /// The offset's y (polar) or `y_px` (screen).
+    pub b: u32,
     /// The cone's angle, radians.
     pub spread: f32,
+}
+
+impl GpuSurfaceRay {
+    /// A polar ray at `r_px` pixels from the camera block's centre and `turn` turns, its
+    /// cone `spread_rad` wide (errors as [`GpuPolarRay::new`](crate::GpuPolarRay::new)).
+    pub fn polar(r_px: f64, turn: f64, spread_rad: f32) -> Result<Self> {
+        let [x, y] = crate::GpuPolarRay::new(r_px, turn)?.offset_q;
+        Ok(Self {
+            a: x as u32,
+            b: y as u32,
+            spread: spread_rad,
+        })
+    }
+
+    /// The polar ray whose offset `a`, `b` hold.
+    fn as_polar(&self) -> crate::GpuPolarRay {
+        crate::GpuPolarRay {
+            offset_q: [self.a as i32, self.b as i32],
+        }
+    }
+
+    /// The screen point `a`, `b` hold, pixels.
+    fn as_screen(&self) -> [f32; 2] {
+        [f32::from_bits(self.a), f32::from_bits(self.b)]
+    }
+
+    /// A screen-aligned ray through `(x_px, y_px)`, rounded to f32 as `EyeCamera::ray`
+    /// rounds them, its cone `spread_rad` wide.
+    pub fn screen(x_px: f64, y_px: f64, spread_rad: f32) -> Self {
+        Self {
+            a: (x_px as f32).to_bits(),
+            b: (y_px as f32).to_bits(),
+            spread: spread_rad,
+        }
+    }
 }
 
 /// A triangle's surface record (`SurfaceTri`).
@@ -191,20 +228,20 @@ impl SurfaceModelGpu {
 /// The G-buffer record as the shader writes it (`GRecord`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-struct GRecordGpu {
-    position: [f32; 3],
-    t: f32,
-    normal: [f32; 3],
-    metallic: f32,
-    face_normal: [f32; 3],
-    roughness: f32,
-    to_eye: [f32; 3],
-    material: u32,
-    albedo: [f32; 3],
+pub(crate) struct GRecordGpu {
+    pub(crate) position: [f32; 3],
+    pub(crate) t: f32,
+    pub(crate) normal: [f32; 3],
+    pub(crate) metallic: f32,
+    pub(crate) face_normal: [f32; 3],
+    pub(crate) roughness: f32,
+    pub(crate) to_eye: [f32; 3],
+    pub(crate) material: u32,
+    pub(crate) albedo: [f32; 3],
     _pad0: f32,
-    specular: [f32; 3],
+    pub(crate) specular: [f32; 3],
     _pad1: f32,
-    emissive: [f32; 3],
+    pub(crate) emissive: [f32; 3],
     _pad2: f32,
 }
 
@@ -523,23 +560,14 @@ impl GpuTracer {
         camera: &RayGenCamera,
         rays: &[GpuSurfaceRay],
     ) -> Result<(Vec<GSample>, TraceTimes)> {
-        let bad = rays.iter().position(|r| {
-            !(r.a.is_finite() && r.b.is_finite() && r.a >= 0.0 && r.spread.is_finite())
-        });
-        if let Some(k) = bad {
+        if let Some(k) = rays.iter().position(|r| !r.spread.is_finite()) {
             return Err(GpuError::Input(format!(
-                "polar ray {k} is not a finite point with a finite cone ({:?})",
+                "polar ray {k} has no finite cone ({:?})",
                 rays[k]
             )));
         }
         self.surfaces(surfaces, camera, rays, &surfaces.polar, |r| {
-            polar_offset(
-                camera,
-                &crate::GpuPolarRay {
-                    r_px: r.a,
-                    turn: r.b,
-                },
-            )
+            polar_offset(camera, &r.as_polar())
         })
     }
 
@@ -554,7 +582,7 @@ impl GpuTracer {
     ) -> Result<(Vec<GSample>, TraceTimes)> {
         let bad = rays
             .iter()
-            .position(|r| !(r.a.is_finite() && r.b.is_finite() && r.spread.is_finite()));
+            .position(|r| !(r.as_screen().iter().all(|c| c.is_finite()) && r.spread.is_finite()));
         if let Some(k) = bad {
             return Err(GpuError::Input(format!(
                 "screen ray {k} is not a finite point with a finite cone ({:?})",
@@ -562,7 +590,8 @@ impl GpuTracer {
             )));
         }
         self.surfaces(surfaces, camera, rays, &surfaces.screen, |r| {
-            [camera.centre[0] + r.a, camera.centre[1] + r.b]
+            let [x, y] = r.as_screen();
+            [camera.centre[0] + x, camera.centre[1] + y]
         })
     }
 

@@ -45,13 +45,15 @@ pub const SHADER: ShaderSource = ShaderSource {
         "closest_hit_screen",
         "environment_light",
         "mix64_check",
+        // A probe of `closest_hit_polar`'s point (`GpuTracer::polar_points`), built on use.
+        "polar_point_check",
     ],
     uniform: ("TraceParams", std::mem::size_of::<TraceUniform>()),
 };
 
 /// Bytes per triangle on the device (`Tri` in `trace.wgsl`: three `vec4<f32>`): the largest
 /// binding a scene needs is its triangle count times this.
-pub const TRIANGLE_BYTES: u64 = std::mem::size_of::<[f32; 12]>() as u64;
+pub const TRIANGLE_BYTES: u64 = std::mem::size_of::<TriGpu>() as u64;
 
 /// The traversal stack of `trace.wgsl` (`STACK_SIZE`): the deepest tree it can walk.
 pub const STACK_SIZE: usize = 64;
@@ -141,11 +143,32 @@ pub struct GpuHit {
 /// A node as the shader reads it (`Node` in `trace.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-struct NodeGpu {
-    min: [f32; 3],
-    prim_count: u32,
-    max: [f32; 3],
-    first_index: u32,
+pub(crate) struct NodeGpu {
+    pub(crate) min: [f32; 3],
+    pub(crate) prim_count: u32,
+    pub(crate) max: [f32; 3],
+    pub(crate) first_index: u32,
+}
+
+/// A triangle as the shader reads it (`Tri` in `trace.wgsl`): its vertices, each padded to
+/// a `vec4`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub(crate) struct TriGpu {
+    pub(crate) v0: [f32; 4],
+    pub(crate) v1: [f32; 4],
+    pub(crate) v2: [f32; 4],
+}
+
+impl TriGpu {
+    fn of(t: &[[f32; 3]; 3]) -> Self {
+        let v = |p: [f32; 3]| [p[0], p[1], p[2], 0.0];
+        Self {
+            v0: v(t[0]),
+            v1: v(t[1]),
+            v2: v(t[2]),
+        }
+    }
 }
 
 /// The hit as the shader writes it (`Hit` in `trace.wgsl`).
@@ -223,6 +246,8 @@ pub struct GpuTracer {
     /// The hash check's pipeline (`mix64_check`; built with the scene's, or on first use
     /// for an empty scene).
     pub(crate) mix64: std::sync::OnceLock<wgpu::ComputePipeline>,
+    /// The polar-point probe's pipeline (`polar_point_check`; built on first use, by tests).
+    pub(crate) polar_probe: std::sync::OnceLock<wgpu::ComputePipeline>,
     /// Each triangle's position in the BVH's leaf order (the device's triangle buffer), by
     /// its index in the caller's list ([`crate::surface`] reads its vertices there).
     pub(crate) slots: Vec<u32>,
@@ -265,6 +290,7 @@ impl GpuTracer {
                 },
                 scene: None,
                 mix64: std::sync::OnceLock::new(),
+                polar_probe: std::sync::OnceLock::new(),
                 slots: Vec::new(),
             });
         }
@@ -287,16 +313,10 @@ impl GpuTracer {
         check_depth(depth)?;
         let nodes: Vec<NodeGpu> = bvh.nodes.iter().map(node_gpu).collect();
         // Triangles in leaf order, so a leaf's `first_index` addresses them directly.
-        let tris: Vec<[f32; 12]> = bvh
+        let tris: Vec<TriGpu> = bvh
             .primitive_indices
             .iter()
-            .map(|&i| {
-                let t = &triangles[i as usize];
-                [
-                    t[0][0], t[0][1], t[0][2], 0.0, t[1][0], t[1][1], t[1][2], 0.0, t[2][0],
-                    t[2][1], t[2][2], 0.0,
-                ]
-            })
+            .map(|&i| TriGpu::of(&triangles[i as usize]))
             .collect();
         let mut slots = vec![0u32; triangles.len()];
         for (slot, &i) in bvh.primitive_indices.iter().enumerate() {
@@ -339,7 +359,7 @@ impl GpuTracer {
                         bytemuck::cast_slice(&bvh.primitive_indices),
                         wgpu::BufferUsages::STORAGE,
                     ),
-                    SHADER.pipelines(device),
+                    SHADER.pipelines_of(device, &SHADER.entry_points[..7]),
                 )
             },
         )?;
@@ -393,6 +413,7 @@ impl GpuTracer {
             },
             scene: Some(scene),
             mix64: hash.into(),
+            polar_probe: std::sync::OnceLock::new(),
             slots,
         })
     }

@@ -136,10 +136,7 @@ fn rays_generated_on_the_gpu_are_the_cpus() {
                     continue;
                 }
                 if let (Some((r_px, turn)), Some(p)) = (ring.polar(v), ring.point(v)) {
-                    polar.push(GpuPolarRay {
-                        r_px: r_px as f32,
-                        turn: turn as f32,
-                    });
+                    polar.push(GpuPolarRay::new(r_px, turn).unwrap());
                     points.push(p);
                 }
             }
@@ -264,18 +261,19 @@ fn non_finite_rays_and_cameras_are_input_errors() {
         (320.0, 240.0),
         [320.0, 240.0],
     );
-    let bad = [
-        GpuPolarRay::default(),
-        GpuPolarRay {
-            r_px: f32::NAN,
-            turn: 0.1,
-        },
-    ];
-    let e = gpu.closest_hits_polar_timed(&cam, &bad).unwrap_err();
-    assert!(
-        matches!(e, GpuError::Input(_)) && e.to_string().contains("polar ray 1"),
-        "{e}"
-    );
+    let bad = [GpuPolarRay::default()];
+    for (r, turn) in [
+        (f64::NAN, 0.1),
+        (-1.0, 0.1),
+        (1.0, f64::INFINITY),
+        (40_000.0, 0.0),
+    ] {
+        let e = GpuPolarRay::new(r, turn).unwrap_err();
+        assert!(
+            matches!(e, GpuError::Input(_)) && e.to_string().contains("polar ray"),
+            "{e}"
+        );
+    }
     let nan_cam = RayGenCamera::new(
         [f32::NAN, 0.0, 0.0],
         axes,
@@ -350,5 +348,76 @@ fn non_finite_screen_rays_are_input_errors_and_the_principal_point_looks_ahead()
         (none[0].0[1] - d[1]).abs() < 1e-6,
         "{:?} vs {d:?}",
         none[0].0
+    );
+}
+
+#[test]
+fn polar_points_are_the_f64_points_within_1e4_px_at_8k() {
+    // Issue 37: polar rays went up as f32 `(r_px, turn)` and were turned into points with f32
+    // `cos`/`sin`, up to ~1.7e-3 px off at 8K. Now each goes as a fixed-point offset from
+    // the rings' centre and the device adds it to the centre as an f32 pair: that pair must
+    // be the f64 point (relative to the principal point) within 1e-4 px, at every radius
+    // an 8K screen reaches from any gaze and every angle, for gazes at the centre, off the
+    // centre at a non-representable f32 position, and in a corner.
+    let Some(ctx) = gpu_or_skip("polar_points_are_the_f64_points_within_1e4_px_at_8k") else {
+        return;
+    };
+    let tri = [[[-1.0, -1.0, -1.0], [1.0, -1.0, -1.0], [0.0, 1.0, -1.0]]];
+    let gpu = GpuTracer::new(&ctx, &tri).unwrap();
+    let display = DisplayProfile::preset("8k").unwrap();
+    let (w, h) = (display.width_px as f64, display.height_px as f64);
+    let principal = ((w / 2.0) as f32, (h / 2.0) as f32);
+    let axes = [[0.0, 0.0, -1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    let reach = w.hypot(h);
+    let mut worst = 0.0f64;
+    let mut worst_f32 = 0.0f64;
+    for gaze in [
+        [w / 2.0, h / 2.0],
+        [1_234.567_890_123, 3_210.987_654_321],
+        [0.25, h - 0.25],
+    ] {
+        let cam = RayGenCamera::new([0.0; 3], axes, (4000.0, 4000.0), principal, gaze);
+        let mut polar = Vec::new();
+        let mut want = Vec::new();
+        // Radii from 0 to the far corner, angles all round, both on a grid and off it.
+        for i in 0..400 {
+            let r_px = reach * (i as f64 / 399.0).sqrt() + 1e-3 * i as f64;
+            for j in 0..257 {
+                let turn = (j as f64 + 0.123_456_789 * (i % 7) as f64) / 257.0;
+                let (s, c) = (turn * std::f64::consts::TAU).sin_cos();
+                polar.push(GpuPolarRay::new(r_px, turn).unwrap());
+                want.push([
+                    gaze[0] - principal.0 as f64 + r_px * c,
+                    gaze[1] - principal.1 as f64 + r_px * s,
+                ]);
+                // What the old f32 path computed, for the log.
+                let (s32, c32) = ((turn as f32) * std::f32::consts::TAU).sin_cos();
+                let old = [
+                    (gaze[0] - principal.0 as f64) as f32 + r_px as f32 * c32,
+                    (gaze[1] - principal.1 as f64) as f32 + r_px as f32 * s32,
+                ];
+                let e = (old[0] as f64 - want.last().unwrap()[0])
+                    .hypot(old[1] as f64 - want.last().unwrap()[1]);
+                worst_f32 = worst_f32.max(e);
+            }
+        }
+        let got = gpu.polar_points(&cam, &polar).unwrap();
+        assert_eq!(got.len(), want.len());
+        for (k, (g, p)) in got.iter().zip(&want).enumerate() {
+            let e = (g[0] - p[0]).hypot(g[1] - p[1]);
+            assert!(
+                e < 1e-4,
+                "gaze {gaze:?}, ray {k}: {g:?} is {e} px from {p:?}"
+            );
+            worst = worst.max(e);
+        }
+    }
+    shout(&format!(
+        "polar points at 8K: worst {worst:.2e} px from the f64 point on the GPU (the f32 \
+         polar coordinates with f32 cos/sin: {worst_f32:.2e} px)"
+    ));
+    assert!(
+        worst_f32 > 1e-4,
+        "the old path's error, {worst_f32}, no longer shows the case"
     );
 }

@@ -223,11 +223,7 @@ fn screen_and_polar(ctx: &GpuContext, what: &str, world: &World, desc: &CameraDe
         .step_by(step)
         .flat_map(|y| (0..w).step_by(step).map(move |x| (x, y)))
         .enumerate()
-        .map(|(k, (x, y))| GpuSurfaceRay {
-            a: x as f32 + 0.5,
-            b: y as f32 + 0.5,
-            spread: spread(k, focal),
-        })
+        .map(|(k, (x, y))| GpuSurfaceRay::screen(x as f64 + 0.5, y as f64 + 0.5, spread(k, focal)))
         .collect();
     let spreads: Vec<f32> = rays.iter().map(|r| r.spread).collect();
     let (got, _) = tracer
@@ -244,10 +240,9 @@ fn screen_and_polar(ctx: &GpuContext, what: &str, world: &World, desc: &CameraDe
     let rays: Vec<GpuSurfaceRay> = (0..rings)
         .flat_map(|i| (0..97).map(move |j| (i, j)))
         .enumerate()
-        .map(|(k, (i, j))| GpuSurfaceRay {
-            a: i as f32 * step as f32,
-            b: j as f32 / 97.0,
-            spread: spread(k, focal),
+        .map(|(k, (i, j))| {
+            let (r_px, turn) = (i as f64 * step as f64, j as f64 / 97.0);
+            GpuSurfaceRay::polar(r_px, turn, spread(k, focal)).unwrap()
         })
         .collect();
     let spreads: Vec<f32> = rays.iter().map(|r| r.spread).collect();

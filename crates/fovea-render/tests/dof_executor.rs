@@ -100,7 +100,19 @@ fn the_dof_executor_runs_what_it_supports_and_says_so() {
             StageTimes::default(),
             &|_, _| {},
         )
-        .map(|f| (f.color.clone(), f.coc.clone(), f.stats.dof_backend.clone()))
+        .map(|f| {
+            // The stage's placement was decided before the first pass, and the name in the
+            // stats is the decision's.
+            let placed = &f.stats.stage_backends.dof;
+            assert_eq!(placed.backend, f.stats.dof_backend);
+            let why = placed.on_cpu_because.clone().unwrap_or_default();
+            (
+                f.color.clone(),
+                f.coc.clone(),
+                f.stats.dof_backend.clone(),
+                why,
+            )
+        })
     };
     let calls = Arc::new(Mutex::new(Vec::new()));
     let mock = |fail| Mock {
@@ -109,9 +121,10 @@ fn the_dof_executor_runs_what_it_supports_and_says_so() {
         max_pixels: u64::MAX,
     };
     // Gather with the thin lens: the executor, with the CPU path's focus; the same frame.
-    let (c_cpu, coc_cpu, b_cpu) = frame(FilterKind::Gather, CocModel::ThinLens, None).unwrap();
+    let (c_cpu, coc_cpu, b_cpu, why) = frame(FilterKind::Gather, CocModel::ThinLens, None).unwrap();
     assert_eq!(b_cpu, "cpu");
-    let (c, coc, b) = frame(FilterKind::Gather, CocModel::ThinLens, Some(mock(false))).unwrap();
+    assert_eq!(why, "", "no executor, no reason");
+    let (c, coc, b, _) = frame(FilterKind::Gather, CocModel::ThinLens, Some(mock(false))).unwrap();
     assert_eq!(b, "mock");
     assert_eq!(
         calls.lock().unwrap().as_slice(),
@@ -124,8 +137,9 @@ fn the_dof_executor_runs_what_it_supports_and_says_so() {
         (FilterKind::Bokeh, CocModel::ThinLens),
         (FilterKind::Gather, CocModel::Stabilised),
     ] {
-        let (_, _, b) = frame(filter, model, Some(mock(false))).unwrap();
+        let (_, _, b, why) = frame(filter, model, Some(mock(false))).unwrap();
         assert_eq!(b, "cpu", "{filter:?} {model:?}");
+        assert!(why.contains("does not take"), "{why}");
     }
     assert_eq!(calls.lock().unwrap().len(), 1);
     // An executor that takes one pixel fewer than the frame's 96×80: the CPU filters it (the
@@ -135,8 +149,13 @@ fn the_dof_executor_runs_what_it_supports_and_says_so() {
             max_pixels,
             ..mock(false)
         };
-        let (c, _, b) = frame(FilterKind::Gather, CocModel::ThinLens, Some(small)).unwrap();
+        let (c, _, b, why) = frame(FilterKind::Gather, CocModel::ThinLens, Some(small)).unwrap();
         assert_eq!(b, backend, "{max_pixels}");
+        assert_eq!(
+            why.contains("96×80 frame is past"),
+            backend == "cpu",
+            "{why}"
+        );
         assert_eq!(c.data(), c_cpu.data());
     }
     assert_eq!(calls.lock().unwrap().len(), 2);

@@ -222,6 +222,12 @@ impl FrameContext {
     /// of the trace stage, if one is plugged in, and the denoiser's guides sized for `plan`
     /// when it denoises.
     #[allow(clippy::type_complexity)]
+    /// The executors plugged in (where each stage runs is decided from them, once a frame:
+    /// [`super::StageBackends::decide`]).
+    pub fn executors(&self) -> &Executors {
+        &self.executors
+    }
+
     pub(crate) fn samples_and_tracer(
         &mut self,
         plan: &FramePlan,

@@ -37,7 +37,9 @@ use crate::plan::FramePlan;
 use crate::temporal::{TemporalAccumulator, TemporalStats};
 use crate::world::World;
 
+pub mod backends;
 pub mod context;
+pub mod device;
 pub mod lockstep;
 pub mod reconstruct;
 pub mod sample_post;
@@ -45,7 +47,9 @@ pub mod screen_post;
 pub mod timing;
 pub mod trace_shade;
 
+pub use backends::{Placement, StageBackends};
 pub use context::{Executors, FrameContext};
+pub use device::{ExecutorDevice, DEVICE_REPORT_KEYS};
 pub use fovea_core::mapping::footprint::sample_spread_rad;
 pub use lockstep::{in_lockstep, Lockstep};
 pub use reconstruct::ReconstructExecutor;
@@ -155,6 +159,28 @@ pub struct FrameStats {
     /// name of the [`screen_post::DofExecutor`] in the frame's context where it supports the
     /// filter (`gpu` for `gather`).
     pub dof_backend: String,
+    /// Where each stage ran and, where an executor was there but the CPU ran it, why:
+    /// decided once before the first pass ([`StageBackends::decide`]); the nine
+    /// `*_backend` names above are copied from it.
+    pub stage_backends: StageBackends,
+}
+
+impl FrameStats {
+    /// Records where the stages ran: `backends`, and the `*_backend` names from it.
+    pub fn set_backends(&mut self, backends: StageBackends) {
+        let name = |p: &Placement| p.backend.clone();
+        self.ray_generation_backend = name(&backends.ray_generation);
+        self.trace_backend = name(&backends.trace);
+        self.surface_backend = name(&backends.surface);
+        self.shadow_backend = name(&backends.shadow);
+        self.direct_light_backend = name(&backends.direct_light);
+        self.environment_light_backend = name(&backends.environment_light);
+        self.aa_backend = name(&backends.aa);
+        self.reconstruct_backend = name(&backends.reconstruct);
+        self.dof_backend = name(&backends.dof);
+        self.denoise_backend = name(&backends.denoise);
+        self.stage_backends = backends;
+    }
 }
 
 /// A rendered frame.
@@ -319,10 +345,12 @@ pub fn render_planned<'c>(
         ));
     }
     let known = prefill.map(|p| p.known.as_slice());
+    // Where each stage runs, decided once from the executors and the plan.
+    let backends = StageBackends::decide(ctx.executors(), world, plan);
 
     // 3–4. Trace and shade into the sample buffers.
     let (samples, tracer, mut guides) = ctx.samples_and_tracer(plan, prefill)?;
-    let (counts, casters) = trace_shade::trace_and_shade(
+    let counts = trace_shade::trace_and_shade(
         world,
         camera,
         plan,
@@ -331,6 +359,7 @@ pub fn render_planned<'c>(
         guides.as_deref_mut(),
         &mut times,
         tracer,
+        &backends,
         progress,
     )?;
 
@@ -358,6 +387,7 @@ pub fn render_planned<'c>(
         Some(params) => {
             let t = Stopwatch::start();
             let (samples, guides, scratch, executor) = ctx.samples_and_denoiser();
+            let executor = executor.filter(|_| backends.denoise.on_executor());
             let (s, backend) =
                 sample_post::denoise(plan, &params, samples, guides, scratch, executor)?;
             times.add(Stage::Denoise, &t);
@@ -368,7 +398,8 @@ pub fn render_planned<'c>(
     let (samples, _, _, _) = ctx.samples_and_denoiser();
     let kept_samples = plan.settings.keep_samples.then(|| samples.clone());
     let (samples, anti_aliaser) = ctx.samples_and_anti_aliaser();
-    let aa_backend = times.time(Stage::Aa, || {
+    let anti_aliaser = anti_aliaser.filter(|_| backends.aa.on_executor());
+    times.time(Stage::Aa, || {
         sample_post::anti_alias(plan, &mut samples.color, anti_aliaser)
     })?;
 
@@ -376,7 +407,8 @@ pub fn render_planned<'c>(
     let (mut color, mut depth) = ctx.screen_buffers(plan)?;
     let t = Stopwatch::start();
     let (samples, executor) = ctx.samples_and_executor();
-    let (inset_smoothing, reconstruct_backend) =
+    let executor = executor.filter(|_| backends.reconstruct.on_executor());
+    let inset_smoothing =
         reconstruct::reconstruct(plan, samples, &mut color, &mut depth, executor)?;
     times.add(Stage::Reconstruct, &t);
     if let Some(acc) = accumulator {
@@ -392,12 +424,11 @@ pub fn render_planned<'c>(
         times.add(Stage::Contrast, &t);
     }
     let t = Stopwatch::start();
-    let mut dof_backend = reconstruct::CPU.to_string();
-    let coc = match screen_post::depth_of_field(plan, camera, &color, &depth, ctx.dof_executor())? {
+    let dof_executor = ctx.dof_executor().filter(|_| backends.dof.on_executor());
+    let coc = match screen_post::depth_of_field(plan, camera, &color, &depth, dof_executor)? {
         Some(out) => {
             ctx.keep_spare(std::mem::replace(&mut color, out.color));
             times.add(Stage::Dof, &t);
-            dof_backend = out.backend;
             Some(out.coc_px)
         }
         None => None,
@@ -412,17 +443,10 @@ pub fn render_planned<'c>(
     let (total_ms, total_cpu_ms) = t_total.elapsed_ms();
     let mut stats = frame_stats(plan, counts, times, temporal, total_ms, total_cpu_ms);
     stats.inset_smoothing = inset_smoothing.map(|s| s.name().to_string());
-    stats.aa_backend = aa_backend;
     stats.denoise = denoise;
+    stats.set_backends(backends);
+    // What ran (the decision's backend unless the executor refused the call's buffers).
     stats.denoise_backend = denoise_backend;
-    stats.reconstruct_backend = reconstruct_backend;
-    stats.trace_backend = casters.primary;
-    stats.ray_generation_backend = casters.ray_generation;
-    stats.surface_backend = casters.surface;
-    stats.shadow_backend = casters.shadow;
-    stats.direct_light_backend = casters.direct_light;
-    stats.environment_light_backend = casters.environment_light;
-    stats.dof_backend = dof_backend;
     Ok(ctx.store(Frame {
         color,
         depth,
@@ -484,6 +508,7 @@ fn frame_stats(
         direct_light_backend: trace_shade::CPU.to_string(),
         environment_light_backend: trace_shade::CPU.to_string(),
         dof_backend: reconstruct::CPU.to_string(),
+        stage_backends: StageBackends::default(),
     }
 }
 

@@ -44,25 +44,25 @@ pub trait ReconstructExecutor: Send {
     ) -> std::result::Result<(), String>;
 }
 
-/// Reconstructs `samples` into the screen-sized `color` and `depth`, on `executor` where it
-/// supports the plan's mapping and on the CPU otherwise. Returns the inset smoothing applied
-/// (`None` for other methods, and for an inset whose periphery is not an exact 2× or 4×
-/// subsampling of the screen, which keeps the hard boundary) and the backend that ran the
-/// lookup (`cpu` or the executor's name).
+/// Reconstructs `samples` into the screen-sized `color` and `depth`, on `executor` when given
+/// (the frame's [`super::StageBackends`] put the stage there) and on the CPU otherwise.
+/// Returns the inset smoothing applied (`None` for other methods, and for an inset whose
+/// periphery is not an exact 2× or 4× subsampling of the screen, which keeps the hard
+/// boundary).
 pub fn reconstruct(
     plan: &FramePlan,
     samples: &mut SampleBuffers,
     color: &mut Image<Rgb>,
     depth: &mut Image<f32>,
     executor: Option<&mut (dyn ReconstructExecutor + 'static)>,
-) -> Result<(Option<Smoothing>, String)> {
+) -> Result<Option<Smoothing>> {
     if plan.method() == Method::Full {
         // The buffer is the screen: handed over, nothing copied.
         std::mem::swap(&mut samples.color[0], color);
         std::mem::swap(&mut samples.depth[0], depth);
-        return Ok((None, CPU.to_string()));
+        return Ok(None);
     }
-    if let Some(ex) = executor.filter(|e| e.supports(plan.mapping())) {
+    if let Some(ex) = executor {
         ex.reconstruct_into(
             plan.mapping(),
             &plan.display,
@@ -76,10 +76,9 @@ pub fn reconstruct(
             backend: ex.backend().to_string(),
             message,
         })?;
-        return Ok((None, ex.backend().to_string()));
+        return Ok(None);
     }
-    let smoothing = reconstruct_on_cpu(plan, samples, color, depth)?;
-    Ok((smoothing, CPU.to_string()))
+    reconstruct_on_cpu(plan, samples, color, depth)
 }
 
 /// The name of the CPU backend in stats.

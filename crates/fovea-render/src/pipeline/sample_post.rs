@@ -167,9 +167,8 @@ pub trait AaExecutor: Send {
     ) -> std::result::Result<Image<Rgb>, String>;
 }
 
-/// Anti-aliases every layer of `color` with the plan's resolved AA mode, on `executor` where
-/// it supports the mode and grid and on the CPU otherwise; returns the backend that filtered
-/// (`cpu` or the executor's name; `cpu` when there was nothing to do). With the footprint
+/// Anti-aliases every layer of `color` with the plan's resolved AA mode, on `executor` when
+/// given (the frame's [`super::StageBackends`] put the stage there) and on the CPU otherwise. With the footprint
 /// reconstruction (the default), the columns of a polar buffer whose texels are smaller than a
 /// screen pixel both ways ([`minified_columns`]: VaFR's and visual-polar's fovea) are left as
 /// they are: the reconstruction averages every sample a pixel holds there, so an edge is
@@ -179,10 +178,9 @@ pub fn anti_alias(
     plan: &FramePlan,
     color: &mut [Image<Rgb>],
     mut executor: Option<&mut (dyn AaExecutor + 'static)>,
-) -> Result<String> {
-    let mut backend = CPU.to_string();
+) -> Result<()> {
     if plan.aa == AaMode::None {
-        return Ok(backend);
+        return Ok(());
     }
     let params = FxaaParams::default();
     let polar = plan.mapping().polar_layout();
@@ -200,12 +198,9 @@ pub fn anti_alias(
         };
         if matches!(plan.aa, AaMode::None | AaMode::Auto) {
             // `FramePlan` resolves `Auto`; `None` returned above.
-            return Ok(backend);
+            return Ok(());
         }
-        let on_executor = executor
-            .as_deref_mut()
-            .filter(|e| e.supports(plan.aa, &grid));
-        let mut out = match on_executor {
+        let mut out = match executor.as_deref_mut() {
             Some(ex) => {
                 let out = ex
                     .anti_alias(plan.aa, &params, &grid, c)
@@ -227,7 +222,6 @@ pub fn anti_alias(
                         ),
                     });
                 }
-                backend = ex.backend().to_string();
                 out
             }
             None if plan.aa == AaMode::Fxaa => fxaa(c, &grid, &params),
@@ -238,7 +232,7 @@ pub fn anti_alias(
         }
         *c = out;
     }
-    Ok(backend)
+    Ok(())
 }
 
 /// The name of the CPU backend in stats.

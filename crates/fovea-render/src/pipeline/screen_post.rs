@@ -77,7 +77,8 @@ pub struct DofOutput {
 }
 
 /// Depth of field of `color` with its `depth`, when the plan has DOF and a focus: the blurred
-/// image, the signed CoC map (pixels) and the backend that ran it, or `None`. `executor` runs it where it supports the plan's filter and CoC model.
+/// image, the signed CoC map (pixels) and the backend that ran it, or `None`. `executor`, when
+/// given (the frame's [`super::StageBackends`] put the stage there), runs it.
 pub fn depth_of_field(
     plan: &FramePlan,
     camera: &EyeCamera,
@@ -89,8 +90,7 @@ pub fn depth_of_field(
         return Ok(None);
     };
     if let Some(kind) = d.filter {
-        let (w, h) = (color.width(), color.height());
-        if let Some(ex) = executor.filter(|e| e.supports(kind, &d.coc_model) && e.fits(w, h)) {
+        if let Some(ex) = executor {
             let params = coc_params(d, camera);
             let (blurred, coc) = ex
                 .depth_of_field(kind, &params, focus_m, color, depth)

@@ -26,6 +26,7 @@ use fovea_post::inverse_map::SampleBuffers;
 use fovea_post::Rgb;
 use glam::Vec3;
 
+use super::backends::StageBackends;
 use super::timing::{Stage, StageTimes, Stopwatch};
 use crate::bvh::{Hit, Ray};
 use crate::camera::EyeCamera;
@@ -131,6 +132,12 @@ pub trait TraceExecutor: Send {
         let _ = (camera, centre, rays);
         Err(format!("{} does not generate rays", self.backend()))
     }
+    /// Why it does not interpolate surfaces ([`Self::interpolates_surfaces`] false), e.g. "a
+    /// texture larger than a binding", for the frame's [`StageBackends`] record.
+    fn why_no_surfaces(&self) -> Option<String> {
+        None
+    }
+
     /// Whether it also interpolates the surface at each generated ray's hit itself — the
     /// scene's normals, UVs, materials and textures on its side — and returns G-buffer
     /// records ([`Self::surfaces_polar`], [`Self::surfaces_screen`]); if not, the hits come
@@ -227,9 +234,9 @@ pub fn ray_starts(plan: &FramePlan, chunk: Chunk<'_>, starts: &mut Vec<u32>) {
 ///
 /// With `tracer` the closest hits come from it (one batch per chunk) and the surfaces are
 /// interpolated here — from the rays' screen points, or a polar buffer's polar coordinates,
-/// when it generates the rays itself ([`TraceExecutor::generates_rays`]), and then the
-/// records themselves when it interpolates the surfaces too
-/// ([`TraceExecutor::interpolates_surfaces`]); without, each ray is cast on the CPU.
+/// when it generates the rays itself (`(generates, surfaces).0`, as the frame's
+/// [`StageBackends`] decided), and then the records themselves when it interpolates the
+/// surfaces too (`.1`); without, each ray is cast on the CPU.
 #[allow(clippy::too_many_arguments)]
 pub fn trace_chunk(
     world: &World,
@@ -239,6 +246,7 @@ pub fn trace_chunk(
     starts: &[u32],
     known: Option<&Image<bool>>,
     tracer: Option<&mut (dyn TraceExecutor + 'static)>,
+    (generates, surfaces): (bool, bool),
     gbuf: &mut Vec<Option<GSample>>,
 ) -> Result<()> {
     let mapping = plan.mapping();
@@ -305,7 +313,7 @@ pub fn trace_chunk(
     // A polar buffer on an executor that generates rays: each ray goes as its polar
     // coordinates, and comes back with the direction it was cast along.
     let tracer = match (tracer, &rings) {
-        (Some(tracer), Some(rings)) if tracer.generates_rays() => {
+        (Some(tracer), Some(rings)) if generates => {
             let polar: Vec<Option<(PolarRay, f32)>> = (0..total)
                 .into_par_iter()
                 .map(|r| {
@@ -317,7 +325,7 @@ pub fn trace_chunk(
                 })
                 .collect();
             let batch: Vec<PolarRay> = polar.iter().flatten().map(|&(r, _)| r).collect();
-            if tracer.interpolates_surfaces() {
+            if surfaces {
                 let spreads: Vec<f32> = polar.iter().flatten().map(|&(_, s)| s).collect();
                 let got = tracer.surfaces_polar(camera, rings.centre(), &batch, &spreads);
                 let records = checked(tracer, "trace", ("surfaces", "rays"), batch.len(), got)?;
@@ -331,11 +339,11 @@ pub fn trace_chunk(
         }
         // A screen-aligned buffer on an executor that generates rays: each ray goes as its
         // screen point.
-        (Some(tracer), None) if tracer.generates_rays() => {
+        (Some(tracer), None) if generates => {
             let points: Vec<Option<(ScreenPoint, f32)>> =
                 (0..total).into_par_iter().map(point_of).collect();
             let batch: Vec<ScreenPoint> = points.iter().flatten().map(|&(p, _)| p).collect();
-            if tracer.interpolates_surfaces() {
+            if surfaces {
                 let spreads: Vec<f32> = points.iter().flatten().map(|&(_, s)| s).collect();
                 let got = tracer.surfaces_screen(camera, &batch, &spreads);
                 let records = checked(tracer, "trace", ("surfaces", "rays"), batch.len(), got)?;
@@ -489,6 +497,7 @@ pub fn shade_chunk(
     mut cull_state: Option<&mut CullBuffers>,
     counts: &mut TraceCounts,
     tracer: Option<&mut (dyn TraceExecutor + 'static)>,
+    decided: ShadeCast,
 ) -> Result<ShadeCast> {
     let want_noisy = noisy.is_some();
     let Chunk {
@@ -657,11 +666,13 @@ pub fn shade_chunk(
         // Per batch: each texel's colour and depth, the batch's secondary rays, and the Monte
         // Carlo part of each surface sample (empty where not separated).
         type Batch = (Vec<Option<(Rgb, f32)>>, RayCounts, Vec<Vec3>);
+        // Where the frame's `StageBackends` put the shade stage's parts.
         let on_executor = ShadeCast {
-            shadow_rays: tracer.is_some(),
-            direct_light: tracer.as_ref().is_some_and(|t| t.shades_direct_light()),
+            shadow_rays: tracer.is_some() && decided.shadow_rays,
+            direct_light: tracer.is_some() && decided.direct_light,
             environment_light: env_samples.is_some()
-                && tracer.as_ref().is_some_and(|t| t.shades_environment()),
+                && tracer.is_some()
+                && decided.environment_light,
         };
         let blocks: Vec<Batch> = match tracer {
             None => order
@@ -689,7 +700,7 @@ pub fn shade_chunk(
                 })
                 .collect(),
             Some(tracer) => {
-                let shades = tracer.shades_direct_light();
+                let shades = on_executor.direct_light;
                 let env_on = on_executor.environment_light;
                 let mut blocks = Vec::with_capacity(order.len().div_ceil(SHADE_BATCH));
                 for (n, group) in order.chunks(SHADE_GROUP).enumerate() {
@@ -969,33 +980,19 @@ pub fn trace_and_shade(
     mut guides: Option<&mut DenoiseGuides>,
     times: &mut StageTimes,
     mut tracer: Option<&mut (dyn TraceExecutor + 'static)>,
+    backends: &StageBackends,
     progress: &(dyn Fn(u64, u64) + Sync),
-) -> Result<(TraceCounts, Casters)> {
+) -> Result<TraceCounts> {
     let total = plan.sample_count;
-    // Another executor only for the world it holds.
-    if tracer.as_ref().is_some_and(|t| !t.serves(world)) {
+    // The executor only where the frame's `StageBackends` put the trace (the world it
+    // holds).
+    if !backends.trace.on_executor() {
         tracer = None;
     }
-    let backend = tracer
-        .as_ref()
-        .map_or(CPU.to_string(), |t| t.backend().to_string());
-    // The primary rays are generated where they are cast when the executor can.
-    let generated = tracer.as_ref().is_some_and(|t| t.generates_rays());
-    let mut casters = Casters {
-        ray_generation: if generated {
-            backend.clone()
-        } else {
-            CPU.to_string()
-        },
-        primary: backend.clone(),
-        surface: if generated && tracer.as_ref().is_some_and(|t| t.interpolates_surfaces()) {
-            backend.clone()
-        } else {
-            CPU.to_string()
-        },
-        shadow: CPU.to_string(),
-        direct_light: CPU.to_string(),
-        environment_light: CPU.to_string(),
+    let decided = ShadeCast {
+        shadow_rays: backends.shadow.on_executor(),
+        direct_light: backends.direct_light.on_executor(),
+        environment_light: backends.environment_light.on_executor(),
     };
     let mut counts = TraceCounts::default();
     let mut gbuf = Vec::new();
@@ -1041,6 +1038,10 @@ pub fn trace_and_shade(
                 &starts,
                 known,
                 tracer.as_deref_mut(),
+                (
+                    backends.ray_generation.on_executor(),
+                    backends.surface.on_executor(),
+                ),
                 &mut gbuf,
             )?;
             times.add(Stage::Trace, &t);
@@ -1062,7 +1063,7 @@ pub fn trace_and_shade(
 
             let t = Stopwatch::start();
             let cs = cull_state.as_mut();
-            let on_executor = shade_chunk(
+            shade_chunk(
                 world,
                 camera,
                 plan,
@@ -1076,17 +1077,9 @@ pub fn trace_and_shade(
                     .map(|g| &mut g.noisy[layer].data_mut()[span.clone()]),
                 cs,
                 &mut counts,
-                tracer.as_deref_mut(),
+                tracer.as_deref_mut().filter(|_| decided.shadow_rays),
+                decided,
             )?;
-            if on_executor.shadow_rays {
-                casters.shadow.clone_from(&backend);
-            }
-            if on_executor.direct_light {
-                casters.direct_light.clone_from(&backend);
-            }
-            if on_executor.environment_light {
-                casters.environment_light.clone_from(&backend);
-            }
             times.add(Stage::Shade, &t);
             progress(counts.primary.min(total), total);
         }
@@ -1097,23 +1090,5 @@ pub fn trace_and_shade(
             times.add(Stage::CullFill, &t);
         }
     }
-    Ok((counts, casters))
-}
-
-/// Which backend cast a frame's rays ([`CPU`] or another executor's name).
-#[derive(Clone, Debug)]
-pub struct Casters {
-    /// The primary rays'.
-    pub primary: String,
-    /// The primary rays' generation (their screen points and directions).
-    pub ray_generation: String,
-    /// The G-buffer records' (the surface at each primary hit: normals, UVs, materials,
-    /// textures).
-    pub surface: String,
-    /// The shade stage's shadow rays' (lights and environment).
-    pub shadow: String,
-    /// The lights' part of direct shading (BRDF, falloff, their shadow rays).
-    pub direct_light: String,
-    /// The environment's part of direct shading (its estimator, its shadow rays).
-    pub environment_light: String,
+    Ok(counts)
 }
