@@ -36,7 +36,9 @@
 //! * [`dof`]: the signed CoC map from depth with the eye model and the scatter-as-gather
 //!   depth-of-field filter ([`GpuDof`]).
 //! * [`tonemap`]: exposure, tone curve and 8-bit sRGB encoding ([`GpuToneMap`]).
-//! * [`frame`]: the resident frame's buffers on the device ([`frame::DeviceSamples`]).
+//! * [`frame`]: the resident frame's buffers on the device ([`frame::DeviceSamples`]) and its
+//!   sample side: every texel traced and shaded by one kernel, both eyes in one submission
+//!   ([`frame::ResidentSamples`]).
 //! * [`shaders`]: the WGSL sources, validated with naga in a plain `cargo test`.
 //!
 //! ```no_run
@@ -112,4 +114,5 @@ pub const ALL_SHADERS: &[shaders::ShaderSource] = &[
     dof::COC_SHADER,
     dof::GATHER_SHADER,
     tonemap::SHADER,
+    frame::shade::SHADER,
 ];

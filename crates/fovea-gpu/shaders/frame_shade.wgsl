@@ -1,0 +1,194 @@
+// frame_shade.wgsl: the resident frame's sample side — per texel of one eye's sample buffer,
+// its primary ray generated, traced, the surface at the hit interpolated, lit (each light's
+// shadow ray, the environment's MIS estimate with its shadow rays) and its colour + depth
+// written into the frame's sample buffers (`fovea_gpu::frame::DeviceSamples`), nothing going
+// back to the host. Appended after trace.wgsl, direct_light.wgsl, ray_generation.wgsl,
+// surface.wgsl and environment_light.wgsl: their functions, step for step the renderer's
+// (`fovea_render::pipeline::trace_shade`'s trace and shade of one ray per texel,
+// `fovea_render::shade::shade` in direct shading), called from two entry points, one
+// invocation per texel each, in one compute pass:
+//
+// * `frame_surface`: the ray, its closest hit and the G-buffer record at the hit, kept on the
+//   device (`frame_geometry`, `frame_material`: 48 bytes each per texel); the texel's emission
+//   and depth written;
+// * `frame_light`: the record's lights and environment added (a miss: the environment's
+//   radiance along the ray).
+//
+// (One fused kernel with both halves crashes lavapipe's JIT — Mesa 22.3, "stack smashing
+// detected" — where each half alone runs; the record between them stays on the device.)
+//
+// Which ray a texel casts is the CPU plan's: a polar buffer's texel (i, j) lies on the ring of
+// its column (`FoveationMapping::ring` of u = i + ½ + jitter, the CPU mapping's f64 radius and
+// rows per turn, uploaded per column) at the angle v/period turns, v = j + ½ + jitter (VaFR
+// Eq. 11, `Ring::polar`); it is shaded where the mapping shades it (its column's runs of rows,
+// `FoveationMapping::is_shaded`). A screen-aligned (full-resolution) texel's ray goes through
+// the screen point (i + ½ + jitter, j + ½ + jitter). The key of its random numbers is
+// `texel_key(layer, i, j)` with the frame and the eye (`frame_noise::with_frame`): the rank in
+// its 4×4 tile (uploaded), the tile's column and row, the frame's high word (uploaded).
+//
+// Output per texel: linear RGB and depth along the view axis (`EyeCamera::view_depth`), +∞
+// for a miss (the environment's radiance along the ray) and for a texel the plan does not
+// shade (black), as the CPU's buffers hold them.
+
+// A sample layer of the frame (`fovea_gpu::frame::SampleLayer`) and its key's high word.
+struct FrameLayer {
+    offset: u32,
+    width: u32,
+    height: u32,
+    key_hi: u32,
+}
+
+struct FrameParams {
+    // Texels of the layer (the invocations that write).
+    texels: u32,
+    // FRAME_POLAR or FRAME_SCREEN.
+    kind: u32,
+    // +∞ as bits (WGSL may assume no infinities, so it arrives as data).
+    inf_bits: u32,
+    // 1: the environment as the unshadowed ambient term `ambient · albedo · (1 − metallic)`;
+    // 0: its occluded estimate with env.samples rays.
+    unshadowed: u32,
+    layer: FrameLayer,
+    // The ray's offset in its texel plus the plan's jitter, buffer texels (u, v).
+    offset: vec2<f32>,
+    // A screen-aligned texel's ray cone, radians.
+    pixel_spread: f32,
+    // Invocations per row of the dispatch's grid (its x size times the workgroup's).
+    row_invocations: u32,
+    // The environment's mean radiance (xyz).
+    ambient: vec4<f32>,
+    // The rank of texel (i, j) in its 4×4 tile: rank[j % 4][i % 4].
+    rank: array<vec4<u32>, 4>,
+}
+
+// A polar buffer's column: its ring (radius, rows per turn), its rays' cone, and where its
+// shaded runs of rows start in `frame_runs` (the next column's `runs` ends them).
+struct FrameColumn {
+    r_px: f32,
+    period: f32,
+    spread: f32,
+    runs: u32,
+}
+
+@group(0) @binding(21) var<uniform> frame: FrameParams;
+@group(0) @binding(22) var<storage, read> frame_columns: array<FrameColumn>;
+@group(0) @binding(23) var<storage, read> frame_runs: array<vec2<u32>>;
+@group(0) @binding(24) var<storage, read_write> frame_samples: array<vec4<f32>>;
+// Per texel: (position, t), (shading normal, metallic), (geometric normal, roughness).
+@group(0) @binding(25) var<storage, read_write> frame_geometry: array<vec4<f32>>;
+// Per texel: (to_eye, state), (albedo, 0), (specular, 0).
+@group(0) @binding(26) var<storage, read_write> frame_material: array<vec4<f32>>;
+
+const FRAME_POLAR: u32 = 0u;
+const FRAME_SCREEN: u32 = 1u;
+// A texel's state in `frame_material` (w of its first record).
+const STATE_HIT: f32 = 0.0;
+const STATE_MISS: f32 = 1.0;
+const STATE_UNSHADED: f32 = 2.0;
+
+// Whether row j of column i is one the mapping shades.
+fn frame_shaded(i: u32, j: u32) -> bool {
+    let a = frame_columns[i].runs;
+    let b = frame_columns[i + 1u].runs;
+    for (var r = a; r < b; r = r + 1u) {
+        let run = frame_runs[r];
+        if j >= run.x && j < run.y {
+            return true;
+        }
+    }
+    return false;
+}
+
+// The texel of invocation `id` (`frame.texels` and beyond: none).
+fn frame_texel(id: vec3<u32>) -> u32 {
+    return id.x + id.y * frame.row_invocations;
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn frame_surface(@builtin(global_invocation_id) id: vec3<u32>) {
+    let k = frame_texel(id);
+    if k >= frame.texels {
+        return;
+    }
+    let w = frame.layer.width;
+    let i = k % w;
+    let j = k / w;
+    let out = frame.layer.offset + k;
+    let inf = bitcast<f32>(frame.inf_bits);
+    let unshaded = vec4<f32>(0.0, 0.0, 0.0, inf);
+    var p: vec2<f32>;
+    var spread: f32;
+    if frame.kind == FRAME_POLAR {
+        var shaded = frame_shaded(i, j);
+        let c = frame_columns[i];
+        let v = f32(j) + frame.offset.y;
+        // `Ring::polar`: a ring without rows has only the pole, at v = 0.
+        if c.period <= 0.0 {
+            shaded = shaded && v == 0.0;
+            p = camera.centre;
+        } else {
+            shaded = shaded && v >= 0.0 && v <= c.period;
+            p = camera.centre + c.r_px * cos_sin_turns(v / c.period, camera.rad_per_turn);
+        }
+        if !shaded {
+            frame_samples[out] = unshaded;
+            frame_material[3u * k] = vec4<f32>(0.0, 0.0, 0.0, STATE_UNSHADED);
+            return;
+        }
+        spread = c.spread;
+    } else {
+        p = camera.centre + vec2<f32>(f32(i) + frame.offset.x, f32(j) + frame.offset.y);
+        spread = frame.pixel_spread;
+    }
+    let ray = camera_ray(p);
+    let g = surface_at(ray.origin, ray.dir, traverse(ray, false), spread);
+    if g.material == MISS {
+        frame_samples[out] = unshaded;
+        frame_material[3u * k] = vec4<f32>(g.to_eye, STATE_MISS);
+        return;
+    }
+    frame_samples[out] = vec4<f32>(g.emissive, g.t * dot(ray.dir, camera.forward));
+    frame_geometry[3u * k] = vec4<f32>(g.position, g.t);
+    frame_geometry[3u * k + 1u] = vec4<f32>(g.normal, g.metallic);
+    frame_geometry[3u * k + 2u] = vec4<f32>(g.face_normal, g.roughness);
+    frame_material[3u * k] = vec4<f32>(g.to_eye, STATE_HIT);
+    frame_material[3u * k + 1u] = vec4<f32>(g.albedo, 0.0);
+    frame_material[3u * k + 2u] = vec4<f32>(g.specular, 0.0);
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn frame_light(@builtin(global_invocation_id) id: vec3<u32>) {
+    let k = frame_texel(id);
+    if k >= frame.texels {
+        return;
+    }
+    let m0 = frame_material[3u * k];
+    if m0.w == STATE_UNSHADED {
+        return;
+    }
+    let out = frame.layer.offset + k;
+    if m0.w == STATE_MISS {
+        frame_samples[out] = vec4<f32>(env_radiance(-m0.xyz), bitcast<f32>(frame.inf_bits));
+        return;
+    }
+    let w = frame.layer.width;
+    let i = k % w;
+    let j = k / w;
+    let g0 = frame_geometry[3u * k];
+    let g1 = frame_geometry[3u * k + 1u];
+    let g2 = frame_geometry[3u * k + 2u];
+    let albedo = frame_material[3u * k + 1u].xyz;
+    let specular = frame_material[3u * k + 2u].xyz;
+    // `texel_key(layer, i, j)` with the frame's and the eye's fields (`with_frame`).
+    let key_lo = frame.rank[j % 4u][i % 4u] | (((i / 4u) & 0x3fffu) << 4u) | (((j / 4u) & 0x3fffu) << 18u);
+    let s = Surface(g0.xyz, g0.w, g1.xyz, g1.w, g2.xyz, g2.w, m0.xyz, key_lo, albedo, frame.layer.key_hi, specular, 0.0);
+    let before = frame_samples[out];
+    // `shade` in direct shading: emission (written), the lights, the environment, in order.
+    var c = before.xyz + direct_at(s).xyz;
+    if frame.unshadowed != 0u {
+        c = c + frame.ambient.xyz * albedo * (1.0 - g1.w);
+    } else if env.samples > 0u {
+        c = c + environment_at(s).xyz;
+    }
+    frame_samples[out] = vec4<f32>(c, before.w);
+}
