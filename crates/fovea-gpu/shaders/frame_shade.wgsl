@@ -9,10 +9,11 @@
 // invocation per texel each, in one compute pass:
 //
 // * `frame_surface`: the ray, its closest hit and the G-buffer record at the hit, kept on the
-//   device (`frame_geometry`, `frame_material`: 48 bytes each per texel); the texel's emission
+//   device (`frame_geometry`, `frame_material`: 32 bytes each per texel); the texel's emission
 //   and depth written;
-// * `frame_light`: the record's lights and environment added (a miss: the environment's
-//   radiance along the ray).
+// * `frame_light`: the ray placed again (the same arithmetic: the same direction, position
+//   `origin + dir·t` and `to_eye` as the record's), the record's lights and environment added
+//   (a miss: the environment's radiance along the ray).
 //
 // (One fused kernel with both halves crashes lavapipe's JIT — Mesa 22.3, "stack smashing
 // detected" — where each half alone runs; the record between them stays on the device.)
@@ -74,14 +75,14 @@ struct FrameColumn {
 @group(0) @binding(22) var<storage, read> frame_columns: array<FrameColumn>;
 @group(0) @binding(23) var<storage, read> frame_runs: array<vec2<u32>>;
 @group(0) @binding(24) var<storage, read_write> frame_samples: array<vec4<f32>>;
-// Per texel: (position, t), (shading normal, metallic), (geometric normal, roughness).
+// Per texel: (shading normal, t), (geometric normal, metallic).
 @group(0) @binding(25) var<storage, read_write> frame_geometry: array<vec4<f32>>;
-// Per texel: (to_eye, state), (albedo, 0), (specular, 0).
+// Per texel: (albedo, roughness), (specular, state).
 @group(0) @binding(26) var<storage, read_write> frame_material: array<vec4<f32>>;
 
 const FRAME_POLAR: u32 = 0u;
 const FRAME_SCREEN: u32 = 1u;
-// A texel's state in `frame_material` (w of its first record).
+// A texel's state in `frame_material` (w of its second record).
 const STATE_HIT: f32 = 0.0;
 const STATE_MISS: f32 = 1.0;
 const STATE_UNSHADED: f32 = 2.0;
@@ -104,6 +105,27 @@ fn frame_texel(id: vec3<u32>) -> u32 {
     return id.x + id.y * frame.row_invocations;
 }
 
+// Texel (i, j)'s ray: its screen point relative to the principal point (xy), its cone (z),
+// and whether the plan shades the texel (w: 1 or 0).
+fn frame_point(i: u32, j: u32) -> vec4<f32> {
+    if frame.kind != FRAME_POLAR {
+        let p = camera.centre + vec2<f32>(f32(i) + frame.offset.x, f32(j) + frame.offset.y);
+        return vec4<f32>(p, frame.pixel_spread, 1.0);
+    }
+    var shaded = frame_shaded(i, j);
+    let c = frame_columns[i];
+    let v = f32(j) + frame.offset.y;
+    var p = camera.centre;
+    // `Ring::polar`: a ring without rows has only the pole, at v = 0.
+    if c.period <= 0.0 {
+        shaded = shaded && v == 0.0;
+    } else {
+        shaded = shaded && v >= 0.0 && v <= c.period;
+        p = camera.centre + c.r_px * cos_sin_turns(v / c.period, camera.rad_per_turn);
+    }
+    return vec4<f32>(p, c.spread, select(0.0, 1.0, shaded));
+}
+
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn frame_surface(@builtin(global_invocation_id) id: vec3<u32>) {
     let k = frame_texel(id);
@@ -111,49 +133,26 @@ fn frame_surface(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let w = frame.layer.width;
-    let i = k % w;
-    let j = k / w;
+    let q = frame_point(k % w, k / w);
     let out = frame.layer.offset + k;
-    let inf = bitcast<f32>(frame.inf_bits);
-    let unshaded = vec4<f32>(0.0, 0.0, 0.0, inf);
-    var p: vec2<f32>;
-    var spread: f32;
-    if frame.kind == FRAME_POLAR {
-        var shaded = frame_shaded(i, j);
-        let c = frame_columns[i];
-        let v = f32(j) + frame.offset.y;
-        // `Ring::polar`: a ring without rows has only the pole, at v = 0.
-        if c.period <= 0.0 {
-            shaded = shaded && v == 0.0;
-            p = camera.centre;
-        } else {
-            shaded = shaded && v >= 0.0 && v <= c.period;
-            p = camera.centre + c.r_px * cos_sin_turns(v / c.period, camera.rad_per_turn);
-        }
-        if !shaded {
-            frame_samples[out] = unshaded;
-            frame_material[3u * k] = vec4<f32>(0.0, 0.0, 0.0, STATE_UNSHADED);
-            return;
-        }
-        spread = c.spread;
-    } else {
-        p = camera.centre + vec2<f32>(f32(i) + frame.offset.x, f32(j) + frame.offset.y);
-        spread = frame.pixel_spread;
+    let unshaded = vec4<f32>(0.0, 0.0, 0.0, bitcast<f32>(frame.inf_bits));
+    if q.w == 0.0 {
+        frame_samples[out] = unshaded;
+        frame_material[2u * k + 1u] = vec4<f32>(0.0, 0.0, 0.0, STATE_UNSHADED);
+        return;
     }
-    let ray = camera_ray(p);
-    let g = surface_at(ray.origin, ray.dir, traverse(ray, false), spread);
+    let ray = camera_ray(q.xy);
+    let g = surface_at(ray.origin, ray.dir, traverse(ray, false), q.z);
     if g.material == MISS {
         frame_samples[out] = unshaded;
-        frame_material[3u * k] = vec4<f32>(g.to_eye, STATE_MISS);
+        frame_material[2u * k + 1u] = vec4<f32>(0.0, 0.0, 0.0, STATE_MISS);
         return;
     }
     frame_samples[out] = vec4<f32>(g.emissive, g.t * dot(ray.dir, camera.forward));
-    frame_geometry[3u * k] = vec4<f32>(g.position, g.t);
-    frame_geometry[3u * k + 1u] = vec4<f32>(g.normal, g.metallic);
-    frame_geometry[3u * k + 2u] = vec4<f32>(g.face_normal, g.roughness);
-    frame_material[3u * k] = vec4<f32>(g.to_eye, STATE_HIT);
-    frame_material[3u * k + 1u] = vec4<f32>(g.albedo, 0.0);
-    frame_material[3u * k + 2u] = vec4<f32>(g.specular, 0.0);
+    frame_geometry[2u * k] = vec4<f32>(g.normal, g.t);
+    frame_geometry[2u * k + 1u] = vec4<f32>(g.face_normal, g.metallic);
+    frame_material[2u * k] = vec4<f32>(g.albedo, g.roughness);
+    frame_material[2u * k + 1u] = vec4<f32>(g.specular, STATE_HIT);
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -162,31 +161,33 @@ fn frame_light(@builtin(global_invocation_id) id: vec3<u32>) {
     if k >= frame.texels {
         return;
     }
-    let m0 = frame_material[3u * k];
-    if m0.w == STATE_UNSHADED {
-        return;
-    }
-    let out = frame.layer.offset + k;
-    if m0.w == STATE_MISS {
-        frame_samples[out] = vec4<f32>(env_radiance(-m0.xyz), bitcast<f32>(frame.inf_bits));
+    let m1 = frame_material[2u * k + 1u];
+    if m1.w == STATE_UNSHADED {
         return;
     }
     let w = frame.layer.width;
     let i = k % w;
     let j = k / w;
-    let g0 = frame_geometry[3u * k];
-    let g1 = frame_geometry[3u * k + 1u];
-    let g2 = frame_geometry[3u * k + 2u];
-    let albedo = frame_material[3u * k + 1u].xyz;
-    let specular = frame_material[3u * k + 2u].xyz;
+    let out = frame.layer.offset + k;
+    // The ray again, as frame_surface cast it (the same arithmetic, so the same bits).
+    let ray = camera_ray(frame_point(i, j).xy);
+    if m1.w == STATE_MISS {
+        frame_samples[out] = vec4<f32>(env_radiance(ray.dir), bitcast<f32>(frame.inf_bits));
+        return;
+    }
+    let g0 = frame_geometry[2u * k];
+    let g1 = frame_geometry[2u * k + 1u];
+    let m0 = frame_material[2u * k];
     // `texel_key(layer, i, j)` with the frame's and the eye's fields (`with_frame`).
     let key_lo = frame.rank[j % 4u][i % 4u] | (((i / 4u) & 0x3fffu) << 4u) | (((j / 4u) & 0x3fffu) << 18u);
-    let s = Surface(g0.xyz, g0.w, g1.xyz, g1.w, g2.xyz, g2.w, m0.xyz, key_lo, albedo, frame.layer.key_hi, specular, 0.0);
+    // surface.wgsl's `position = origin + dir · t` and `to_eye = −dir`.
+    let position = ray.origin + ray.dir * g0.w;
+    let s = Surface(position, g0.w, g0.xyz, g1.w, g1.xyz, m0.w, -ray.dir, key_lo, m0.xyz, frame.layer.key_hi, m1.xyz, 0.0);
     let before = frame_samples[out];
     // `shade` in direct shading: emission (written), the lights, the environment, in order.
     var c = before.xyz + direct_at(s).xyz;
     if frame.unshadowed != 0u {
-        c = c + frame.ambient.xyz * albedo * (1.0 - g1.w);
+        c = c + frame.ambient.xyz * m0.xyz * (1.0 - g1.w);
     } else if env.samples > 0u {
         c = c + environment_at(s).xyz;
     }

@@ -418,8 +418,9 @@ impl EyeShade {
         }
     }
 
-    /// The G-buffer records between the kernels (geometry, material; 48 bytes per texel
-    /// each), for a pass that reads them (the denoiser's guides).
+    /// The G-buffer records between the kernels (geometry, material; 32 bytes per texel
+    /// each: shading normal and t, geometric normal and metallic; albedo and roughness, specular
+    /// and the texel's state), for a pass that reads them (the denoiser's guides).
     pub fn gbuffer(&self) -> &[wgpu::Buffer; 2] {
         &self.gbuffer
     }

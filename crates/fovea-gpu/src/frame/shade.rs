@@ -69,8 +69,8 @@ pub const ENTRY_POINTS: [&str; 2] = ["frame_surface", "frame_light"];
 pub const STORAGE_BUFFERS: u32 = 16;
 
 /// Bytes per texel of each of the two G-buffer records the kernels keep on the device
-/// (`frame_geometry`, `frame_material`: three `vec4<f32>` each).
-pub const GBUFFER_TEXEL_BYTES: u64 = 48;
+/// (`frame_geometry`, `frame_material`: two `vec4<f32>` each).
+pub const GBUFFER_TEXEL_BYTES: u64 = 32;
 
 /// `FrameParams.kind` of a polar buffer.
 pub const KIND_POLAR: u32 = 0;
