@@ -100,9 +100,20 @@ fn frame_shaded(i: u32, j: u32) -> bool {
     return false;
 }
 
-// The texel of invocation `id` (`frame.texels` and beyond: none).
+// The texel of invocation `id`, row-major in the layer (`frame.texels` and beyond: none).
+// Each workgroup takes an 8×8 tile of texels, so that its rays run close together.
 fn frame_texel(id: vec3<u32>) -> u32 {
-    return id.x + id.y * frame.row_invocations;
+    let n = id.x + id.y * frame.row_invocations;
+    let w = frame.layer.width;
+    let tiles_x = (w + 7u) / 8u;
+    let t = n / 64u;
+    let l = n % 64u;
+    let i = (t % tiles_x) * 8u + l % 8u;
+    let j = (t / tiles_x) * 8u + l / 8u;
+    if i >= w || j >= frame.layer.height {
+        return frame.texels;
+    }
+    return j * w + i;
 }
 
 // Texel (i, j)'s ray: its screen point relative to the principal point (xy), its cone (z),

@@ -180,9 +180,16 @@ fn worst_case(plan: &FramePlan) -> (u64, usize) {
     most
 }
 
-/// The dispatch grid of `texels` invocations: `[x, y]` workgroups, x at most [`MAX_GROUPS`].
-fn dispatch(texels: u64) -> Result<[u32; 2]> {
-    let groups = texels.div_ceil(u64::from(WORKGROUP_SIZE)).max(1);
+/// The dispatch grid of the layers `sizes`: one workgroup per 8×8 tile of texels
+/// (`frame_texel` in the shader), as `[x, y]` workgroups, x at most [`MAX_GROUPS`].
+fn dispatch(sizes: &[BufferSize]) -> Result<[u32; 2]> {
+    let tiles: u64 = sizes
+        .iter()
+        .map(|s| u64::from(s.width.div_ceil(8)) * u64::from(s.height.div_ceil(8)))
+        .sum();
+    let texels: u64 = sizes.iter().map(|s| s.pixels()).sum();
+    debug_assert_eq!(WORKGROUP_SIZE, 64);
+    let groups = tiles.max(1);
     let gx = groups.min(u64::from(MAX_GROUPS));
     let gy = groups.div_ceil(gx);
     if gy > u64::from(MAX_GROUPS) {
@@ -221,7 +228,7 @@ impl EyeShade {
         let sizes = plan.buffers.clone();
         let texels: u64 = sizes.iter().map(|s| s.pixels()).sum();
         let capacity = capacity.max(texels);
-        let groups = dispatch(texels)?;
+        let groups = dispatch(&sizes)?;
         let column_bytes = columns * std::mem::size_of::<FrameColumnGpu>();
         let run_bytes = runs * std::mem::size_of::<[u32; 2]>();
         ctx.check_storage_binding("the frame's column table", column_bytes as u64)?;
@@ -325,7 +332,7 @@ impl EyeShade {
             return false;
         }
         if self.sizes != plan.buffers {
-            let Ok(groups) = dispatch(texels) else {
+            let Ok(groups) = dispatch(&plan.buffers) else {
                 return false;
             };
             if !self.samples.relayout(&plan.buffers) {
