@@ -175,8 +175,9 @@ fn both_eyes_match_the_cpu(ctx: &GpuContext, method: Method) {
         let times = resident.render_eyes(&world, &eyes).unwrap();
         let moved = ctx.traffic().since(&before);
         shout(&format!(
-            "[fovea-gpu] resident {method} frame {f}: host {:.2} ms, submit {:.2} ms, {moved:?}",
-            times.host_ms, times.submit_ms
+            "[fovea-gpu] resident {method} frame {f}: host {:.2} ms (tables {:.2}), submit \
+             {:.2} ms, {moved:?}",
+            times.host_ms, times.tables_ms, times.submit_ms
         ));
         assert_eq!(moved.submissions, 1, "one submission per binocular frame");
         assert_eq!(moved.blocking_waits, 0);

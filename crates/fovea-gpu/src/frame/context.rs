@@ -444,6 +444,9 @@ pub struct RecordTimes {
     /// Preparing (tables, uniforms) and recording every eye, wall ms: the host's own work on
     /// the frame, without the submission.
     pub host_ms: f64,
+    /// Of that, the per-column tables (rings, cones, the runs of shaded rows scanned from
+    /// `FoveationMapping::is_shaded`), wall ms.
+    pub tables_ms: f64,
     /// The `queue.submit` call, wall ms.
     pub submit_ms: f64,
 }
@@ -453,6 +456,8 @@ pub struct RecordTimes {
 pub struct ResidentSamples {
     scene: ShadeScene,
     eyes: [Option<EyeShade>; 2],
+    /// The tables' wall ms since the last [`Self::render_eyes`].
+    tables_ms: f64,
 }
 
 impl ResidentSamples {
@@ -461,6 +466,7 @@ impl ResidentSamples {
         Ok(Self {
             scene: ShadeScene::new(ctx, world)?,
             eyes: [None, None],
+            tables_ms: 0.0,
         })
     }
 
@@ -507,7 +513,9 @@ impl ResidentSamples {
             ));
         }
         self.scene.update_lights(world)?;
+        let t = std::time::Instant::now();
         let tables = tables(plan, layout);
+        self.tables_ms += t.elapsed().as_secs_f64() * 1e3;
         let fits = self.eyes[eye]
             .as_mut()
             .is_some_and(|e| e.take(plan, layout, &tables));
@@ -579,6 +587,7 @@ impl ResidentSamples {
         eyes: &[(&EyeCamera, &FramePlan)],
     ) -> Result<RecordTimes> {
         let t = std::time::Instant::now();
+        self.tables_ms = 0.0;
         let ctx = self.scene.ctx.clone();
         let mut encoder = ctx
             .device()
@@ -595,6 +604,7 @@ impl ResidentSamples {
         })?;
         Ok(RecordTimes {
             host_ms,
+            tables_ms: self.tables_ms,
             submit_ms: t.elapsed().as_secs_f64() * 1e3,
         })
     }
