@@ -7,7 +7,8 @@
 //!   second frame with the unshadowed ambient term), one ray per texel: the resident sample
 //!   buffers, read back here only, match the CPU's with display-encoded luma PSNR ≥ 40 dB
 //!   (Reinhard, 8-bit sRGB, Rec. 601 luma, as `fovea_eval::metrics::luma_psnr`), and at least
-//!   99 % of the texels agree on hitting or missing;
+//!   99 % of the texels agree on hitting or missing; KFR, LaFR and visual-polar likewise for
+//!   one eye (the same kernels, their own rings and shaded rows);
 //! * a steady-state binocular frame (the second, the gaze moved by a saccade-sized step): one
 //!   submission, no blocking wait, at most 256 KiB uploaded, nothing read back, no buffer or
 //!   bind group created;
@@ -259,5 +260,32 @@ fn what_the_kernel_does_not_serve_is_refused_before_recording() {
         );
         assert_eq!(moved.bytes_uploaded + moved.buffers_created, 0, "{what}");
         assert!(resident.samples(0).is_none(), "{what}: nothing prepared");
+    }
+}
+
+/// The other polar mappings go through the same kernels (their rings, their shaded rows):
+/// one eye, one frame each, against the CPU with the same bounds.
+#[test]
+fn kfr_lafr_and_visual_polar_samples_are_the_cpus() {
+    let Some(ctx) = gpu_or_skip("kfr_lafr_and_visual_polar_samples_are_the_cpus") else {
+        return;
+    };
+    let (world, cams) = setup();
+    let gaze = cams[0].display.gaze(610.0, 900.0).unwrap();
+    let mut resident = ResidentSamples::new(&ctx, &world).unwrap();
+    for method in [Method::Kfr, Method::Lafr, Method::VisualPolar] {
+        let s = settings(method, ShadingMode::DIRECT);
+        let p = plan(&world, &cams[0], &s, gaze, 3, 0);
+        resident.render_eyes(&world, &[(&cams[0], &p)]).unwrap();
+        let gpu = resident.samples(0).unwrap().read(&ctx).unwrap();
+        let cpu = cpu_samples(&world, &cams[0], &p);
+        let (psnr, same_hit) = compare(&cpu, &gpu);
+        shout(&format!(
+            "[fovea-gpu] resident {method}: luma PSNR {psnr:.2} dB against the CPU's \
+             trace_and_shade, {:.4} % of texels agree on hit/miss",
+            100.0 * same_hit
+        ));
+        assert!(psnr >= 40.0, "{method}: {psnr:.2} dB");
+        assert!(same_hit >= 0.99, "{method}: {same_hit}");
     }
 }
