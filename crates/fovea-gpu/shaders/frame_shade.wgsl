@@ -5,18 +5,22 @@
 // back to the host. Appended after trace.wgsl, direct_light.wgsl, ray_generation.wgsl,
 // surface.wgsl and environment_light.wgsl: their functions, step for step the renderer's
 // (`fovea_render::pipeline::trace_shade`'s trace and shade of one ray per texel,
-// `fovea_render::shade::shade` in direct shading), called from two entry points, one
+// `fovea_render::shade::shade` in direct shading), called from three entry points, one
 // invocation per texel each, in one compute pass:
 //
 // * `frame_surface`: the ray, its closest hit and the G-buffer record at the hit, kept on the
 //   device (`frame_geometry`, `frame_material`: 32 bytes each per texel); the texel's emission
 //   and depth written;
-// * `frame_light`: the ray placed again (the same arithmetic: the same direction, position
-//   `origin + dir·t` and `to_eye` as the record's), the record's lights and environment added
-//   (a miss: the environment's radiance along the ray).
+// * `frame_direct`: the ray placed again (the same arithmetic: the same direction, position
+//   `origin + dir·t` and `to_eye` as the record's), the lights added (a miss: the
+//   environment's radiance along the ray);
+// * `frame_environment`: the environment's light added (its MIS estimate, or the unshadowed
+//   ambient term).
 //
-// (One fused kernel with both halves crashes lavapipe's JIT — Mesa 22.3, "stack smashing
-// detected" — where each half alone runs; the record between them stays on the device.)
+// Each kernel walks the BVH from one place only, as each staged pass does: lavapipe (Mesa
+// 22.3) corrupts memory — "stack smashing detected", heap corruption — running a kernel that
+// inlines `traverse` two or three times (its 64-entry stack each), where each part alone
+// runs; the records between them stay on the device.
 //
 // Which ray a texel casts is the CPU plan's: a polar buffer's texel (i, j) lies on the ring of
 // its column (`FoveationMapping::ring` of u = i + ½ + jitter, the CPU mapping's f64 radius and
@@ -166,41 +170,67 @@ fn frame_surface(@builtin(global_invocation_id) id: vec3<u32>) {
     frame_material[2u * k + 1u] = vec4<f32>(g.specular, STATE_HIT);
 }
 
+// Texel k's surface record as `Surface` (direct_light.wgsl), with its key
+// (`texel_key(layer, i, j)` with the frame's and the eye's fields, `with_frame`), rebuilt from
+// the G-buffer and the ray placed again: surface.wgsl's `position = origin + dir · t` and
+// `to_eye = −dir`.
+fn frame_record(k: u32, ray: Ray) -> Surface {
+    let w = frame.layer.width;
+    let i = k % w;
+    let j = k / w;
+    let g0 = frame_geometry[2u * k];
+    let g1 = frame_geometry[2u * k + 1u];
+    let m0 = frame_material[2u * k];
+    let m1 = frame_material[2u * k + 1u];
+    let key_lo = frame.rank[j % 4u][i % 4u] | (((i / 4u) & 0x3fffu) << 4u) | (((j / 4u) & 0x3fffu) << 18u);
+    let position = ray.origin + ray.dir * g0.w;
+    return Surface(position, g0.w, g0.xyz, g1.w, g1.xyz, m0.w, -ray.dir, key_lo, m0.xyz, frame.layer.key_hi, m1.xyz, 0.0);
+}
+
+// The ray of texel k, placed again as frame_surface placed it (the same arithmetic: the same
+// bits).
+fn frame_ray(k: u32) -> Ray {
+    let w = frame.layer.width;
+    return camera_ray(frame_point(k % w, k / w).xy);
+}
+
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn frame_light(@builtin(global_invocation_id) id: vec3<u32>) {
+fn frame_direct(@builtin(global_invocation_id) id: vec3<u32>) {
     let k = frame_texel(id);
     if k >= frame.texels {
         return;
     }
-    let m1 = frame_material[2u * k + 1u];
-    if m1.w == STATE_UNSHADED {
+    let state = frame_material[2u * k + 1u].w;
+    if state == STATE_UNSHADED {
         return;
     }
-    let w = frame.layer.width;
-    let i = k % w;
-    let j = k / w;
     let out = frame.layer.offset + k;
-    // The ray again, as frame_surface cast it (the same arithmetic, so the same bits).
-    let ray = camera_ray(frame_point(i, j).xy);
-    if m1.w == STATE_MISS {
+    let ray = frame_ray(k);
+    if state == STATE_MISS {
         frame_samples[out] = vec4<f32>(env_radiance(ray.dir), bitcast<f32>(frame.inf_bits));
         return;
     }
-    let g0 = frame_geometry[2u * k];
-    let g1 = frame_geometry[2u * k + 1u];
-    let m0 = frame_material[2u * k];
-    // `texel_key(layer, i, j)` with the frame's and the eye's fields (`with_frame`).
-    let key_lo = frame.rank[j % 4u][i % 4u] | (((i / 4u) & 0x3fffu) << 4u) | (((j / 4u) & 0x3fffu) << 18u);
-    // surface.wgsl's `position = origin + dir · t` and `to_eye = −dir`.
-    let position = ray.origin + ray.dir * g0.w;
-    let s = Surface(position, g0.w, g0.xyz, g1.w, g1.xyz, m0.w, -ray.dir, key_lo, m0.xyz, frame.layer.key_hi, m1.xyz, 0.0);
+    // `shade` in direct shading: emission (written), then the lights.
     let before = frame_samples[out];
-    // `shade` in direct shading: emission (written), the lights, the environment, in order.
-    var c = before.xyz + direct_at(s).xyz;
+    frame_samples[out] = vec4<f32>(before.xyz + direct_at(frame_record(k, ray)).xyz, before.w);
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn frame_environment(@builtin(global_invocation_id) id: vec3<u32>) {
+    let k = frame_texel(id);
+    if k >= frame.texels || frame_material[2u * k + 1u].w != STATE_HIT {
+        return;
+    }
+    let out = frame.layer.offset + k;
+    let before = frame_samples[out];
+    var c = before.xyz;
     if frame.unshadowed != 0u {
-        c = c + frame.ambient.xyz * m0.xyz * (1.0 - g1.w);
+        // The unshadowed ambient term `mean · albedo · (1 − metallic)`.
+        c = c + frame.ambient.xyz * frame_material[2u * k].xyz * (1.0 - frame_geometry[2u * k + 1u].w);
     } else if env.samples > 0u {
-        c = c + environment_at(s).xyz;
+        c = c + environment_at(frame_record(k, frame_ray(k))).xyz;
+    } else {
+        return;
     }
     frame_samples[out] = vec4<f32>(c, before.w);
 }

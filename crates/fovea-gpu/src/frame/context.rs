@@ -74,30 +74,20 @@ struct Tables {
     centre: [f64; 2],
 }
 
-/// The tables of `plan` (module header). Polar: each column's ring at `u = i + ½ + jitter`
-/// (`FoveationMapping::ring`), its cone (the plan's per-column footprint, or the mapping's
-/// spread at the ring's radius where the column's centre is off the screen — the CPU's
-/// per-sample fallback, which depends on the radius alone), and the runs of rows the mapping
-/// shades. Screen: none.
-fn tables(plan: &FramePlan, layout: RayLayout) -> Tables {
-    let (offsets, _) = plan.rays.pattern(1);
-    let o = offsets[0];
-    let jitter = plan.jitter_texels;
+/// The column records and runs of columns `range` of `plan`'s polar buffer (`size`; rays at
+/// texel offset `o`), the records' first runs counted from the part's own first.
+fn column_tables(
+    plan: &FramePlan,
+    polar: &fovea_core::mapping::PolarLayout,
+    size: BufferSize,
+    o: [f64; 2],
+    range: std::ops::Range<u32>,
+) -> (Vec<FrameColumnGpu>, Vec<[u32; 2]>) {
     let mapping = plan.mapping();
-    let polar = match (layout, mapping.polar_layout()) {
-        (RayLayout::Polar, Some(p)) => p,
-        _ => {
-            return Tables {
-                columns: vec![FrameColumnGpu::default(); 2],
-                runs: vec![[0, 0]],
-                centre: [0.0, 0.0],
-            }
-        }
-    };
-    let size = plan.buffers[0];
-    let mut columns = Vec::with_capacity(size.width as usize + 1);
-    let mut runs = Vec::with_capacity(2 * size.width as usize);
-    for i in 0..size.width {
+    let jitter = plan.jitter_texels;
+    let mut columns = Vec::with_capacity(range.len());
+    let mut runs = Vec::with_capacity(2 * range.len());
+    for i in range {
         let first = runs.len() as u32;
         let ring = mapping.ring(0, i as f64 + o[0] + jitter[0]);
         let Some(ring) = ring else {
@@ -143,6 +133,56 @@ fn tables(plan: &FramePlan, layout: RayLayout) -> Tables {
             spread,
             runs: first,
         });
+    }
+    (columns, runs)
+}
+
+/// The tables of `plan` (module header). Polar: each column's ring at `u = i + ½ + jitter`
+/// (`FoveationMapping::ring`), its cone (the plan's per-column footprint, or the mapping's
+/// spread at the ring's radius where the column's centre is off the screen — the CPU's
+/// per-sample fallback, which depends on the radius alone), and the runs of rows the mapping
+/// shades. Screen: none.
+fn tables(plan: &FramePlan, layout: RayLayout) -> Tables {
+    let (offsets, _) = plan.rays.pattern(1);
+    let o = offsets[0];
+    let polar = match (layout, plan.mapping().polar_layout()) {
+        (RayLayout::Polar, Some(p)) => p,
+        _ => {
+            return Tables {
+                columns: vec![FrameColumnGpu::default(); 2],
+                runs: vec![[0, 0]],
+                centre: [0.0, 0.0],
+            }
+        }
+    };
+    let size = plan.buffers[0];
+    // The columns in as many contiguous parts as the machine has threads (the run scan asks
+    // `is_shaded` for every row), then joined, each part's runs offset by those before.
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let per = (size.width as usize).div_ceil(threads).max(1) as u32;
+    let parts: Vec<(Vec<FrameColumnGpu>, Vec<[u32; 2]>)> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..size.width)
+            .step_by(per as usize)
+            .map(|i0| {
+                let i1 = (i0 + per).min(size.width);
+                let polar = &polar;
+                scope.spawn(move || column_tables(plan, polar, size, o, i0..i1))
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+            .collect()
+    });
+    let mut columns = Vec::with_capacity(size.width as usize + 1);
+    let mut runs = Vec::with_capacity(2 * size.width as usize);
+    for (part_columns, part_runs) in parts {
+        let base = runs.len() as u32;
+        columns.extend(part_columns.into_iter().map(|c| FrameColumnGpu {
+            runs: c.runs + base,
+            ..c
+        }));
+        runs.extend(part_runs);
     }
     columns.push(FrameColumnGpu {
         runs: runs.len() as u32,
@@ -411,8 +451,8 @@ impl EyeShade {
         }
     }
 
-    /// Records this eye's pass into `encoder`: one compute pass, the surface kernel's dispatch
-    /// then the light kernel's.
+    /// Records this eye's pass into `encoder`: one compute pass, the surface kernel's dispatch,
+    /// then the lights', then the environment's.
     pub fn record(&self, scene: &ShadeScene, encoder: &mut wgpu::CommandEncoder) {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("resident frame: trace and shade"),

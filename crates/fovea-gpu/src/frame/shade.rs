@@ -54,14 +54,15 @@ pub const SHADER: ShaderSource = ShaderSource {
         "environment_light",
         "mix64_check",
         "frame_surface",
-        "frame_light",
+        "frame_direct",
+        "frame_environment",
     ],
     uniform: ("FrameParams", std::mem::size_of::<FrameUniform>()),
 };
 
 /// The resident kernels' entry points, in the order they run: the surface at each texel's
-/// primary hit, then its light.
-pub const ENTRY_POINTS: [&str; 2] = ["frame_surface", "frame_light"];
+/// primary hit, then its lights, then the environment's light.
+pub const ENTRY_POINTS: [&str; 3] = ["frame_surface", "frame_direct", "frame_environment"];
 
 /// Storage buffers the kernels' layout binds in one stage: the BVH's three, the surfaces'
 /// five, the lights, the environment map's two, the columns, the runs, the samples and the
@@ -210,8 +211,8 @@ pub struct ShadeScene {
     pub(crate) lights_buffer: wgpu::Buffer,
     /// `TraceParams`: the light count and the shading model.
     pub(crate) trace_params: wgpu::Buffer,
-    /// `frame_surface`, `frame_light`.
-    pub(crate) pipelines: [wgpu::ComputePipeline; 2],
+    /// `frame_surface`, `frame_direct`, `frame_environment`.
+    pub(crate) pipelines: [wgpu::ComputePipeline; 3],
     fingerprint: u64,
 }
 
@@ -253,7 +254,7 @@ pub const BINDINGS: [(u32, bool, bool); 21] = [
 
 /// The kernels' pipelines with their declared layout ([`BINDINGS`]), in the order of
 /// [`ENTRY_POINTS`]. Call inside an error scope.
-fn pipelines(device: &wgpu::Device) -> [wgpu::ComputePipeline; 2] {
+fn pipelines(device: &wgpu::Device) -> [wgpu::ComputePipeline; 3] {
     let entries: Vec<wgpu::BindGroupLayoutEntry> = BINDINGS
         .iter()
         .map(
