@@ -60,7 +60,7 @@ pub struct EyeShade {
     columns_capacity: usize,
     runs: wgpu::Buffer,
     runs_capacity: usize,
-    /// The G-buffer between the two kernels: geometry and material records.
+    /// The G-buffer between the kernels: geometry and material records.
     gbuffer: [wgpu::Buffer; 2],
     bind_group: wgpu::BindGroup,
     groups: [u32; 2],
