@@ -4,8 +4,8 @@
 //!
 //! * [`samples`]: the sample buffers of one eye's frame on the device ([`DeviceSamples`]),
 //!   the record every sample-space pass writes or reads.
-//! * [`shade`]: the sample side's fused kernel — ray generation, trace, surface, direct and
-//!   environment light per texel into [`DeviceSamples`] — and what it serves ([`supports`]).
+//! * [`shade`]: the sample side's kernels — ray generation, trace, surface, direct and
+//!   environment light per texel into [`DeviceSamples`] — and what they serve ([`supports`]).
 //! * [`context`]: each eye's persistent buffers and bind group; both eyes recorded into one
 //!   encoder and submitted once ([`ResidentSamples`]).
 

@@ -1,20 +1,23 @@
-//! The resident frame's sample side (issue 37): one fused kernel per texel —
-//! `shaders/frame_shade.wgsl`: ray generation, closest hit, the surface at the hit, direct light
-//! with a shadow ray per light, the environment's MIS estimate with its shadow rays, emission —
-//! writing colour and depth into the frame's [`DeviceSamples`](super::DeviceSamples), which
-//! never come back to the host.
+//! The resident frame's sample side (issue 37): per texel, kernels of `shaders/frame_shade.wgsl`
+//! — the ray placed and traced and the surface at its hit interpolated (`frame_surface`), each
+//! light's contribution behind its shadow ray (`frame_direct`), the environment's MIS estimate
+//! behind its shadow rays (`frame_environment`), emission first — writing colour and depth into
+//! the frame's [`DeviceSamples`](super::DeviceSamples), which never come back to the host; the
+//! G-buffer between the kernels stays on the device.
 //!
 //! The arithmetic is the staged passes' own WGSL (`trace.wgsl`, `ray_generation.wgsl`,
 //! `surface.wgsl`, `direct_light.wgsl`, `environment_light.wgsl`: the renderer's
 //! `fovea_render::trace::surface`, `shade::direct`, `shade::environment_light` step for step),
-//! concatenated and called from one entry point, so the resident samples are the staged path's
-//! and the CPU's `trace_and_shade` for direct shading of one ray per texel
-//! (`tests/frame_shade.rs`). What the resident kernel serves, and the typed refusal of
-//! everything else before anything is recorded, is [`supports`].
+//! concatenated and called from three entry points, so the resident samples are the staged
+//! path's and the CPU's `trace_and_shade` for direct shading of one ray per texel
+//! (`tests/frame_shade.rs`). Each kernel walks the BVH from one place, as each staged pass does
+//! (lavapipe corrupts memory running kernels that inline the traversal more than once; see
+//! docs/gpu.md). What the kernels serve, and the typed refusal of everything else before
+//! anything is recorded, is [`supports`].
 //!
 //! [`ShadeScene`] holds what one world puts on the device once — the BVH
 //! ([`GpuTracer`]), the surfaces ([`GpuSurfaces`]), the environment ([`GpuEnvironment`]), the
-//! lights and the pipeline; [`super::context`] holds each eye's buffers.
+//! lights and the pipelines; [`super::context`] holds each eye's buffers.
 
 use bytemuck::{Pod, Zeroable};
 use fovea_core::mapping::Method;
