@@ -3,7 +3,8 @@
 // Guibas 1995 Eq. 7–8, the balance heuristic over the BRDF mixture and the map's importance
 // sampling) with each ray's any-hit shadow ray to infinity cast through the BVH of trace.wgsl
 // (appended to it after direct_light.wgsl: the bindings 0–3, `traverse`, `Surface`,
-// `surfaces`, `shaded` and `brdf_cos`), one invocation per sample.
+// `surfaces`, `shaded` and `brdf_cos`), one invocation per sample. Its own bindings are 16–20,
+// clear of surface.wgsl's 9–14, so that one module can carry both (frame_shade.wgsl).
 //
 // The same random numbers as the CPU: SplitMix64 (`fovea_core::math::mix64`) emulated with
 // pairs of u32 (x: low word, y: high word), bit for bit; the R2 sequence (Roberts 2018) with
@@ -62,14 +63,14 @@ struct EnvParams {
     frame_mask_hi: u32,
 }
 
-@group(0) @binding(9) var<uniform> env: EnvParams;
+@group(0) @binding(16) var<uniform> env: EnvParams;
 // The map's pixels, linear RGB, row-major from the top row (before `env.constant.w`).
-@group(0) @binding(10) var<storage, read> env_pixels: array<f32>;
+@group(0) @binding(17) var<storage, read> env_pixels: array<f32>;
 // The sampling tables (offsets in `env`).
-@group(0) @binding(11) var<storage, read> env_tables: array<f32>;
+@group(0) @binding(18) var<storage, read> env_tables: array<f32>;
 // `mix64_check`: the outputs and inputs.
-@group(0) @binding(12) var<storage, read_write> hash_out: array<vec2<u32>>;
-@group(0) @binding(13) var<storage, read> hash_in: array<vec2<u32>>;
+@group(0) @binding(19) var<storage, read_write> hash_out: array<vec2<u32>>;
+@group(0) @binding(20) var<storage, read> hash_in: array<vec2<u32>>;
 
 const ENV_MAP: u32 = 1u;
 

@@ -97,8 +97,8 @@ pub struct GpuEnvironment {
     block: EnvUniform,
     /// Whether no direction carries radiance (no rays are cast).
     black: bool,
-    pixels: wgpu::Buffer,
-    tables: wgpu::Buffer,
+    pub(crate) pixels: wgpu::Buffer,
+    pub(crate) tables: wgpu::Buffer,
 }
 
 impl GpuEnvironment {
@@ -185,6 +185,25 @@ impl GpuEnvironment {
             pixels,
             tables,
         })
+    }
+}
+
+impl GpuEnvironment {
+    /// The block of a call with `samples` rays per sample (none for a black environment): of
+    /// them ⌈samples/2⌉ from a map's importance sampling, the rest from the BRDF's.
+    pub(crate) fn uniform(&self, samples: u32) -> EnvUniform {
+        let samples = if self.black { 0 } else { samples };
+        let n_map = if self.block.kind == ENV_MAP {
+            samples.div_ceil(2)
+        } else {
+            0
+        };
+        EnvUniform {
+            samples,
+            n_map,
+            n_brdf: samples - n_map,
+            ..self.block
+        }
     }
 }
 
@@ -298,9 +317,9 @@ impl GpuTracer {
                     block: TraceUniform::new(chunk.len(), 0, DirectLightModel::RENDERER),
                     inputs: &[
                         (6, bytemuck::cast_slice(chunk), wgpu::BufferUsages::STORAGE),
-                        (9, bytemuck::bytes_of(&block), wgpu::BufferUsages::UNIFORM),
+                        (16, bytemuck::bytes_of(&block), wgpu::BufferUsages::UNIFORM),
                     ],
-                    resident: &[(10, &env.pixels), (11, &env.tables)],
+                    resident: &[(17, &env.pixels), (18, &env.tables)],
                     items: chunk.len(),
                     out_bytes: OUT_BYTES,
                 },
@@ -384,10 +403,10 @@ impl GpuTracer {
             pipeline,
             &[
                 (0, uniform.as_entire_binding()),
-                (9, env_uniform.as_entire_binding()),
-                (13, input_buf.as_entire_binding()),
+                (16, env_uniform.as_entire_binding()),
+                (20, input_buf.as_entire_binding()),
             ],
-            12,
+            19,
             values.len() as u64,
             8,
             false,

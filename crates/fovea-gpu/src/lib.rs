@@ -43,7 +43,9 @@
 //!   ([`executors::GpuDenoiseExecutor`]).
 //! * [`tonemap`]: exposure, tone curve and 8-bit sRGB encoding ([`GpuToneMap`]).
 //! * [`frame`]: the resident frame's buffers on the device ([`frame::DeviceSamples`]) and its
-//!   screen side recorded into one encoder ([`frame::ScreenContext`]).
+//!   sample side: every texel traced and shaded on the device, both eyes in one submission
+//!   ([`frame::ResidentSamples`]); its screen side recorded into one encoder
+//!   ([`frame::ScreenContext`]).
 //! * [`shaders`]: the WGSL sources, validated with naga in a plain `cargo test`.
 //!
 //! ```no_run
@@ -127,4 +129,5 @@ pub const ALL_SHADERS: &[shaders::ShaderSource] = &[
     frame::screen::SPLIT_SHADER,
     frame::screen::PRESENT_SHADER,
     denoise::SHADER,
+    frame::shade::SHADER,
 ];

@@ -303,7 +303,8 @@ pub struct SurfaceStats {
 pub struct GpuSurfaces {
     triangles: usize,
     stats: SurfaceStats,
-    buffers: [wgpu::Buffer; 6],
+    /// Bindings 9–14 of the surface pass (triangles, vertices, materials, mips, texels, model).
+    pub(crate) buffers: [wgpu::Buffer; 6],
     polar: wgpu::ComputePipeline,
     screen: wgpu::ComputePipeline,
 }

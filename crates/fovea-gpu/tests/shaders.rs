@@ -233,3 +233,11 @@ fn a_broken_shader_is_caught() {
     };
     assert!(failed);
 }
+
+#[test]
+fn the_resident_frame_records_match_their_rust_structs() {
+    assert_struct_sizes(
+        &fovea_gpu::frame::shade::SHADER,
+        &fovea_gpu::frame::shade::RECORD_STRUCTS,
+    );
+}

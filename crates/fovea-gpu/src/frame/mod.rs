@@ -4,19 +4,27 @@
 //!
 //! * [`samples`]: the sample buffers of one eye's frame on the device ([`DeviceSamples`]),
 //!   the record every sample-space pass writes or reads.
+//! * [`shade`]: the sample side's fused kernel — ray generation, trace, surface, direct and
+//!   environment light per texel into [`DeviceSamples`] — and what it serves ([`supports`]).
+//! * [`context`]: each eye's persistent buffers and bind group; both eyes recorded into one
+//!   encoder and submitted once ([`ResidentSamples`]).
 //! * [`screen`]: the screen side — reconstruction, depth of field and tone map of one eye's
 //!   [`DeviceSamples`] recorded into the caller's encoder ([`ScreenContext`]).
 //! * [`reconstruct`]: the polar reconstruction the screen side records ([`ResidentPolar`]).
 //! * [`timing`]: per-pass GPU times read back frames late, never blocking ([`FrameTimer`]).
 
+pub mod context;
 pub mod reconstruct;
 pub mod samples;
 pub mod screen;
+pub mod shade;
 pub mod timing;
 
+pub use context::{EyeShade, RecordTimes, ResidentSamples};
 pub use reconstruct::{PolarCapacity, ResidentPolar, TableUpload};
 pub use samples::{DeviceSamples, SampleLayer};
 pub use screen::{
     ScreenConfig, ScreenContext, ScreenDof, ScreenInput, ScreenLimits, SCREEN_PASSES,
 };
+pub use shade::{supports, RayLayout, ShadeScene};
 pub use timing::{FrameGpuTimes, FrameTimer};

@@ -112,6 +112,55 @@ impl DeviceSamples {
         })
     }
 
+    /// [`Self::new`] with room for at least `capacity_texels` texels, so that a later frame's
+    /// layers of another size may take the buffer over ([`Self::relayout`]) without
+    /// allocating (a polar buffer's size follows the gaze).
+    pub fn with_capacity(
+        ctx: &GpuContext,
+        sizes: &[BufferSize],
+        capacity_texels: u64,
+    ) -> Result<Self> {
+        let (layers, texels) = Self::layout(sizes).ok_or_else(|| {
+            GpuError::Unsupported(format!("sample buffers of more than {} texels", u32::MAX))
+        })?;
+        let bytes = texels.max(capacity_texels).max(1) * TEXEL_BYTES;
+        ctx.check_storage_binding("the frame's sample buffers", bytes)?;
+        let buffer = ctx.scoped("allocating the frame's sample buffers", || {
+            ctx.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("sample buffers"),
+                size: bytes,
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_SRC
+                    | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        })?;
+        Ok(Self {
+            buffer,
+            layers,
+            texels,
+        })
+    }
+
+    /// Texels the buffer holds room for.
+    pub fn capacity(&self) -> u64 {
+        self.buffer.size() / TEXEL_BYTES
+    }
+
+    /// Takes the layers of `sizes` in the same buffer (contents undefined until a pass writes
+    /// them) when they fit its [`capacity`](Self::capacity); `false`, and nothing changed,
+    /// otherwise.
+    pub fn relayout(&mut self, sizes: &[BufferSize]) -> bool {
+        match Self::layout(sizes) {
+            Some((layers, texels)) if texels <= self.capacity() => {
+                self.layers = layers;
+                self.texels = texels;
+                true
+            }
+            _ => false,
+        }
+    }
+
     /// [`Self::new`] for the buffers of `mapping`.
     pub fn for_mapping(ctx: &GpuContext, mapping: &dyn FoveationMapping) -> Result<Self> {
         Self::new(ctx, &mapping.buffers())
