@@ -78,62 +78,63 @@ macro_rules! record {
 
 /// Every record the crate shares with its shaders.
 fn records() -> Vec<Record> {
+    use crate::{denoise as dn, frame};
     use crate::{dof, environment_light as env, mapping, pull_push, reconstruct, sample_aa};
     use crate::{surface, tonemap, trace};
-    let (tr, sf) = (trace::SHADER, surface::SHADER);
+    let (tr, sf, fs) = (trace::SHADER, surface::SHADER, frame::shade::SHADER);
     vec![
-        record!(trace::TraceUniform => "TraceParams" in [tr, sf] {
+        record!(trace::TraceUniform => "TraceParams" in [tr, sf, fs] {
             ray_count, light_count, pi = model.pi, offset_per_t = model.offset_per_t,
             offset_t_cap = model.offset_t_cap, shadow_shorten = model.shadow_shorten,
             min_light_distance = model.min_light_distance,
             spot_min_width = model.spot_min_width, min_nv = model.min_nv,
             d_floor = model.d_floor, vis_floor = model.vis_floor, max_distance,
         }),
-        record!(trace::NodeGpu => "Node" in [tr, sf] { min, prim_count, max, first_index }),
-        record!(trace::TriGpu => "Tri" in [tr, sf] { v0, v1, v2 }),
-        record!(trace::GpuRay => "Ray" in [tr, sf] { origin, t_min, dir, t_max }),
-        record!(trace::HitGpu => "Hit" in [tr, sf] { t, prim, u, v }),
-        record!(crate::RayGenCamera => "RayGenCamera" in [tr, sf] {
+        record!(trace::NodeGpu => "Node" in [tr, sf, fs] { min, prim_count, max, first_index }),
+        record!(trace::TriGpu => "Tri" in [tr, sf, fs] { v0, v1, v2 }),
+        record!(trace::GpuRay => "Ray" in [tr, sf, fs] { origin, t_min, dir, t_max }),
+        record!(trace::HitGpu => "Hit" in [tr, sf, fs] { t, prim, u, v }),
+        record!(crate::RayGenCamera => "RayGenCamera" in [tr, sf, fs] {
             origin, fx, forward, fy, right, rad_per_turn, up, px_per_q, centre, centre_lo,
         }),
-        record!(crate::GpuPolarRay => "PolarRay" in [tr, sf] { offset_q }),
-        record!(crate::GpuScreenRay => "ScreenRay" in [tr, sf] { x_px, y_px }),
-        record!(crate::ray_generation::GeneratedHitGpu => "GeneratedHit" in [tr, sf] {
+        record!(crate::GpuPolarRay => "PolarRay" in [tr, sf, fs] { offset_q }),
+        record!(crate::GpuScreenRay => "ScreenRay" in [tr, sf, fs] { x_px, y_px }),
+        record!(crate::ray_generation::GeneratedHitGpu => "GeneratedHit" in [tr, sf, fs] {
             hit, dir,
         }),
-        record!(crate::GpuSurface => "Surface" in [tr] {
+        record!(crate::GpuSurface => "Surface" in [tr, fs] {
             position, t, normal, metallic, face_normal, roughness, to_eye, key_lo, albedo,
             key_hi, specular,
         }),
-        record!(crate::GpuLight => "Light" in [tr] {
+        record!(crate::GpuLight => "Light" in [tr, fs] {
             position, kind, direction, range, intensity, cos_inner, cos_outer,
         }),
-        record!(env::EnvUniform => "EnvParams" in [tr] {
+        record!(env::EnvUniform => "EnvParams" in [tr, fs] {
             samples, n_map, n_brdf, kind, salt, mix_increment, mix_mul0, mix_mul1, mix_shifts,
             r2_a1, r2_a2, r2_half, width, height, luminance, constant, map_from_world,
             world_from_map, tau, below_one, x_max, turns_per_rad, off_marginal_cdf,
             off_marginal_func, off_cond_cdf, off_cond_func, off_cond_int, off_cos_edge,
             marginal_int, frame_mask_hi,
         }),
-        record!(crate::GpuSurfaceRay => "SurfaceRay" in [sf] { a, b, spread }),
-        record!(surface::SurfaceTriGpu => "SurfaceTri" in [sf] {
+        record!(crate::GpuSurfaceRay => "SurfaceRay" in [sf, fs] { a, b, spread }),
+        record!(surface::SurfaceTriGpu => "SurfaceTri" in [sf, fs] {
             v0 = v[0], v1 = v[1], v2 = v[2], material, slot, uv_per_metre, flags,
         }),
-        record!(surface::SurfaceVertexGpu => "SurfaceVertex" in [sf] {
+        record!(surface::SurfaceVertexGpu => "SurfaceVertex" in [sf, fs] {
             normal, u, tangent, color, v,
         }),
-        record!(surface::SurfaceMaterialGpu => "SurfaceMaterial" in [sf] {
+        record!(surface::SurfaceMaterialGpu => "SurfaceMaterial" in [sf, fs] {
             base_color, metallic, specular, roughness, emissive, normal_scale,
             base_mip = base[0], base_levels = base[1],
             mr_mip = metallic_roughness[0], mr_levels = metallic_roughness[1],
             normal_mip = normal_map[0], normal_levels = normal_map[1],
         }),
-        record!(surface::MipGpu => "Mip" in [sf] { offset, width, height }),
-        record!(surface::SurfaceModelGpu => "SurfaceModel" in [sf] {
+        record!(surface::MipGpu => "Mip" in [sf, fs] { offset, width, height }),
+        record!(surface::SurfaceModelGpu => "SurfaceModel" in [sf, fs] {
             min_cos, min_footprint_texels, trilinear_min_fraction, min_roughness,
             tangent_det_floor,
         }),
-        record!(surface::GRecordGpu => "GRecord" in [sf] {
+        record!(surface::GRecordGpu => "GRecord" in [sf, fs] {
             position, t, normal, metallic, face_normal, roughness, to_eye, material, albedo,
             specular, emissive,
         }),
@@ -183,6 +184,30 @@ fn records() -> Vec<Record> {
         }),
         record!(tonemap::ToneUniform => "ToneParams" in [tonemap::SHADER] {
             n_values, n_words, scale, curve,
+        }),
+        record!(frame::shade::FrameLayerGpu => "FrameLayer" in [fs] {
+            offset, width, height, key_hi,
+        }),
+        record!(frame::shade::FrameUniform => "FrameParams" in [fs] {
+            texels, kind, inf_bits, unshadowed, layer, offset, pixel_spread, row_invocations,
+            ambient, rank,
+        }),
+        record!(frame::shade::FrameColumnGpu => "FrameColumn" in [fs] {
+            r_px, period, spread, runs,
+        }),
+        record!(frame::reconstruct::PadUniform => "PadParams" in [frame::reconstruct::PAD_SHADER] {
+            offset, width, n_columns, stored_max, aa,
+        }),
+        record!(frame::reconstruct::FrameColumn => "PadColumn"
+            in [frame::reconstruct::PAD_SHADER] { base, rows, period, texels_per_px }),
+        record!(frame::screen::SplitUniform => "SplitParams" in [frame::screen::SPLIT_SHADER] {
+            offset, width, height,
+        }),
+        record!(frame::screen::PresentUniform => "PresentParams"
+            in [frame::screen::PRESENT_SHADER] { width, height, row_words }),
+        record!(dn::DenoiseUniform => "DenoiseParams" in [dn::SHADER] {
+            texels, layer_count, atrous_step, taps, sigma_l, sigma_z, sigma_n, firefly_k,
+            same_normal, layers,
         }),
     ]
 }
