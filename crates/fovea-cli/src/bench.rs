@@ -22,6 +22,7 @@ use fovea_render::camera::{EyeCamera, HmdRig};
 use fovea_render::pipeline::trace_shade::{SHADE_BATCH, TRACE_BATCH};
 use fovea_render::pipeline::{FrameContext, FrameSettings, Stage};
 use fovea_render::plan::FramePlan;
+use fovea_render::quality::Quality;
 use fovea_render::world::World;
 use fovea_render::RenderError;
 
@@ -52,8 +53,8 @@ pub struct BenchArgs {
     #[command(flatten)]
     pub frame: FrameOptions,
     /// Shading: direct or path.
-    #[arg(long, value_enum, ignore_case = true, default_value_t = Shading::Indirect)]
-    pub shading: Shading,
+    #[arg(long, value_enum, ignore_case = true)]
+    pub shading: Option<Shading>,
     /// Indirect bounces of --shading indirect (default 3) or path (default 2), 1 to 16.
     #[arg(long)]
     pub bounces: Option<u32>,
@@ -133,6 +134,7 @@ pub fn params(args: &BenchArgs) -> Result<BenchParams> {
     args.options.warn_inapplicable(&methods);
     frame.shading = shading(
         args.shading,
+        args.frame.quality(Quality::Offline),
         args.bounces,
         args.spp,
         1,

@@ -156,6 +156,22 @@ impl From<DenoiseKernelChoice> for fovea_post::denoise::Kernel {
     }
 }
 
+/// `--quality`: a preset of the shading (`fovea_render::quality`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum QualityChoice {
+    Offline,
+    Realtime,
+}
+
+impl From<QualityChoice> for fovea_render::quality::Quality {
+    fn from(q: QualityChoice) -> Self {
+        match q {
+            QualityChoice::Offline => Self::Offline,
+            QualityChoice::Realtime => Self::Realtime,
+        }
+    }
+}
+
 /// `--shading`: direct lighting plus indirect light (the default), direct lighting alone, or
 /// path tracing (the numbers are separate options).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

@@ -373,9 +373,24 @@ pub struct FrameOptions {
     pub inset: InsetSmoothingArgs,
     #[command(flatten)]
     pub denoise: DenoiseArgs,
+    /// Quality preset: offline (direct light plus three bounces of indirect light, four
+    /// environment rays per sample; the default of render, sequence and bench) or realtime
+    /// (direct light and one environment ray per sample, left to temporal accumulation and
+    /// the denoiser; the default of view, and what the resident GPU frame runs). --shading
+    /// and --env-samples override it (docs/rendering.md, "Quality presets").
+    #[arg(long, value_enum, ignore_case = true)]
+    pub quality: Option<crate::choices::QualityChoice>,
 }
 
 impl FrameOptions {
+    /// `--quality`, or the command's `default`.
+    pub fn quality(
+        &self,
+        default: fovea_render::quality::Quality,
+    ) -> fovea_render::quality::Quality {
+        self.quality.map_or(default, Into::into)
+    }
+
     /// Sets these options in `settings`.
     pub fn apply(&self, settings: &mut FrameSettings) {
         settings.pixel_samples = self.pixel_samples;

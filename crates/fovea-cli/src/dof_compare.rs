@@ -175,7 +175,8 @@ pub fn params(args: &DofCompareArgs, display: &DisplayProfile) -> Result<DofComp
         pixel_samples: args.pixel_samples,
         // No bounce count of its own: the mode's default (path tracing's 2, indirect's 3).
         shading: shading(
-            args.shading,
+            Some(args.shading),
+            fovea_render::quality::Quality::Offline,
             None,
             4,
             1,

@@ -14,7 +14,8 @@ use fovea_render::pipeline::{
     StageTimes, Stopwatch,
 };
 use fovea_render::plan::FramePlan;
-use fovea_render::shade::{EnvLight, ShadingMode, DEFAULT_BOUNCES, DEFAULT_ENV_SAMPLES};
+use fovea_render::quality::{Quality, ShadingKind};
+use fovea_render::shade::{EnvLight, ShadingMode, DEFAULT_BOUNCES};
 
 use crate::choices::{
     Aa, BackendArg, EnvLightChoice, Eyes, Headset, LockstepArg, MethodChoice, Shading, Stereo,
@@ -58,8 +59,8 @@ pub struct RenderArgs {
     /// with next-event estimation at every bounce, the environment included), direct (lights,
     /// shadows and the environment: the default before issue 38) or path (path tracing with
     /// next-event estimation of the lights).
-    #[arg(long, value_enum, ignore_case = true, default_value_t = Shading::Indirect)]
-    pub shading: Shading,
+    #[arg(long, value_enum, ignore_case = true)]
+    pub shading: Option<Shading>,
     /// Indirect bounces of --shading indirect (default 3) or path (default 2), 1 to 16.
     #[arg(long)]
     pub bounces: Option<u32>,
@@ -179,10 +180,12 @@ impl EnvLightArgs {
     }
 
     /// The library's setting (range-checked by `ShadingMode::validate`).
-    pub fn env_light(&self, default: EnvLightChoice) -> EnvLight {
+    /// `default_samples`: the quality preset's environment rays when `--env-samples` is not
+    /// given.
+    pub fn env_light(&self, default: EnvLightChoice, default_samples: u32) -> EnvLight {
         match self.choice(default) {
             EnvLightChoice::Occluded => EnvLight::Occluded {
-                samples: self.env_samples.unwrap_or(DEFAULT_ENV_SAMPLES),
+                samples: self.env_samples.unwrap_or(default_samples),
             },
             EnvLightChoice::Unshadowed => EnvLight::Unshadowed,
         }
@@ -211,17 +214,23 @@ impl EnvLightArgs {
 /// checked (`default_env`: the command's environment light when `--env-light` is not given);
 /// warns about environment options the mode ignores.
 pub fn shading(
-    kind: Shading,
+    kind: Option<Shading>,
+    quality: Quality,
     bounces: Option<u32>,
     spp: u32,
     seed: u64,
     env: &EnvLightArgs,
     default_env: EnvLightChoice,
 ) -> Result<ShadingMode> {
+    // `--shading` overrides the preset's kind, `--env-samples` its environment rays.
+    let kind = kind.unwrap_or(match quality.shading_kind() {
+        ShadingKind::Indirect => Shading::Indirect,
+        ShadingKind::Direct => Shading::Direct,
+    });
     env.warn_inapplicable(kind, default_env);
     match kind {
         Shading::Direct | Shading::Indirect => {
-            let env_light = env.env_light(default_env);
+            let env_light = env.env_light(default_env, quality.env_samples());
             let mode = if kind == Shading::Direct {
                 if bounces.is_some() {
                     eprintln!("warning: --bounces applies to --shading indirect and path; ignored");
@@ -287,8 +296,10 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let config = args.options.frame_config()?;
     args.options.warn_inapplicable(&[method]);
     let tone = ToneCurve::from(args.tonemap);
+    let quality = args.frame.quality(Quality::Offline);
     let shading_mode = shading(
         args.shading,
+        quality,
         args.bounces,
         args.spp,
         args.seed,
@@ -433,6 +444,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
         "bvh_build_ms": prepared.world.build_ms,
         "display": display.name,
         "gaze": [gaze.point.x_px, gaze.point.y_px],
+        "quality": quality.name(),
+        "shading": settings.shading,
         "pixel_samples": settings.pixel_samples,
         "periphery_rays": settings.periphery_rays,
         "denoise": settings.denoise,
@@ -652,6 +665,8 @@ fn run_stereo(
         "fixation": [target.x, target.y, target.z],
         "gaze_left": [lg.point.x_px, lg.point.y_px],
         "gaze_right": [rg.point.x_px, rg.point.y_px],
+        "quality": args.frame.quality(Quality::Offline).name(),
+        "shading": settings.shading,
         "pixel_samples": settings.pixel_samples,
         "periphery_rays": settings.periphery_rays,
         "denoise": settings.denoise,

@@ -82,8 +82,8 @@ pub struct SequenceArgs {
     pub temporal: Switch,
     /// Shading: indirect (direct light plus three bounces of indirect light), direct, or path
     /// (path tracing, two bounces, one path per sample).
-    #[arg(long, value_enum, ignore_case = true, default_value_t = crate::choices::Shading::Indirect)]
-    pub shading: crate::choices::Shading,
+    #[arg(long, value_enum, ignore_case = true)]
+    pub shading: Option<crate::choices::Shading>,
     #[command(flatten)]
     pub temporal_opts: TemporalArgs,
     /// Frames per second (the gaze trajectory is sampled at these times).
@@ -242,6 +242,7 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     args.frame.apply(&mut settings);
     settings.shading = crate::render::shading(
         args.shading,
+        args.frame.quality(fovea_render::quality::Quality::Offline),
         None,
         1,
         0,

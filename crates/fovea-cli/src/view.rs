@@ -128,7 +128,7 @@ pub fn run(args: ViewArgs) -> Result<()> {
     use fovea_viewer::gaze_input::{GazeReplay, ReplayMode};
     use fovea_viewer::{GazeSource, Pose, ViewSettings, ViewerConfig};
 
-    use crate::choices::{EnvLightChoice, Headset, Shading};
+    use crate::choices::{EnvLightChoice, Headset};
     use crate::scene_args::prepare;
 
     if let Some(n) = args.frames {
@@ -180,7 +180,8 @@ pub fn run(args: ViewArgs) -> Result<()> {
     base.dof = dof.clone();
     args.frame.apply(&mut base);
     base.shading = crate::render::shading(
-        Shading::Indirect,
+        None,
+        args.frame.quality(fovea_render::quality::Quality::Realtime),
         None,
         1,
         0,

@@ -170,6 +170,8 @@ fn the_screenshot_equals_the_offline_render() {
         fovea()
             .arg("render")
             .args(VIEW)
+            // The viewer's default preset.
+            .args(["--quality", "realtime"])
             .args(["--method", "vafr", "--gaze", "210,70", "--out"])
             .arg(&offline),
     );
@@ -222,6 +224,8 @@ fn no_vulkan_device_falls_back_to_the_cpu_with_a_notice() {
         fovea()
             .arg("render")
             .args(VIEW)
+            // The viewer's default preset.
+            .args(["--quality", "realtime"])
             .args(["--gaze", "100,120", "--out"])
             .arg(&offline),
     );
@@ -278,6 +282,7 @@ fn a_recorded_viewing_replays_through_sequence_to_the_same_frames() {
         fovea()
             .arg("sequence")
             .args(VIEW)
+            .args(["--quality", "realtime"])
             .args([
                 "--method", "kfr", "--frames", n, "--fps", "60", "--video", "off",
             ])

@@ -25,6 +25,7 @@ pub mod lights;
 pub mod lod;
 pub mod pipeline;
 pub mod plan;
+pub mod quality;
 pub mod scene;
 pub mod sequence;
 pub mod settings;

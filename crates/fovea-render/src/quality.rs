@@ -1,0 +1,110 @@
+//! Quality presets (issue 37, item 10): the shading a frame gets when the user names a use
+//! rather than every option.
+//!
+//! * [`Quality::Offline`] — `render`, `sequence` and `bench`'s default: direct light plus
+//!   [`DEFAULT_BOUNCES`] bounces of indirect light with next-event estimation
+//!   ([`ShadingMode::Indirect`], issue 38), [`DEFAULT_ENV_SAMPLES`] environment rays per
+//!   sample.
+//! * [`Quality::Realtime`] — `view`'s default, what a headset would run: direct light with
+//!   **one** environment ray per sample ([`ShadingMode::Direct`]), left to temporal
+//!   accumulation and the sample-space denoiser (both on wherever frames follow each other) to
+//!   average over frames. It is the shading the resident GPU frame serves
+//!   (`fovea_gpu::frame`), so the viewer's usual settings stay on the device. What it costs in
+//!   quality against the offline preset is measured in docs/rendering.md ("Quality presets").
+//!
+//! Explicit options (`--shading`, `--env-samples`, `--bounces`) override a preset's choice.
+
+use serde::Serialize;
+
+use crate::shade::{EnvLight, ShadingMode, DEFAULT_BOUNCES, DEFAULT_ENV_SAMPLES};
+
+/// Environment rays per sample of the real-time preset.
+pub const REALTIME_ENV_SAMPLES: u32 = 1;
+
+/// A quality preset.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Quality {
+    /// Converging, noisy-but-unbiased shading with indirect light (the default of single
+    /// frames and sequences).
+    #[default]
+    Offline,
+    /// Direct light and one environment ray per sample, for frames that follow each other at
+    /// a headset's rate.
+    Realtime,
+}
+
+/// The kinds of shading a preset or an option picks (the numbers are separate).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShadingKind {
+    /// [`ShadingMode::Indirect`].
+    Indirect,
+    /// [`ShadingMode::Direct`].
+    Direct,
+}
+
+impl Quality {
+    /// The name of the preset, as the CLI spells it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Offline => "offline",
+            Self::Realtime => "realtime",
+        }
+    }
+
+    /// The preset's kind of shading.
+    pub fn shading_kind(self) -> ShadingKind {
+        match self {
+            Self::Offline => ShadingKind::Indirect,
+            Self::Realtime => ShadingKind::Direct,
+        }
+    }
+
+    /// The preset's environment rays per sample (with occluded environment light).
+    pub fn env_samples(self) -> u32 {
+        match self {
+            Self::Offline => DEFAULT_ENV_SAMPLES,
+            Self::Realtime => REALTIME_ENV_SAMPLES,
+        }
+    }
+
+    /// The preset's shading with occluded environment light.
+    pub fn shading(self) -> ShadingMode {
+        let env_light = EnvLight::Occluded {
+            samples: self.env_samples(),
+        };
+        match self.shading_kind() {
+            ShadingKind::Indirect => ShadingMode::Indirect {
+                env_light,
+                bounces: DEFAULT_BOUNCES,
+            },
+            ShadingKind::Direct => ShadingMode::Direct { env_light },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn presets_name_their_shading() {
+        assert_eq!(
+            Quality::Offline.shading(),
+            ShadingMode::Indirect {
+                env_light: EnvLight::Occluded { samples: 4 },
+                bounces: DEFAULT_BOUNCES,
+            }
+        );
+        assert_eq!(
+            Quality::Realtime.shading(),
+            ShadingMode::Direct {
+                env_light: EnvLight::Occluded { samples: 1 },
+            }
+        );
+        for q in [Quality::Offline, Quality::Realtime] {
+            assert!(q.shading().validate().is_ok(), "{}", q.name());
+        }
+        assert_eq!(Quality::default(), Quality::Offline);
+    }
+}
