@@ -182,6 +182,11 @@ pub struct DenoiseGuides {
     pub normal: Vec<Image<[f32; 3]>>,
     /// The part of the colour estimated by Monte Carlo, linear RGB; NaN: unknown.
     pub noisy: Vec<Image<Rgb>>,
+    /// Per sample, the variance of the (accumulated) Monte Carlo part's demodulated
+    /// luminance from its temporal moments (SVGF Sec. 4.2), where temporal accumulation
+    /// kept enough frames; NaN, or no image for the layer: unknown (the filter estimates it
+    /// spatially). Written by the temporal accumulation, not by [`fit`](Self::fit).
+    pub variance: Vec<Image<f32>>,
 }
 
 impl DenoiseGuides {
@@ -211,7 +216,8 @@ impl DenoiseGuides {
     /// Bytes held.
     pub fn bytes(&self) -> u64 {
         let n: usize = self.albedo.iter().map(|i| i.data().len()).sum();
-        (n * 3 * std::mem::size_of::<Rgb>()) as u64
+        let v: usize = self.variance.iter().map(|i| i.data().len()).sum();
+        (n * 3 * std::mem::size_of::<Rgb>() + v * 4) as u64
     }
 }
 
@@ -402,6 +408,28 @@ pub fn denoise(
     params: &DenoiseParams,
     scratch: &mut DenoiseScratch,
 ) -> Result<DenoiseStats> {
+    denoise_with_variance(
+        color, depth, albedo, normal, noisy, None, grid, params, scratch,
+    )
+}
+
+/// [`denoise`] with a per-sample luminance variance `variance` (same size; the variance of
+/// the demodulated Monte Carlo part's luminance, e.g. from temporal moments,
+/// [`DenoiseGuides::variance`]) used in the luminance edge-stopping weight instead of the
+/// spatial 3×3 estimate wherever it is finite and non-negative (SVGF Sec. 4.2: temporal
+/// where the history is long enough, spatial elsewhere). The firefly clamp stays spatial.
+#[allow(clippy::too_many_arguments)]
+pub fn denoise_with_variance(
+    color: &mut Image<Rgb>,
+    depth: &Image<f32>,
+    albedo: &Image<Rgb>,
+    normal: &Image<[f32; 3]>,
+    noisy: Option<&Image<Rgb>>,
+    variance: Option<&Image<f32>>,
+    grid: &Grid,
+    params: &DenoiseParams,
+    scratch: &mut DenoiseScratch,
+) -> Result<DenoiseStats> {
     params.validate()?;
     let (w, h) = (color.width(), color.height());
     for (name, (iw, ih)) in [
@@ -411,6 +439,10 @@ pub fn denoise(
         (
             "denoise noisy part",
             noisy.map_or((w, h), |n| (n.width(), n.height())),
+        ),
+        (
+            "denoise variance",
+            variance.map_or((w, h), |v| (v.width(), v.height())),
         ),
     ] {
         if (iw, ih) != (w, h) {
@@ -555,10 +587,16 @@ pub fn denoise(
                         clamped += 1;
                     }
                 }
-                // Variance of the neighbourhood with the (clamped) centre.
-                let (tw, t1, t2) = (sw + 1.0, s1 + yp, s2 + yp * yp);
-                let mean = t1 / tw;
-                let var = (t2 / tw - mean * mean).max(0.0);
+                // The temporal estimate where given, else the variance of the neighbourhood
+                // with the (clamped) centre.
+                let temporal = variance.map_or(f32::NAN, |v| v.data()[k]);
+                let var = if temporal >= 0.0 && temporal.is_finite() {
+                    temporal
+                } else {
+                    let (tw, t1, t2) = (sw + 1.0, s1 + yp, s2 + yp * yp);
+                    let mean = t1 / tw;
+                    (t2 / tw - mean * mean).max(0.0)
+                };
                 out[i] = [lp[0], lp[1], lp[2], var];
             }
             clamped
@@ -1230,6 +1268,71 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_given_variance_replaces_the_spatial_estimate() {
+        // A noise-free lighting step on one plane: the spatial estimate sees the step as
+        // variance and lets the filter through it; a given variance of zero (the temporal
+        // moments' verdict: no noise) stops it, and the step comes back unchanged. NaN means
+        // unknown: the same as no variance at all.
+        let (w, h) = (32u32, 16u32);
+        let s = scene(
+            (w, h),
+            |i, _| if i < 16 { [1.0; 3] } else { [1.3; 3] },
+            |_, _| [0.5; 3],
+            |_, _| 2.0,
+            |_, _| [0.0, 0.0, 1.0],
+        );
+        let p = DenoiseParams {
+            firefly_k: None,
+            ..DenoiseParams::default()
+        };
+        let run_with = |v: Option<&Image<f32>>| {
+            let mut c = s.color.clone();
+            let mut scratch = DenoiseScratch::default();
+            denoise_with_variance(
+                &mut c,
+                &s.depth,
+                &s.albedo,
+                &s.normal,
+                None,
+                v,
+                &rect(&s),
+                &p,
+                &mut scratch,
+            )
+            .unwrap();
+            c
+        };
+        let spatial = run_with(None);
+        let blurred = (spatial.get(15, 8)[0] - s.color.get(15, 8)[0]).abs();
+        assert!(
+            blurred > 0.01,
+            "the spatial estimate let the step through: {blurred}"
+        );
+        let zero = Image::new(w, h, 0.0f32).unwrap();
+        let kept = run_with(Some(&zero));
+        for (o, c) in kept.data().iter().zip(s.color.data()) {
+            assert!((o[0] - c[0]).abs() <= 1e-6, "{o:?} vs {c:?}");
+        }
+        let unknown = Image::new(w, h, f32::NAN).unwrap();
+        assert_eq!(run_with(Some(&unknown)).data(), spatial.data());
+        // A variance of the wrong size is refused.
+        let small = Image::new(w - 1, h, 0.0f32).unwrap();
+        let mut c = s.color.clone();
+        assert!(denoise_with_variance(
+            &mut c,
+            &s.depth,
+            &s.albedo,
+            &s.normal,
+            None,
+            Some(&small),
+            &rect(&s),
+            &p,
+            &mut DenoiseScratch::default(),
+        )
+        .is_err());
     }
 
     #[test]
