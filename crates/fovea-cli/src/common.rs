@@ -10,7 +10,7 @@ use fovea_core::mapping::Method;
 use fovea_core::units::Degrees;
 
 use fovea_render::pipeline::FrameSettings;
-use fovea_render::settings::{DEFAULT_PERIPHERY_RAYS, MAX_PIXEL_SAMPLES};
+use fovea_render::settings::{DEFAULT_PERIPHERY_RAYS, MAX_PERIPHERY_RAYS, MAX_PIXEL_SAMPLES};
 
 use crate::choices::{
     self, DenoiseChoice, DenoiseKernelChoice, Headset, InsetPlacement, InsetSmoothing,
@@ -352,7 +352,7 @@ impl MethodOptions {
 /// and `bench`.
 #[derive(Args, Debug, Clone)]
 pub struct FrameOptions {
-    /// Primary rays per sample, 1 to 64, stratified over the sample's texel and averaged (1:
+    /// Primary rays per sample, 1 to 1024, stratified over the sample's texel and averaged (1:
     /// one ray through its centre). At full resolution, a supersampled reference.
     #[arg(long, default_value_t = 1,
           value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_PIXEL_SAMPLES)))]
@@ -367,7 +367,7 @@ pub struct FrameOptions {
     /// to this; 1 to 64; 1, the default: one ray per texel, as the paper). Steadier edges
     /// under gaze motion at about twice VaFR's rays (docs/rendering.md).
     #[arg(long, default_value_t = DEFAULT_PERIPHERY_RAYS,
-          value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_PIXEL_SAMPLES)))]
+          value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_PERIPHERY_RAYS)))]
     pub periphery_rays: u32,
     #[command(flatten)]
     pub inset: InsetSmoothingArgs,

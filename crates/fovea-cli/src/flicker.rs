@@ -24,9 +24,9 @@ use fovea_render::sequence::Sequence;
 use fovea_render::shade::ShadingMode;
 use fovea_render::world::World;
 
-use crate::choices::{self, AccumulationChoice, Headset, Scenario};
-use crate::common::{DisplayArgs, InsetSmoothingArgs, MethodOptions};
-use crate::render::memory_limit;
+use crate::choices::{self, AccumulationChoice, EnvLightChoice, Headset, Scenario, Shading};
+use crate::common::{DenoiseArgs, DisplayArgs, InsetSmoothingArgs, MethodOptions};
+use crate::render::{memory_limit, shading, EnvLightArgs};
 use crate::scene_args::{parse_vec3, prepare, SceneArgs};
 use crate::sequence::{gaze_trajectory, path_cameras, read_camera_path, read_gaze_csv};
 use crate::temporal_args::TemporalArgs;
@@ -51,6 +51,19 @@ pub struct FlickerArgs {
     /// Foveation methods to compare (comma-separated).
     #[arg(long, default_value = "vafr,kfr,visual-polar,inset,weier")]
     pub methods: String,
+    /// Shading of every frame and of the reference. Without it: noise-free (the unshadowed
+    /// environment; the flicker of the method alone; no denoiser). `indirect`, `direct` or
+    /// `path`: the shading a viewer gets, with its Monte Carlo noise (issue 38) and the
+    /// denoiser (--denoise), which the reference then carries too (raise --reference-spp).
+    #[arg(long, value_enum, ignore_case = true)]
+    pub shading: Option<Shading>,
+    /// Indirect bounces of --shading indirect (default 3) or path (default 2), 1 to 16.
+    #[arg(long)]
+    pub bounces: Option<u32>,
+    #[command(flatten)]
+    pub env: EnvLightArgs,
+    #[command(flatten)]
+    pub denoise: DenoiseArgs,
     /// Temporal accumulation: off, on or both (each method twice).
     #[arg(long, value_enum, ignore_case = true, default_value_t = AccumulationChoice::Both)]
     pub temporal: AccumulationChoice,
@@ -124,8 +137,25 @@ pub fn params(args: &FlickerArgs) -> Result<FlickerParams> {
             )
         })?;
     let mut frame = FrameSettings::new(Method::Vafr);
-    // Flicker is measured between frames whose samples move: without Monte Carlo noise.
-    frame.shading = ShadingMode::NOISE_FREE;
+    // Flicker of the method alone between frames whose samples move: without Monte Carlo
+    // noise, unless a shading is asked for (then with the viewer's noise and denoiser).
+    frame.shading = match args.shading {
+        None => ShadingMode::NOISE_FREE,
+        Some(kind) => shading(
+            Some(kind),
+            fovea_render::quality::Quality::Offline,
+            args.bounces,
+            1,
+            args.seed,
+            &args.env,
+            EnvLightChoice::Occluded,
+        )?,
+    };
+    // The denoiser has nothing to filter in noise-free frames (they would come back bit for
+    // bit): it runs with a shading asked for.
+    if args.shading.is_some() {
+        args.denoise.apply(&mut frame);
+    }
     frame.mapping = args.options.frame_config()?;
     args.options.warn_inapplicable(&methods);
     frame.memory_limit_bytes = memory_limit(args.max_memory.as_deref())?;

@@ -38,6 +38,7 @@ impl TemporalArgs {
             depth_tolerance: self.depth_tolerance,
             jitter: self.jitter.is_on(),
             clamp: self.history_clamp.is_on(),
+            variance: true,
         };
         s.validate()?;
         Ok(s)

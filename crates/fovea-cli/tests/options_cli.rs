@@ -153,16 +153,20 @@ fn a_bad_name_is_one_line_listing_the_valid_names() {
         (&["flicker", "--inset-smoothing", "blur"][..], &[smoothings][..]),
         (
             &["render", "--pixel-samples", "0"][..],
-            &["'--pixel-samples <PIXEL_SAMPLES>'", "0 is not in 1..=64"][..],
+            &["'--pixel-samples <PIXEL_SAMPLES>'", "0 is not in 1..=1024"][..],
         ),
         (
-            &["sequence", "--pixel-samples", "65"][..],
+            &["sequence", "--pixel-samples", "1025"][..],
+            &["1025 is not in 1..=1024"][..],
+        ),
+        (
+            &["render", "--periphery-rays", "65"][..],
             &["65 is not in 1..=64"][..],
         ),
         (&["bench", "--pixel-samples", "many"][..], &["--pixel-samples"][..]),
         (
             &["report", "--reference-pixel-samples", "0"][..],
-            &["0 is not in 1..=64"][..],
+            &["0 is not in 1..=1024"][..],
         ),
         (
             &["render", "--headset", "oculus"][..],

@@ -280,6 +280,8 @@ fn flicker_runs_and_rejects_bad_input() {
         vec!["flicker", "--temporal", "sometimes"],
         vec!["flicker", "--reference-spp", "0"],
         vec!["flicker", "--camera-move", "1,nan,0"],
+        vec!["flicker", "--shading", "sometimes"],
+        vec!["flicker", "--shading", "indirect", "--bounces", "0"],
     ] {
         let o = fovea().args(&bad).output().unwrap();
         let err = String::from_utf8_lossy(&o.stderr);
@@ -289,6 +291,55 @@ fn flicker_runs_and_rejects_bad_input() {
         );
         assert_eq!(err.trim().lines().count(), 1, "{bad:?}: {err}");
     }
+}
+
+#[test]
+fn flicker_scores_the_noisy_shading_when_asked() {
+    // Issue 38: with --shading the frames carry the viewer's Monte Carlo noise (and the
+    // denoiser), so the same sequence flickers differently from the noise-free one.
+    let dir = tempfile::tempdir().unwrap();
+    let run = |extra: &[&str], name: &str| {
+        let out = dir.path().join(name);
+        let o = fovea()
+            .args([
+                "flicker",
+                "--res",
+                "96x80",
+                "--lights",
+                "1",
+                "--frames",
+                "3",
+                "--methods",
+                "vafr",
+                "--temporal",
+                "on",
+                "-q",
+                "--out",
+            ])
+            .arg(&out)
+            .args(extra)
+            .output()
+            .unwrap();
+        ok(&o);
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("flicker.json")).unwrap())
+                .unwrap();
+        json["variants"][0]["flicker"]["frames"].clone()
+    };
+    let clean = run(&[], "clean");
+    let noisy = run(
+        &[
+            "--shading",
+            "direct",
+            "--env-samples",
+            "1",
+            "--denoise",
+            "off",
+        ],
+        "noisy",
+    );
+    assert_eq!(clean.as_array().unwrap().len(), 2);
+    assert_ne!(clean, noisy);
 }
 
 #[test]

@@ -380,6 +380,7 @@ fn synthetic_polar(seed: u64) -> Inputs {
         albedo: vec![albedo],
         normal: vec![normal],
         noisy: vec![noisy],
+        variance: Vec::new(),
     };
     let grids = vec![Grid::Polar { rows, period }];
     (samples, guides, grids, DenoiseParams::default())

@@ -182,6 +182,11 @@ pub struct DenoiseGuides {
     pub normal: Vec<Image<[f32; 3]>>,
     /// The part of the colour estimated by Monte Carlo, linear RGB; NaN: unknown.
     pub noisy: Vec<Image<Rgb>>,
+    /// Per sample, the variance of the (accumulated) Monte Carlo part's demodulated
+    /// luminance from its temporal moments (SVGF Sec. 4.2), where temporal accumulation
+    /// kept enough frames; NaN, or no image for the layer: unknown (the filter estimates it
+    /// spatially). Written by the temporal accumulation, not by [`fit`](Self::fit).
+    pub variance: Vec<Image<f32>>,
 }
 
 impl DenoiseGuides {
@@ -211,7 +216,8 @@ impl DenoiseGuides {
     /// Bytes held.
     pub fn bytes(&self) -> u64 {
         let n: usize = self.albedo.iter().map(|i| i.data().len()).sum();
-        (n * 3 * std::mem::size_of::<Rgb>()) as u64
+        let v: usize = self.variance.iter().map(|i| i.data().len()).sum();
+        (n * 3 * std::mem::size_of::<Rgb>() + v * 4) as u64
     }
 }
 
@@ -328,10 +334,15 @@ fn turn_of(grid: &Grid, i: u32, j: u32) -> f64 {
 
 /// `e^−x` for `x ≥ 0` (relative error below 3·10⁻⁴; 0 past `x` = 87): `2^−x·log₂e` split
 /// into an integer power (the exponent bits) and a degree-5 polynomial of the fraction.
-#[inline]
+/// Branch-free, so that a loop over taps vectorizes.
+#[inline(always)]
 fn exp_neg(x: f32) -> f32 {
-    let t = (-x * std::f32::consts::LOG2_E).max(-126.0);
-    let i = t as i32; // toward zero: the fraction lies in (−1, 0]
+    // `max` returns −126 for NaN too, so `t` is finite and within [−126, 0] for x ≥ 0 (and at
+    // most 2^24 otherwise): the conversion below is exact truncation.
+    #[allow(clippy::manual_clamp)] // `clamp` keeps a NaN; `max` then `min` does not.
+    let t = (-x * std::f32::consts::LOG2_E).max(-126.0).min(126.0);
+    // SAFETY: `t` is finite and within i32's range (clamped above).
+    let i: i32 = unsafe { t.to_int_unchecked() }; // toward zero: the fraction lies in (−1, 0]
     let f = t - i as f32;
     let p = 1.0
         + f * (std::f32::consts::LN_2
@@ -397,6 +408,28 @@ pub fn denoise(
     params: &DenoiseParams,
     scratch: &mut DenoiseScratch,
 ) -> Result<DenoiseStats> {
+    denoise_with_variance(
+        color, depth, albedo, normal, noisy, None, grid, params, scratch,
+    )
+}
+
+/// [`denoise`] with a per-sample luminance variance `variance` (same size; the variance of
+/// the demodulated Monte Carlo part's luminance, e.g. from temporal moments,
+/// [`DenoiseGuides::variance`]) used in the luminance edge-stopping weight instead of the
+/// spatial 3×3 estimate wherever it is finite and non-negative (SVGF Sec. 4.2: temporal
+/// where the history is long enough, spatial elsewhere). The firefly clamp stays spatial.
+#[allow(clippy::too_many_arguments)]
+pub fn denoise_with_variance(
+    color: &mut Image<Rgb>,
+    depth: &Image<f32>,
+    albedo: &Image<Rgb>,
+    normal: &Image<[f32; 3]>,
+    noisy: Option<&Image<Rgb>>,
+    variance: Option<&Image<f32>>,
+    grid: &Grid,
+    params: &DenoiseParams,
+    scratch: &mut DenoiseScratch,
+) -> Result<DenoiseStats> {
     params.validate()?;
     let (w, h) = (color.width(), color.height());
     for (name, (iw, ih)) in [
@@ -406,6 +439,10 @@ pub fn denoise(
         (
             "denoise noisy part",
             noisy.map_or((w, h), |n| (n.width(), n.height())),
+        ),
+        (
+            "denoise variance",
+            variance.map_or((w, h), |v| (v.width(), v.height())),
         ),
     ] {
         if (iw, ih) != (w, h) {
@@ -550,10 +587,16 @@ pub fn denoise(
                         clamped += 1;
                     }
                 }
-                // Variance of the neighbourhood with the (clamped) centre.
-                let (tw, t1, t2) = (sw + 1.0, s1 + yp, s2 + yp * yp);
-                let mean = t1 / tw;
-                let var = (t2 / tw - mean * mean).max(0.0);
+                // The temporal estimate where given, else the variance of the neighbourhood
+                // with the (clamped) centre.
+                let temporal = variance.map_or(f32::NAN, |v| v.data()[k]);
+                let var = if temporal >= 0.0 && temporal.is_finite() {
+                    temporal
+                } else {
+                    let (tw, t1, t2) = (sw + 1.0, s1 + yp, s2 + yp * yp);
+                    let mean = t1 / tw;
+                    (t2 / tw - mean * mean).max(0.0)
+                };
                 out[i] = [lp[0], lp[1], lp[2], var];
             }
             clamped
@@ -561,6 +604,15 @@ pub fn denoise(
         .sum();
     let filtered = role.par_iter().filter(|&&r| r != PASSIVE).count() as u64;
     let stats = DenoiseStats { filtered, clamped };
+    // No Monte Carlo light anywhere and nothing to refill (noise-free shading): filtering
+    // zeros gives zeros and the exact part comes back as it was, so skip the passes.
+    let idle = role.par_iter().all(|&r| r != RECEIVER)
+        && light0
+            .par_iter()
+            .all(|l| l[0] == 0.0 && l[1] == 0.0 && l[2] == 0.0);
+    if idle {
+        return Ok(stats);
+    }
 
     // 3. À-trous iterations, b → a → b …
     let grad = &*grad;
@@ -601,6 +653,86 @@ pub fn denoise(
     Ok(stats)
 }
 
+/// The most taps of one à-trous iteration besides the centre (the 5×5 kernel's 24).
+const MAX_TAPS: usize = 24;
+/// Taps evaluated together: the weights of 8 taps are computed lane by lane over fixed-size
+/// arrays, which the compiler turns into SIMD (SSE2 everywhere, AVX2 where the CPU has it).
+const LANES: usize = 8;
+
+/// What an à-trous iteration reads, shared by every row.
+struct Pass<'a> {
+    grid: &'a Grid,
+    geom: &'a [[f32; 4]],
+    grad: &'a [[f32; 2]],
+    role: &'a [u8],
+    src: &'a [[f32; 4]],
+    wu: usize,
+    step: i32,
+    params: &'a DenoiseParams,
+}
+
+/// Eight taps' data, one array per quantity (structure of arrays, for SIMD).
+#[derive(Default)]
+struct Lanes {
+    nx: [f32; LANES],
+    ny: [f32; LANES],
+    nz: [f32; LANES],
+    z: [f32; LANES],
+    r: [f32; LANES],
+    g: [f32; LANES],
+    b: [f32; LANES],
+    var: [f32; LANES],
+    /// Kernel weight `h(x)·h(y)`; 0 for an unused lane.
+    h: [f32; LANES],
+    /// |Δx|, |Δy| in kernel steps.
+    ax: [f32; LANES],
+    ay: [f32; LANES],
+}
+
+/// The centre texel's terms of the edge-stopping weight.
+struct Centre {
+    gp: [f32; 4],
+    g: [f32; 2],
+    yp: f32,
+    inv_sl: f32,
+    eps_z: f32,
+    step: f32,
+    sigma_z: f32,
+    sigma_n: f32,
+}
+
+impl Centre {
+    /// Adds each lane's weight `w` (Eq. 3–5 times the kernel's) into `acc`: `w`, `w·rgb`,
+    /// `w²·var`.
+    #[inline(always)]
+    fn weigh(&self, l: &Lanes, acc: &mut [[f32; LANES]; 5]) {
+        let (gp, g) = (self.gp, self.g);
+        for t in 0..LANES {
+            let dot = gp[0] * l.nx[t] + gp[1] * l.ny[t] + gp[2] * l.nz[t];
+            // 1 / (σ_z |∇z·(p − q)| + ε_z).
+            let d = (g[0] * l.ax[t] + g[1] * l.ay[t]) * self.step;
+            let inv_den = 1.0 / (self.sigma_z * d + self.eps_z);
+            let yq = 0.299 * l.r[t] + 0.587 * l.g[t] + 0.114 * l.b[t];
+            // max(0, n·n')^σ_n ≈ e^(−σ_n (1 − n·n')) (equal to first order at n = n'),
+            // folded into the one exponential with the depth and luminance terms.
+            let arg = (gp[3] - l.z[t]).abs() * inv_den
+                + (self.yp - yq).abs() * self.inv_sl
+                + self.sigma_n * (1.0 - dot);
+            let e = exp_neg(arg);
+            let wgt = if dot > 0.0 && arg <= 30.0 {
+                l.h[t] * e
+            } else {
+                0.0
+            };
+            acc[0][t] += wgt;
+            acc[1][t] += wgt * l.r[t];
+            acc[2][t] += wgt * l.g[t];
+            acc[3][t] += wgt * l.b[t];
+            acc[4][t] += wgt * wgt * l.var[t];
+        }
+    }
+}
+
 /// One à-trous iteration at `step` texels from `src` into `dst` (receivers only).
 #[allow(clippy::too_many_arguments)]
 fn atrous_pass(
@@ -614,127 +746,214 @@ fn atrous_pass(
     step: i32,
     params: &DenoiseParams,
 ) {
+    let pass = Pass {
+        grid,
+        geom,
+        grad,
+        role,
+        src,
+        wu,
+        step,
+        params,
+    };
+    #[cfg(target_arch = "x86_64")]
+    let avx2 = std::arch::is_x86_feature_detected!("avx2");
+    dst.par_chunks_mut(wu).enumerate().for_each(|(j, out)| {
+        #[cfg(target_arch = "x86_64")]
+        if avx2 {
+            // SAFETY: the CPU has AVX2 (checked above); the function is safe Rust otherwise.
+            unsafe { atrous_row_avx2(&pass, j as u32, out) };
+            return;
+        }
+        atrous_row(&pass, j as u32, out);
+    });
+}
+
+/// [`atrous_row`] compiled for AVX2 (the same operations, 8 lanes wide; no FMA, so the
+/// results equal the SSE2 build's bit for bit).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn atrous_row_avx2(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
+    atrous_row(pass, j, out)
+}
+
+/// Row `j` of one à-trous iteration.
+#[inline(always)]
+fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
+    let Pass {
+        grid,
+        geom,
+        grad,
+        role,
+        src,
+        wu,
+        step,
+        params,
+    } = *pass;
     let sigma_l = params.sigma_luminance;
     let sigma_z = params.sigma_depth;
     let sigma_n = params.normal_power as f32;
     let same_normal = std::f32::consts::LN_2 / sigma_n;
-    dst.par_chunks_mut(wu).enumerate().for_each(|(j, out)| {
-        let j = j as u32;
-        for i in 0..wu {
-            let k = j as usize * wu + i;
-            if role[k] == PASSIVE {
-                continue;
-            }
-            let gp = geom[k];
-            let g = grad[k];
-            let lp = [src[k][0], src[k][1], src[k][2]];
-            let yp = luma(lp);
-            let turn = turn_of(grid, i as u32, j);
-            let eps_z = 1e-3 * gp[3].abs() + 1e-9;
-            // 3×3 Gaussian of the variance over sources on the same surface (SVGF Eq. 5's
-            // g₃ₓ₃; a neighbour across an edge has another noise level), in the first
-            // iteration; the later ones read the variance the earlier ones filtered.
-            let (mut vw, mut vs) = (0.0f32, 0.0f32);
-            if step > 1 {
-                (vw, vs) = (1.0, src[k][3]);
-            }
-            for di in (-1i32..=1).filter(|_| step == 1) {
+    let h = params.kernel.taps();
+    let half = h.len() / 2;
+    let reuse_3x3 = step == 1 && h.len() == 3;
+    for i in 0..wu {
+        let k = j as usize * wu + i;
+        if role[k] == PASSIVE {
+            continue;
+        }
+        let gp = geom[k];
+        let g = grad[k];
+        let lp = [src[k][0], src[k][1], src[k][2]];
+        let yp = luma(lp);
+        let turn = turn_of(grid, i as u32, j);
+        let eps_z = 1e-3 * gp[3].abs() + 1e-9;
+        // The 3×3 neighbourhood at step 1 (index or none, [di + 1][dj + 1]): the variance's
+        // prefilter in the first iteration, and the taps too with the 3×3 kernel.
+        let mut near = [[None::<usize>; 3]; 3];
+        if step == 1 {
+            for (di, col) in (-1i32..=1).zip(near.iter_mut()) {
                 let Some((c, row, rows)) = column_at(grid, i as u32, j, turn, di) else {
                     continue;
                 };
-                for dj in -1i32..=1 {
-                    let Some(r) = row_of(grid, row, rows, dj) else {
-                        continue;
-                    };
-                    let q = r as usize * wu + c as usize;
-                    if role[q] != SOURCE {
-                        continue;
-                    }
-                    if q != k {
-                        let gq = geom[q];
-                        let dot = gp[0] * gq[0] + gp[1] * gq[1] + gp[2] * gq[2];
-                        let dz = (gp[3] - gq[3]).abs();
-                        let tol = sigma_z * (g[0] * di.abs() as f32 + g[1] * dj.abs() as f32);
-                        if 1.0 - dot > same_normal || dz > tol + eps_z {
-                            continue;
-                        }
-                    }
-                    let wgt = [0.25f32, 0.5, 0.25][(di + 1) as usize]
-                        * [0.25f32, 0.5, 0.25][(dj + 1) as usize];
-                    vw += wgt;
-                    vs += wgt * src[q][3];
+                for (dj, cell) in (-1i32..=1).zip(col.iter_mut()) {
+                    *cell = row_of(grid, row, rows, dj).map(|r| r as usize * wu + c as usize);
                 }
             }
-            let var = if vw > 0.0 { vs / vw } else { 0.0 };
-            // A receiver-only texel has no light of its own to compare with.
-            let inv_sl = if role[k] == SOURCE {
-                1.0 / (sigma_l * var.sqrt() + 1e-8)
-            } else {
-                0.0
-            };
-            // 1 / (σ_z |∇z·(p − q)| + ε_z) for |dx|, |dy| ∈ {0, 1, 2}·step (one division
-            // each instead of one per tap).
-            let inv_den: [[f32; 3]; 3] = std::array::from_fn(|ax| {
-                std::array::from_fn(|ay| {
-                    let d = (g[0] * ax as f32 + g[1] * ay as f32) * step as f32;
-                    1.0 / (sigma_z * d + eps_z)
-                })
-            });
-            let (mut sw, mut sl, mut sv) = (0.0f32, [0.0f32; 3], 0.0f32);
-            let h = params.kernel.taps();
-            let half = h.len() / 2;
-            if role[k] == SOURCE {
-                let wgt = h[half] * h[half];
-                sw = wgt;
-                sl = lp.map(|v| v * wgt);
-                sv = wgt * wgt * src[k][3];
+        }
+        // 3×3 Gaussian of the variance over sources on the same surface (SVGF Eq. 5's
+        // g₃ₓ₃; a neighbour across an edge has another noise level), in the first
+        // iteration; the later ones read the variance the earlier ones filtered.
+        let (mut vw, mut vs) = (0.0f32, 0.0f32);
+        if step > 1 {
+            (vw, vs) = (1.0, src[k][3]);
+        }
+        for (di, col) in (-1i32..=1).zip(&near).filter(|_| step == 1) {
+            for (dj, &cell) in (-1i32..=1).zip(col) {
+                let Some(q) = cell else {
+                    continue;
+                };
+                if role[q] != SOURCE {
+                    continue;
+                }
+                if q != k {
+                    let gq = geom[q];
+                    let dot = gp[0] * gq[0] + gp[1] * gq[1] + gp[2] * gq[2];
+                    let dz = (gp[3] - gq[3]).abs();
+                    let tol = sigma_z * (g[0] * di.abs() as f32 + g[1] * dj.abs() as f32);
+                    if 1.0 - dot > same_normal || dz > tol + eps_z {
+                        continue;
+                    }
+                }
+                let wgt = H3[(di + 1) as usize] * H3[(dj + 1) as usize];
+                vw += wgt;
+                vs += wgt * src[q][3];
             }
-            for (xi, hx) in h.iter().enumerate() {
+        }
+        let var = if vw > 0.0 { vs / vw } else { 0.0 };
+        // A receiver-only texel has no light of its own to compare with.
+        let inv_sl = if role[k] == SOURCE {
+            1.0 / (sigma_l * var.sqrt() + 1e-8)
+        } else {
+            0.0
+        };
+
+        // The taps that land on another source: index, kernel weight and |Δx|, |Δy| in
+        // kernel steps. Unused lanes read the centre with weight 0.
+        let mut tq = [k; MAX_TAPS];
+        let mut th = [0.0f32; MAX_TAPS];
+        let mut tx = [0.0f32; MAX_TAPS];
+        let mut ty = [0.0f32; MAX_TAPS];
+        let mut nt = 0usize;
+        let mut push = |q: usize, xi: usize, yi: usize| {
+            if role[q] == SOURCE && q != k {
+                tq[nt] = q;
+                th[nt] = h[xi] * h[yi];
+                tx[nt] = xi.abs_diff(half) as f32;
+                ty[nt] = yi.abs_diff(half) as f32;
+                nt += 1;
+            }
+        };
+        if reuse_3x3 {
+            for (xi, col) in near.iter().enumerate() {
+                for (yi, &cell) in col.iter().enumerate() {
+                    if let (Some(q), false) = (cell, xi == 1 && yi == 1) {
+                        push(q, xi, yi);
+                    }
+                }
+            }
+        } else {
+            for xi in 0..h.len() {
                 let di = (xi as i32 - half as i32) * step;
                 let Some((c, row, rows)) = column_at(grid, i as u32, j, turn, di) else {
                     continue;
                 };
-                for (yi, hy) in h.iter().enumerate() {
+                for yi in 0..h.len() {
                     if xi == half && yi == half {
                         continue;
                     }
                     let dj = (yi as i32 - half as i32) * step;
-                    let Some(r) = row_of(grid, row, rows, dj) else {
-                        continue;
-                    };
-                    let q = r as usize * wu + c as usize;
-                    if role[q] != SOURCE || q == k {
-                        continue;
+                    if let Some(r) = row_of(grid, row, rows, dj) {
+                        push(r as usize * wu + c as usize, xi, yi);
                     }
-                    let gq = geom[q];
-                    let dot = gp[0] * gq[0] + gp[1] * gq[1] + gp[2] * gq[2];
-                    if dot <= 0.0 {
-                        continue;
-                    }
-                    let lq = [src[q][0], src[q][1], src[q][2]];
-                    // max(0, n·n')^σ_n ≈ e^(−σ_n (1 − n·n')) (equal to first order at n = n'),
-                    // folded into the one exponential with the depth and luminance terms.
-                    let arg = (gp[3] - gq[3]).abs() * inv_den[xi.abs_diff(half)][yi.abs_diff(half)]
-                        + (yp - luma(lq)).abs() * inv_sl
-                        + sigma_n * (1.0 - dot);
-                    if arg > 30.0 {
-                        continue;
-                    }
-                    let wgt = hx * hy * exp_neg(arg);
-                    sw += wgt;
-                    for ch in 0..3 {
-                        sl[ch] += wgt * lq[ch];
-                    }
-                    sv += wgt * wgt * src[q][3];
                 }
             }
-            out[i] = if sw > 0.0 {
-                [sl[0] / sw, sl[1] / sw, sl[2] / sw, sv / (sw * sw)]
-            } else {
-                src[k]
-            };
         }
-    });
+
+        let (mut sw, mut sl, mut sv) = (0.0f32, [0.0f32; 3], 0.0f32);
+        if role[k] == SOURCE {
+            let wgt = h[half] * h[half];
+            sw = wgt;
+            sl = lp.map(|v| v * wgt);
+            sv = wgt * wgt * src[k][3];
+        }
+        // Lane sums (w, w·r, w·g, w·b, w²·var), reduced after the last block.
+        let mut acc = [[0.0f32; LANES]; 5];
+        let centre = Centre {
+            gp,
+            g,
+            yp,
+            inv_sl,
+            eps_z,
+            step: step as f32,
+            sigma_z,
+            sigma_n,
+        };
+        for block in 0..nt.div_ceil(LANES) {
+            let o = block * LANES;
+            // Each lane array built whole from its 8 loads (no scalar stores read back as a
+            // vector: that stalls on store forwarding).
+            let q: [usize; LANES] = std::array::from_fn(|t| tq[o + t]);
+            let gq: [[f32; 4]; LANES] = q.map(|q| geom[q]);
+            let sq: [[f32; 4]; LANES] = q.map(|q| src[q]);
+            let lanes = Lanes {
+                nx: std::array::from_fn(|t| gq[t][0]),
+                ny: std::array::from_fn(|t| gq[t][1]),
+                nz: std::array::from_fn(|t| gq[t][2]),
+                z: std::array::from_fn(|t| gq[t][3]),
+                r: std::array::from_fn(|t| sq[t][0]),
+                g: std::array::from_fn(|t| sq[t][1]),
+                b: std::array::from_fn(|t| sq[t][2]),
+                var: std::array::from_fn(|t| sq[t][3]),
+                h: std::array::from_fn(|t| th[o + t]),
+                ax: std::array::from_fn(|t| tx[o + t]),
+                ay: std::array::from_fn(|t| ty[o + t]),
+            };
+            centre.weigh(&lanes, &mut acc);
+        }
+        if nt > 0 {
+            sw += acc[0].iter().sum::<f32>();
+            for ch in 0..3 {
+                sl[ch] += acc[1 + ch].iter().sum::<f32>();
+            }
+            sv += acc[4].iter().sum::<f32>();
+        }
+        out[i] = if sw > 0.0 {
+            [sl[0] / sw, sl[1] / sw, sl[2] / sw, sv / (sw * sw)]
+        } else {
+            src[k]
+        };
+    }
 }
 
 #[cfg(test)]
@@ -836,6 +1055,284 @@ mod tests {
             0.5,
             0.05 + 0.01 * (j % 5) as f32,
         ]
+    }
+
+    /// The à-trous iteration as first written (scalar, tap by tap, in the order of the
+    /// kernel): the reference the vectorized [`super::atrous_pass`] must equal to rounding.
+    #[allow(clippy::too_many_arguments)]
+    fn reference_pass(
+        grid: &Grid,
+        geom: &[[f32; 4]],
+        grad: &[[f32; 2]],
+        role: &[u8],
+        src: &[[f32; 4]],
+        dst: &mut [[f32; 4]],
+        wu: usize,
+        step: i32,
+        params: &DenoiseParams,
+    ) {
+        let sigma_l = params.sigma_luminance;
+        let sigma_z = params.sigma_depth;
+        let sigma_n = params.normal_power as f32;
+        let same_normal = std::f32::consts::LN_2 / sigma_n;
+        dst.par_chunks_mut(wu).enumerate().for_each(|(j, out)| {
+            let j = j as u32;
+            for i in 0..wu {
+                let k = j as usize * wu + i;
+                if role[k] == PASSIVE {
+                    continue;
+                }
+                let gp = geom[k];
+                let g = grad[k];
+                let lp = [src[k][0], src[k][1], src[k][2]];
+                let yp = luma(lp);
+                let turn = turn_of(grid, i as u32, j);
+                let eps_z = 1e-3 * gp[3].abs() + 1e-9;
+                // 3×3 Gaussian of the variance over sources on the same surface (SVGF Eq. 5's
+                // g₃ₓ₃; a neighbour across an edge has another noise level), in the first
+                // iteration; the later ones read the variance the earlier ones filtered.
+                let (mut vw, mut vs) = (0.0f32, 0.0f32);
+                if step > 1 {
+                    (vw, vs) = (1.0, src[k][3]);
+                }
+                for di in (-1i32..=1).filter(|_| step == 1) {
+                    let Some((c, row, rows)) = column_at(grid, i as u32, j, turn, di) else {
+                        continue;
+                    };
+                    for dj in -1i32..=1 {
+                        let Some(r) = row_of(grid, row, rows, dj) else {
+                            continue;
+                        };
+                        let q = r as usize * wu + c as usize;
+                        if role[q] != SOURCE {
+                            continue;
+                        }
+                        if q != k {
+                            let gq = geom[q];
+                            let dot = gp[0] * gq[0] + gp[1] * gq[1] + gp[2] * gq[2];
+                            let dz = (gp[3] - gq[3]).abs();
+                            let tol = sigma_z * (g[0] * di.abs() as f32 + g[1] * dj.abs() as f32);
+                            if 1.0 - dot > same_normal || dz > tol + eps_z {
+                                continue;
+                            }
+                        }
+                        let wgt = [0.25f32, 0.5, 0.25][(di + 1) as usize]
+                            * [0.25f32, 0.5, 0.25][(dj + 1) as usize];
+                        vw += wgt;
+                        vs += wgt * src[q][3];
+                    }
+                }
+                let var = if vw > 0.0 { vs / vw } else { 0.0 };
+                // A receiver-only texel has no light of its own to compare with.
+                let inv_sl = if role[k] == SOURCE {
+                    1.0 / (sigma_l * var.sqrt() + 1e-8)
+                } else {
+                    0.0
+                };
+                // 1 / (σ_z |∇z·(p − q)| + ε_z) for |dx|, |dy| ∈ {0, 1, 2}·step (one division
+                // each instead of one per tap).
+                let inv_den: [[f32; 3]; 3] = std::array::from_fn(|ax| {
+                    std::array::from_fn(|ay| {
+                        let d = (g[0] * ax as f32 + g[1] * ay as f32) * step as f32;
+                        1.0 / (sigma_z * d + eps_z)
+                    })
+                });
+                let (mut sw, mut sl, mut sv) = (0.0f32, [0.0f32; 3], 0.0f32);
+                let h = params.kernel.taps();
+                let half = h.len() / 2;
+                if role[k] == SOURCE {
+                    let wgt = h[half] * h[half];
+                    sw = wgt;
+                    sl = lp.map(|v| v * wgt);
+                    sv = wgt * wgt * src[k][3];
+                }
+                for (xi, hx) in h.iter().enumerate() {
+                    let di = (xi as i32 - half as i32) * step;
+                    let Some((c, row, rows)) = column_at(grid, i as u32, j, turn, di) else {
+                        continue;
+                    };
+                    for (yi, hy) in h.iter().enumerate() {
+                        if xi == half && yi == half {
+                            continue;
+                        }
+                        let dj = (yi as i32 - half as i32) * step;
+                        let Some(r) = row_of(grid, row, rows, dj) else {
+                            continue;
+                        };
+                        let q = r as usize * wu + c as usize;
+                        if role[q] != SOURCE || q == k {
+                            continue;
+                        }
+                        let gq = geom[q];
+                        let dot = gp[0] * gq[0] + gp[1] * gq[1] + gp[2] * gq[2];
+                        if dot <= 0.0 {
+                            continue;
+                        }
+                        let lq = [src[q][0], src[q][1], src[q][2]];
+                        // max(0, n·n')^σ_n ≈ e^(−σ_n (1 − n·n')) (equal to first order at n = n'),
+                        // folded into the one exponential with the depth and luminance terms.
+                        let arg = (gp[3] - gq[3]).abs()
+                            * inv_den[xi.abs_diff(half)][yi.abs_diff(half)]
+                            + (yp - luma(lq)).abs() * inv_sl
+                            + sigma_n * (1.0 - dot);
+                        if arg > 30.0 {
+                            continue;
+                        }
+                        let wgt = hx * hy * exp_neg(arg);
+                        sw += wgt;
+                        for ch in 0..3 {
+                            sl[ch] += wgt * lq[ch];
+                        }
+                        sv += wgt * wgt * src[q][3];
+                    }
+                }
+                out[i] = if sw > 0.0 {
+                    [sl[0] / sw, sl[1] / sw, sl[2] / sw, sv / (sw * sw)]
+                } else {
+                    src[k]
+                };
+            }
+        });
+    }
+
+    #[test]
+    fn the_vectorized_pass_equals_the_scalar_reference() {
+        // Random geometry (a few surfaces, some facing away, some passive and receiver
+        // texels), random light and variance, on a polar and a rect grid, every step and both
+        // kernels: the outputs agree to f32 rounding of the reordered sums.
+        let rows = vec![6u32, 9, 14, 20, 27, 33, 40, 40, 40, 38];
+        let period: Vec<f64> = rows.iter().map(|&r| r as f64 * 1.03).collect();
+        let polar = Grid::Polar {
+            rows: rows.clone(),
+            period,
+        };
+        let rect = Grid::Rect {
+            width: 37,
+            height: 29,
+        };
+        let mut rng = Rng(21);
+        for (grid, w, h) in [(&polar, 10usize, 40usize), (&rect, 37, 29)] {
+            let n = w * h;
+            let geom: Vec<[f32; 4]> = (0..n)
+                .map(|_| {
+                    let s = (rng.next() * 4.0) as u32;
+                    let nv = [
+                        [0.0, 0.0, 1.0],
+                        [0.0, 0.6, 0.8],
+                        [0.8, 0.0, 0.6],
+                        [0.0, 0.0, -1.0],
+                    ][s as usize];
+                    let nv = [nv[0] + 0.01 * rng.next(), nv[1], nv[2]];
+                    [nv[0], nv[1], nv[2], 1.0 + s as f32 + 0.05 * rng.next()]
+                })
+                .collect();
+            let grad: Vec<[f32; 2]> = (0..n)
+                .map(|_| [0.02 * rng.next(), 0.03 * rng.next()])
+                .collect();
+            let role: Vec<u8> = (0..n)
+                .map(|k| {
+                    let (i, j) = ((k % w) as u32, (k / w) as u32);
+                    match (grid.valid(i, j), rng.next()) {
+                        (false, _) => PASSIVE,
+                        (true, x) if x < 0.05 => PASSIVE,
+                        (true, x) if x < 0.1 => RECEIVER,
+                        _ => SOURCE,
+                    }
+                })
+                .collect();
+            let src: Vec<[f32; 4]> = (0..n)
+                .map(|_| {
+                    let v = rng.next();
+                    [v, 0.5 * v + 0.2 * rng.next(), rng.next(), 0.05 * rng.next()]
+                })
+                .collect();
+            for kernel in [Kernel::Linear3x3, Kernel::B3Spline5x5] {
+                let params = DenoiseParams {
+                    kernel,
+                    ..DenoiseParams::default()
+                };
+                for step in [1, 2, 4, 8] {
+                    let mut fast = vec![[0.0f32; 4]; n];
+                    let mut slow = vec![[0.0f32; 4]; n];
+                    atrous_pass(grid, &geom, &grad, &role, &src, &mut fast, w, step, &params);
+                    reference_pass(grid, &geom, &grad, &role, &src, &mut slow, w, step, &params);
+                    for k in 0..n {
+                        for c in 0..4 {
+                            let (a, b) = (fast[k][c], slow[k][c]);
+                            assert!(
+                                (a - b).abs() <= 1e-5 * b.abs().max(1e-3),
+                                "{kernel:?} step {step} texel {k} channel {c}: {a} vs {b}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_given_variance_replaces_the_spatial_estimate() {
+        // A noise-free lighting step on one plane: the spatial estimate sees the step as
+        // variance and lets the filter through it; a given variance of zero (the temporal
+        // moments' verdict: no noise) stops it, and the step comes back unchanged. NaN means
+        // unknown: the same as no variance at all.
+        let (w, h) = (32u32, 16u32);
+        let s = scene(
+            (w, h),
+            |i, _| if i < 16 { [1.0; 3] } else { [1.3; 3] },
+            |_, _| [0.5; 3],
+            |_, _| 2.0,
+            |_, _| [0.0, 0.0, 1.0],
+        );
+        let p = DenoiseParams {
+            firefly_k: None,
+            ..DenoiseParams::default()
+        };
+        let run_with = |v: Option<&Image<f32>>| {
+            let mut c = s.color.clone();
+            let mut scratch = DenoiseScratch::default();
+            denoise_with_variance(
+                &mut c,
+                &s.depth,
+                &s.albedo,
+                &s.normal,
+                None,
+                v,
+                &rect(&s),
+                &p,
+                &mut scratch,
+            )
+            .unwrap();
+            c
+        };
+        let spatial = run_with(None);
+        let blurred = (spatial.get(15, 8)[0] - s.color.get(15, 8)[0]).abs();
+        assert!(
+            blurred > 0.01,
+            "the spatial estimate let the step through: {blurred}"
+        );
+        let zero = Image::new(w, h, 0.0f32).unwrap();
+        let kept = run_with(Some(&zero));
+        for (o, c) in kept.data().iter().zip(s.color.data()) {
+            assert!((o[0] - c[0]).abs() <= 1e-6, "{o:?} vs {c:?}");
+        }
+        let unknown = Image::new(w, h, f32::NAN).unwrap();
+        assert_eq!(run_with(Some(&unknown)).data(), spatial.data());
+        // A variance of the wrong size is refused.
+        let small = Image::new(w - 1, h, 0.0f32).unwrap();
+        let mut c = s.color.clone();
+        assert!(denoise_with_variance(
+            &mut c,
+            &s.depth,
+            &s.albedo,
+            &s.normal,
+            None,
+            Some(&small),
+            &rect(&s),
+            &p,
+            &mut DenoiseScratch::default(),
+        )
+        .is_err());
     }
 
     #[test]

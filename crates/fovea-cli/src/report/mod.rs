@@ -70,7 +70,7 @@ pub struct ReportArgs {
     /// headset only with --quick).
     #[arg(long)]
     pub bench_res: Option<String>,
-    /// Primary rays per pixel of the quality section's full-resolution reference, 1 to 64,
+    /// Primary rays per pixel of the quality section's full-resolution reference, 1 to 1024,
     /// stratified over the pixel (as `fovea render --method full --pixel-samples N`); default
     /// 16 (4 with --quick). The foveated frames keep one ray per sample, and a one-ray full
     /// frame is scored beside them: a one-ray frame aliases, so it is a poor reference itself.

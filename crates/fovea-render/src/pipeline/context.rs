@@ -94,6 +94,12 @@ impl FrameContext {
         self.frame.as_ref()
     }
 
+    /// The per-sample temporal variance the denoiser read in the last frame, per layer (NaN
+    /// where it used its spatial estimate; empty without temporal accumulation or denoiser).
+    pub fn denoise_variance(&self) -> &[fovea_core::Image<f32>] {
+        &self.denoise.0.variance
+    }
+
     /// The last frame, taken out (the next frame allocates its screen buffers again).
     pub fn take_frame(&mut self) -> Option<Frame> {
         self.frame.take()

@@ -373,14 +373,20 @@ pub fn render_planned<'c>(
             if let Some(g) = guides.as_deref_mut() {
                 sample_post::complement_part(samples, g);
             }
-            let s = sample_post::accumulate(plan, camera, acc, samples)?;
+            let s = sample_post::accumulate(plan, camera, acc, samples, guides.as_deref_mut())?;
             if let Some(g) = guides {
                 sample_post::complement_part(samples, g);
             }
             times.add(Stage::Temporal, &t);
             Some(s)
         }
-        None => None,
+        None => {
+            // No history: no temporal variance (the denoiser's spatial estimate).
+            if let Some(g) = guides {
+                g.variance.clear();
+            }
+            None
+        }
     };
     // Denoising, before the reconstruction magnifies the periphery's noise.
     let (denoise, denoise_backend) = match plan.settings.denoise {

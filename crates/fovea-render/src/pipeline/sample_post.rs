@@ -24,16 +24,27 @@ use super::AaMode;
 use crate::camera::EyeCamera;
 use crate::error::{RenderError, Result};
 use crate::plan::FramePlan;
-use crate::temporal::{TemporalAccumulator, TemporalStats};
+use crate::temporal::{MonteCarloPart, TemporalAccumulator, TemporalStats};
 
 /// Folds the previous frame held by `accumulator` into this frame's `samples` (before AA).
+/// With the denoiser's `guides` (their `noisy` holding the fresh frame's *exact* part:
+/// [`complement_part`] before), the accumulation also keeps the temporal moments of the Monte
+/// Carlo part's luminance and writes their variance into `guides.variance` for the denoiser
+/// (`crate::temporal::TemporalSettings::variance`; NaN where a texel's history is shorter than
+/// `crate::temporal::VARIANCE_MIN_AGE` frames, emptied where it is not estimated).
 pub fn accumulate(
     plan: &FramePlan,
     camera: &EyeCamera,
     accumulator: &mut TemporalAccumulator,
     samples: &mut SampleBuffers,
+    guides: Option<&mut DenoiseGuides>,
 ) -> Result<TemporalStats> {
-    accumulator.accumulate(plan, camera, samples)
+    let part = guides.map(|g| MonteCarloPart {
+        exact: &g.noisy,
+        albedo: &g.albedo,
+        variance: &mut g.variance,
+    });
+    accumulator.accumulate(plan, camera, samples, part)
 }
 
 /// Denoises every layer of `samples` with `params`, guided by `guides` (recorded by the
@@ -47,7 +58,9 @@ pub fn accumulate(
 /// name).
 ///
 /// After temporal accumulation, `guides.noisy` must hold the accumulated colour's Monte Carlo
-/// part ([`complement_part`] before and after it).
+/// part ([`complement_part`] before and after it), and `guides.variance` (where present) the
+/// temporal variance [`accumulate`] wrote; without accumulation it must be empty (the spatial
+/// estimate).
 pub fn denoise(
     plan: &FramePlan,
     params: &DenoiseParams,
@@ -100,7 +113,10 @@ pub fn denoise(
     {
         let (albedo, normal) = (&guides.albedo[l], &guides.normal[l]);
         let noisy = guides.noisy.get(l);
-        stats += fovea_post::denoise::denoise(c, d, albedo, normal, noisy, grid, params, scratch)?;
+        let variance = guides.variance.get(l);
+        stats += fovea_post::denoise::denoise_with_variance(
+            c, d, albedo, normal, noisy, variance, grid, params, scratch,
+        )?;
     }
     Ok((stats, CPU.to_string()))
 }

@@ -54,6 +54,24 @@ pub(crate) const SKY_DEPTH_M: f32 = 1.0e9;
 /// Jitter cycle length (Halton 2, 3 points).
 pub const JITTER_PERIOD: u64 = 16;
 
+/// Frames a texel's history must hold before its temporal variance replaces the denoiser's
+/// spatial estimate (SVGF, Sec. 4.2: 4).
+pub const VARIANCE_MIN_AGE: u16 = 4;
+
+/// What the variance estimate reads and writes in [`TemporalAccumulator::accumulate`], per
+/// layer: the fresh frame's exact part (its colour less the Monte Carlo part; NaN where the
+/// part is unknown: the whole colour is Monte Carlo) and albedo (which demodulates the light,
+/// `fovea_post::denoise::demodulate`), and the variance written for the denoiser
+/// (`fovea_post::denoise::DenoiseGuides::variance`: NaN where the history is too short).
+pub struct MonteCarloPart<'a> {
+    /// The fresh frame's exact part per layer.
+    pub exact: &'a [Image<Rgb>],
+    /// The albedo per layer.
+    pub albedo: &'a [Image<Rgb>],
+    /// Output: the accumulated Monte Carlo luminance's variance per layer.
+    pub variance: &'a mut Vec<Image<f32>>,
+}
+
 /// Options of the temporal accumulation.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct TemporalSettings {
@@ -71,6 +89,11 @@ pub struct TemporalSettings {
     /// Clamp the history colour to the range of the new sample's 3×3 neighbourhood (in sample
     /// space), which removes ghosts of changed shading.
     pub clamp: bool,
+    /// Keep the temporal moments of the Monte Carlo part's luminance and give the denoiser
+    /// their per-sample variance (SVGF Sec. 4.2) where a texel's history holds at least
+    /// [`VARIANCE_MIN_AGE`] frames (buffer methods, with the denoiser on); off: the
+    /// denoiser's spatial estimate everywhere.
+    pub variance: bool,
 }
 
 impl Default for TemporalSettings {
@@ -80,6 +103,7 @@ impl Default for TemporalSettings {
             depth_tolerance: 0.03,
             jitter: false,
             clamp: true,
+            variance: true,
         }
     }
 }
@@ -191,17 +215,29 @@ impl TemporalAccumulator {
 
     /// Blends the previous frame into this frame's freshly shaded samples (before AA) of the
     /// frame `plan` (its mapping, gaze, spacing table and jitter), seen by `camera`.
+    ///
+    /// With `part` (the denoiser is on) and [`TemporalSettings::variance`], buffer methods
+    /// keep the temporal moments of the Monte Carlo part's demodulated luminance in the
+    /// history and write its variance into `part.variance` ([`moments_variance`], NaN where
+    /// a texel's history holds fewer than [`VARIANCE_MIN_AGE`] frames); otherwise
+    /// `part.variance` is emptied (the denoiser's spatial estimate everywhere).
     pub(crate) fn accumulate(
         &mut self,
         plan: &FramePlan,
         camera: &EyeCamera,
         buffers: &mut SampleBuffers,
+        part: Option<MonteCarloPart<'_>>,
     ) -> Result<TemporalStats> {
         let mapping = plan.mapping();
         let (gaze, lut) = (plan.eye.gaze, &plan.spacing);
         let method = mapping.method();
         if self.method != Some(method) {
             self.history = None;
+        }
+        let mut part = part;
+        let estimate = self.settings.variance && method != Method::Weier;
+        if let Some(p) = part.as_mut().filter(|_| !estimate) {
+            p.variance.clear();
         }
         let mut stats = if method == Method::Weier {
             let (stats, ages) = match &self.history {
@@ -213,12 +249,28 @@ impl TemporalAccumulator {
             self.weier_ages = Some((ages, lut.clone(), gaze));
             stats
         } else {
-            let (stats, ages) = match &self.history {
-                Some(History::Samples(h)) => {
-                    sample_space::blend(h, &self.settings, mapping, camera, gaze, lut, buffers)?
-                }
-                _ => sample_space::first_frame(mapping, buffers)?,
+            // The fresh frame's Monte Carlo luminance per texel, before the blend.
+            let fresh = part
+                .as_ref()
+                .filter(|_| estimate)
+                .map(|p| sample_space::monte_carlo_luma(buffers, p.exact, p.albedo))
+                .transpose()?;
+            let (stats, ages, moments) = match &self.history {
+                Some(History::Samples(h)) => sample_space::blend(
+                    h,
+                    &self.settings,
+                    mapping,
+                    camera,
+                    gaze,
+                    lut,
+                    buffers,
+                    fresh.as_deref(),
+                )?,
+                _ => sample_space::first_frame(mapping, buffers, fresh.as_deref())?,
             };
+            if let Some(p) = part.as_mut().filter(|_| estimate) {
+                sample_space::variance_of(&moments, &ages, p.variance)?;
+            }
             self.history = Some(History::Samples(sample_space::SampleHistory::new(
                 plan.shared_mapping(),
                 camera.clone(),
@@ -226,6 +278,7 @@ impl TemporalAccumulator {
                 lut.clone(),
                 buffers,
                 ages,
+                moments,
             )));
             stats
         };
@@ -324,8 +377,7 @@ pub(crate) fn running_estimate(c: Rgb, h: Rgb, v: f32, n: u16, alpha_min: f32) -
     if v <= 1e-3 || n == 0 {
         return (c, 1);
     }
-    let a_hist = alpha_min.max(1.0 / (n as f32 + 1.0));
-    let a = 1.0 - (1.0 - a_hist) * v.min(1.0);
+    let a = new_weight(v, n, alpha_min);
     let out = [
         a * c[0] + (1.0 - a) * h[0],
         a * c[1] + (1.0 - a) * h[1],
@@ -335,9 +387,101 @@ pub(crate) fn running_estimate(c: Rgb, h: Rgb, v: f32, n: u16, alpha_min: f32) -
     (out, age)
 }
 
+/// The new sample's weight in the running estimate of [`running_estimate`] (1 where the
+/// history is rejected).
+#[inline]
+pub(crate) fn new_weight(v: f32, n: u16, alpha_min: f32) -> f32 {
+    if v <= 1e-3 || n == 0 {
+        return 1.0;
+    }
+    let a_hist = alpha_min.max(1.0 / (n as f32 + 1.0));
+    1.0 - (1.0 - a_hist) * v.min(1.0)
+}
+
+/// Temporal moments of a luminance `y` folded with the new sample's weight `a` into the
+/// history's `[m₁, m₂, s]` (the first and second moments of the per-frame luminance, and
+/// `s = Σ wₖ²`, the sum of the squared weights the running estimate gave the frames):
+/// `m₁' = a·y + (1 − a)·m₁`, `m₂' = a·y² + (1 − a)·m₂`, `s' = a² + (1 − a)²·s` (SVGF
+/// Sec. 4.2 keeps m₁ and m₂ the same way).
+#[inline]
+pub(crate) fn fold_moments(y: f32, history: [f32; 3], a: f32) -> [f32; 3] {
+    let b = 1.0 - a;
+    [
+        a * y + b * history[0],
+        a * y * y + b * history[1],
+        a * a + b * b * history[2],
+    ]
+}
+
+/// The variance of the running estimate of a luminance from its moments `[m₁, m₂, s]`: for
+/// frames of independent noise of variance σ² the weighted mean `Σ wₖ yₖ` (weights summing
+/// to 1) has variance `σ² s`, and `m₂ − m₁²` estimates `σ² (1 − s)`, so the estimate is
+/// `(m₂ − m₁²)·s/(1 − s)` — unbiased, `σ²/n` for a plain average of n frames. NaN for a
+/// single frame (`s = 1`: no spread to measure).
+#[inline]
+pub fn moments_variance(m: [f32; 3]) -> f32 {
+    let rest = 1.0 - m[2];
+    if rest <= 1e-6 {
+        return f32::NAN;
+    }
+    (m[1] - m[0] * m[0]).max(0.0) * m[2] / rest
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_moments_variance_falls_as_one_over_n_for_independent_noise() {
+        // Luminance y = 1 + σ·noise, σ = 0.5, folded frame by frame as the running estimate
+        // folds colour (a plain average while n + 1 < 1/α_min): over many texels the mean
+        // variance estimate and the running estimate's actual variance across texels are
+        // both σ²/n.
+        let texels = 20_000;
+        let sigma = 0.5f32;
+        let mut seed = 0x1234_5678_9abc_def0u64;
+        let mut gauss = || {
+            let mut u = || {
+                seed ^= seed << 13;
+                seed ^= seed >> 7;
+                seed ^= seed << 17;
+                (seed >> 11) as f64 / (1u64 << 53) as f64
+            };
+            let (a, b) = (u().max(1e-12), u());
+            ((-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()) as f32
+        };
+        let mut m = vec![[0.0f32; 3]; texels];
+        let mut mean = vec![0.0f32; texels];
+        let mut age = vec![0u16; texels];
+        for n in 1..=8u16 {
+            for t in 0..texels {
+                let y = 1.0 + sigma * gauss();
+                let a = new_weight(1.0, age[t], 0.05);
+                m[t] = fold_moments(y, m[t], a);
+                mean[t] = a * y + (1.0 - a) * mean[t];
+                age[t] = n;
+            }
+            let est = m.iter().map(|&m| moments_variance(m) as f64).sum::<f64>() / texels as f64;
+            let mu = mean.iter().map(|&v| v as f64).sum::<f64>() / texels as f64;
+            let actual = mean.iter().map(|&v| (v as f64 - mu).powi(2)).sum::<f64>() / texels as f64;
+            let s2 = (sigma * sigma) as f64;
+            let nf = n as f64;
+            let want = s2 / nf;
+            eprintln!("n {n}: variance estimate {est:.5}, actual {actual:.5}, σ²/n {want:.5}");
+            assert!(
+                (actual - want).abs() < 0.05 * want,
+                "n {n}: actual {actual}"
+            );
+            if n > 1 {
+                assert!(
+                    (est - want).abs() < 0.05 * want,
+                    "n {n}: estimate {est}, closed form {want}"
+                );
+            } else {
+                assert!(est.is_nan(), "one frame has no spread: {est}");
+            }
+        }
+    }
 
     #[test]
     fn depth_weight_ramps() {

@@ -24,13 +24,17 @@ use fovea_post::inverse_map::SampleBuffers;
 use fovea_post::Rgb;
 
 use super::{
-    depth_weight, reproject, resolution_weight, running_estimate, shaded_count, SpacingLut,
-    TemporalSettings, TemporalStats,
+    depth_weight, fold_moments, moments_variance, new_weight, reproject, resolution_weight,
+    running_estimate, shaded_count, SpacingLut, TemporalSettings, TemporalStats, VARIANCE_MIN_AGE,
 };
 use crate::camera::EyeCamera;
 use crate::error::Result;
 use fovea_core::display::Gaze;
 use fovea_core::units::ScreenPoint;
+
+/// A history lookup: colour, weight, age, the previous sample spacing (pixels) and the
+/// moments (`None` when not kept).
+type Looked = (Rgb, f32, u16, f32, Option<[f32; 3]>);
 
 /// The previous frame of a buffer method: its mapping and camera, the accumulated colour
 /// (before AA), depth and the age of each texel's history.
@@ -42,6 +46,9 @@ pub struct SampleHistory {
     color: Vec<Image<Rgb>>,
     depth: Vec<Image<f32>>,
     age: Vec<Image<u16>>,
+    /// Temporal moments `[m₁, m₂, Σw²]` of the Monte Carlo part's demodulated luminance
+    /// (`super::fold_moments`); empty when not kept.
+    moments: Vec<Image<[f32; 3]>>,
     grids: Vec<Grid>,
     /// For screen-aligned layered mappings (Guenter, inset): per layer the affine map screen →
     /// layer `(u, v) = ((x − x₀)/s_x, (y − y₀)/s_y)`, so a texel reads the history of its own
@@ -50,7 +57,8 @@ pub struct SampleHistory {
 }
 
 impl SampleHistory {
-    /// Keeps a frame: `mapping` must be the mapping `buffers` were shaded with.
+    /// Keeps a frame: `mapping` must be the mapping `buffers` were shaded with; `moments`
+    /// per layer, or empty.
     pub fn new(
         mapping: std::sync::Arc<dyn FoveationMapping>,
         camera: EyeCamera,
@@ -58,6 +66,7 @@ impl SampleHistory {
         spacing: SpacingLut,
         buffers: &SampleBuffers,
         age: Vec<Image<u16>>,
+        moments: Vec<Image<[f32; 3]>>,
     ) -> Self {
         let grids = grids_of(mapping.as_ref(), buffers);
         let layered = buffers.color.len() > 1 && mapping.polar_layout().is_none();
@@ -91,6 +100,7 @@ impl SampleHistory {
             color: buffers.color.clone(),
             depth: buffers.depth.clone(),
             age,
+            moments,
             grids,
             affine,
         }
@@ -109,11 +119,11 @@ impl SampleHistory {
     ) -> Option<(Rgb, f32, u16)> {
         let p = mapping.inverse(s)?;
         self.lookup_at(camera, p, depth_m, s.layer, tau)
-            .map(|(c, v, n, _)| (c, v, n))
+            .map(|(c, v, n, _, _)| (c, v, n))
     }
 
     /// [`lookup`](Self::lookup) from screen point `p`: also the previous sample spacing at
-    /// the reprojected point, pixels.
+    /// the reprojected point, pixels, and the moments there (bilinear; `None` when not kept).
     fn lookup_at(
         &self,
         camera: &EyeCamera,
@@ -121,7 +131,7 @@ impl SampleHistory {
         depth_m: f32,
         layer: u32,
         tau: f32,
-    ) -> Option<(Rgb, f32, u16, f32)> {
+    ) -> Option<Looked> {
         let (q, z_prev) = reproject(camera, &self.camera, p, depth_m)?;
         let d = &self.camera.display;
         if !(q.x_px >= 0.0
@@ -139,14 +149,20 @@ impl SampleHistory {
             },
             _ => self.mapping.forward(q)?,
         };
-        let (c, v, n) = self.fetch(prev, z_prev, tau);
+        let (c, v, n, m) = self.fetch(prev, z_prev, tau);
         let b = self.spacing.at(d.eccentricity(q, &self.gaze).0);
-        Some((c, v, n, b))
+        Some((c, v, n, b, m))
     }
 
-    /// Bilinear fetch at sample point `s`: `(colour, weight, age)`; the weight is the sum of
-    /// the valid taps' bilinear weights × depth agreement with `expected_m`.
-    fn fetch(&self, s: SamplePoint, expected_m: f32, tau: f32) -> (Rgb, f32, u16) {
+    /// Bilinear fetch at sample point `s`: `(colour, weight, age, moments)`; the weight is
+    /// the sum of the valid taps' bilinear weights × depth agreement with `expected_m`; the
+    /// moments are the bilinear ones of the same taps (`None` when not kept).
+    fn fetch(
+        &self,
+        s: SamplePoint,
+        expected_m: f32,
+        tau: f32,
+    ) -> (Rgb, f32, u16, Option<[f32; 3]>) {
         let l = s.layer as usize;
         let (Some(color), Some(depth), Some(age), Some(grid)) = (
             self.color.get(l),
@@ -154,17 +170,18 @@ impl SampleHistory {
             self.age.get(l),
             self.grids.get(l),
         ) else {
-            return ([0.0; 3], 0.0, 0);
+            return ([0.0; 3], 0.0, 0, None);
         };
+        let moments = self.moments.get(l);
         let (w, h) = (color.width() as i64, color.height() as i64);
         let (u, v) = (s.u - 0.5, s.v - 0.5);
         if !(u.is_finite() && v.is_finite()) {
-            return ([0.0; 3], 0.0, 0);
+            return ([0.0; 3], 0.0, 0, None);
         }
         let (i0, j0) = (u.floor() as i64, v.floor() as i64);
         let (fu, fv) = ((u - i0 as f64) as f32, (v - j0 as f64) as f32);
-        // One tap: colour, depth agreement and age, `None` outside the shaded buffer.
-        let tap = |di: i64, dj: i64| -> Option<(Rgb, f32, u16)> {
+        // One tap: colour, depth agreement, age and moments, `None` outside the shaded buffer.
+        let tap = |di: i64, dj: i64| -> Option<(Rgb, f32, u16, [f32; 3])> {
             let i = i0 + di;
             if i < 0 || i >= w {
                 return None;
@@ -186,10 +203,12 @@ impl SampleHistory {
             }
             let (iu, ju) = (i as u32, j as u32);
             let dw = depth_weight(*depth.get(iu, ju), expected_m, tau);
-            Some((*color.get(iu, ju), dw, *age.get(iu, ju)))
+            let m = moments.map_or([0.0; 3], |m| *m.get(iu, ju));
+            Some((*color.get(iu, ju), dw, *age.get(iu, ju), m))
         };
         // Bilinear over the four nearest taps, weighted by depth agreement.
         let mut acc = [0.0f32; 3];
+        let mut macc = [0.0f32; 3];
         let (mut valid, mut n) = (0.0f32, 0u16);
         for (di, dj, bw) in [
             (0, 0, (1.0 - fu) * (1.0 - fv)),
@@ -200,20 +219,22 @@ impl SampleHistory {
             if bw <= 0.0 {
                 continue;
             }
-            let Some((c, dw, a)) = tap(di, dj).filter(|t| t.1 > 0.0) else {
+            let Some((c, dw, a, m)) = tap(di, dj).filter(|t| t.1 > 0.0) else {
                 continue;
             };
             let q = bw * dw;
             for k in 0..3 {
                 acc[k] += q * c[k];
+                macc[k] += q * m[k];
             }
             valid += q;
             n = n.max(a);
         }
         if valid <= 0.0 {
-            return ([0.0; 3], 0.0, 0);
+            return ([0.0; 3], 0.0, 0, None);
         }
         let bilinear = acc.map(|a| a / valid);
+        let moments = moments.map(|_| macc.map(|m| m / valid));
         // Where all 16 taps around agree in depth, Catmull-Rom instead: bilinear history
         // lookups blur a little every frame, and the blur accumulates.
         let (wx, wy) = (catmull_rom(fu), catmull_rom(fv));
@@ -221,16 +242,16 @@ impl SampleHistory {
         for (dj, wyj) in (-1..=2).zip(wy) {
             for (di, wxi) in (-1..=2).zip(wx) {
                 match tap(di, dj) {
-                    Some((c, dw, _)) if dw >= 1.0 => {
+                    Some((c, dw, _, _)) if dw >= 1.0 => {
                         for k in 0..3 {
                             cr[k] += wxi * wyj * c[k];
                         }
                     }
-                    _ => return (bilinear, valid, n),
+                    _ => return (bilinear, valid, n, moments),
                 }
             }
         }
-        (cr.map(|v| v.max(0.0)), valid, n)
+        (cr.map(|v| v.max(0.0)), valid, n, moments)
     }
 }
 
@@ -262,28 +283,135 @@ fn grids_of(mapping: &dyn FoveationMapping, buffers: &SampleBuffers) -> Vec<Grid
         .collect()
 }
 
-/// First frame: every shaded texel is fresh, with age 1.
+/// Moments per layer, ages and statistics of a frame.
+type Blended = (TemporalStats, Vec<Image<u16>>, Vec<Image<[f32; 3]>>);
+
+/// The moments of a single frame of luminance `y`: `[y, y², 1]` (`[0, 0, 1]` where `y` is
+/// not finite: nothing to carry on).
+#[inline]
+fn single(y: f32) -> [f32; 3] {
+    if y.is_finite() {
+        [y, y * y, 1.0]
+    } else {
+        [0.0, 0.0, 1.0]
+    }
+}
+
+/// First frame: every shaded texel is fresh, with age 1; the moments of `fresh` (the
+/// frame's Monte Carlo luminance per layer, [`monte_carlo_luma`]) where given.
 pub(crate) fn first_frame(
     mapping: &dyn FoveationMapping,
     buffers: &SampleBuffers,
-) -> Result<(TemporalStats, Vec<Image<u16>>)> {
+    fresh_luma: Option<&[Image<f32>]>,
+) -> Result<Blended> {
     let mut fresh = 0;
     let mut ages = Vec::with_capacity(buffers.color.len());
     for (l, c) in buffers.color.iter().enumerate() {
         fresh += shaded_count(mapping, l as u32, c.width(), c.height());
         ages.push(Image::new(c.width(), c.height(), 1u16)?);
     }
+    let moments = match fresh_luma {
+        Some(y) => y
+            .iter()
+            .map(|y| {
+                Image::from_vec(
+                    y.width(),
+                    y.height(),
+                    y.data().iter().map(|&v| single(v)).collect(),
+                )
+            })
+            .collect::<fovea_core::Result<Vec<_>>>()?,
+        None => Vec::new(),
+    };
     Ok((
         TemporalStats {
             fresh,
             ..Default::default()
         },
         ages,
+        moments,
     ))
 }
 
+/// The luminance of each sample's Monte Carlo part, demodulated by its albedo
+/// (`fovea_post::denoise::demodulate`, as the denoiser filters it): the colour less `exact`
+/// (NaN there: the whole colour). A layer without a matching `exact` or `albedo` image is NaN
+/// throughout (no moments kept there).
+pub(crate) fn monte_carlo_luma(
+    buffers: &SampleBuffers,
+    exact: &[Image<Rgb>],
+    albedo: &[Image<Rgb>],
+) -> Result<Vec<Image<f32>>> {
+    let mut out = Vec::with_capacity(buffers.color.len());
+    for (l, c) in buffers.color.iter().enumerate() {
+        let size = (c.width(), c.height());
+        let (Some(e), Some(a)) = (
+            exact.get(l).filter(|e| (e.width(), e.height()) == size),
+            albedo.get(l).filter(|a| (a.width(), a.height()) == size),
+        ) else {
+            out.push(Image::new(size.0, size.1, f32::NAN)?);
+            continue;
+        };
+        let y: Vec<f32> = c
+            .data()
+            .par_iter()
+            .zip(e.data().par_iter())
+            .zip(a.data().par_iter())
+            .map(|((c, e), a)| {
+                let part = if e.iter().all(|v| v.is_finite()) {
+                    [c[0] - e[0], c[1] - e[1], c[2] - e[2]]
+                } else {
+                    *c
+                };
+                fovea_post::luma(fovea_post::denoise::demodulate(part, *a))
+            })
+            .collect();
+        out.push(Image::from_vec(size.0, size.1, y)?);
+    }
+    Ok(out)
+}
+
+/// The denoiser's variance per layer from the moments and ages of a frame
+/// ([`moments_variance`] where the age is at least [`VARIANCE_MIN_AGE`], NaN elsewhere),
+/// written into `out` (resized to the layers).
+pub(crate) fn variance_of(
+    moments: &[Image<[f32; 3]>],
+    ages: &[Image<u16>],
+    out: &mut Vec<Image<f32>>,
+) -> Result<()> {
+    out.truncate(moments.len());
+    for (l, (m, a)) in moments.iter().zip(ages).enumerate() {
+        let fits = out
+            .get(l)
+            .is_some_and(|v| (v.width(), v.height()) == (m.width(), m.height()));
+        if !fits {
+            let img = Image::new(m.width(), m.height(), f32::NAN)?;
+            if l < out.len() {
+                out[l] = img;
+            } else {
+                out.push(img);
+            }
+        }
+        out[l]
+            .data_mut()
+            .par_iter_mut()
+            .zip(m.data().par_iter().zip(a.data().par_iter()))
+            .for_each(|(v, (m, &age))| {
+                *v = if age >= VARIANCE_MIN_AGE {
+                    moments_variance(*m)
+                } else {
+                    f32::NAN
+                };
+            });
+    }
+    Ok(())
+}
+
 /// Folds `history` into `buffers` (this frame's shaded samples of `mapping` seen by
-/// `camera`); returns the statistics and the new ages.
+/// `camera`); returns the statistics, the new ages and, with `fresh_luma` (the frame's Monte
+/// Carlo luminance per layer, [`monte_carlo_luma`]), the moments folded with the same
+/// weights as the colour (empty without).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn blend(
     history: &SampleHistory,
     settings: &TemporalSettings,
@@ -292,23 +420,27 @@ pub(crate) fn blend(
     gaze: Gaze,
     spacing: &SpacingLut,
     buffers: &mut SampleBuffers,
-) -> Result<(TemporalStats, Vec<Image<u16>>)> {
+    fresh_luma: Option<&[Image<f32>]>,
+) -> Result<Blended> {
     let grids = grids_of(mapping, buffers);
     let mut stats = TemporalStats::default();
     let mut ages = Vec::with_capacity(buffers.color.len());
+    let mut moments = Vec::new();
     for (l, (color, depth)) in buffers.color.iter_mut().zip(&buffers.depth).enumerate() {
         let layer = l as u32;
         let (w, h) = (color.width(), color.height());
         let grid = &grids[l];
         let src = color.clone();
-        type Out = (Rgb, u16, bool, bool);
+        let luma = fresh_luma.and_then(|y| y.get(l));
+        let y_of = |k: usize| luma.map_or(f32::NAN, |y| y.data()[k]);
+        type Out = (Rgb, u16, bool, bool, [f32; 3]);
         let results: Vec<Out> = (0..w as usize * h as usize)
             .into_par_iter()
             .map(|k| {
                 let (i, j) = ((k % w as usize) as u32, (k / w as usize) as u32);
                 let c = *src.get(i, j);
                 if !mapping.is_shaded(layer, i, j) {
-                    return (c, 0, false, false);
+                    return (c, 0, false, false, [0.0, 0.0, 1.0]);
                 }
                 let s = SamplePoint {
                     layer,
@@ -317,7 +449,7 @@ pub(crate) fn blend(
                 };
                 let z = *depth.get(i, j);
                 let fetched = mapping.inverse(s).and_then(|p| {
-                    let (hc, v, n, b_prev) =
+                    let (hc, v, n, b_prev, hm) =
                         history.lookup_at(camera, p, z, layer, settings.depth_tolerance)?;
                     let (v, n) = resolution_weight(
                         v,
@@ -325,10 +457,11 @@ pub(crate) fn blend(
                         spacing.at(camera.display.eccentricity(p, &gaze).0),
                         b_prev,
                     );
-                    Some((hc, v, n))
+                    Some((hc, v, n, hm))
                 });
-                let Some((mut hc, v, n)) = fetched.filter(|f| f.1 > 1e-3) else {
-                    return (c, 1, true, false);
+                let y = y_of(k);
+                let Some((mut hc, v, n, hm)) = fetched.filter(|f| f.1 > 1e-3) else {
+                    return (c, 1, true, false, single(y));
                 };
                 if settings.clamp {
                     let (mut lo, mut hi) = (c, c);
@@ -349,13 +482,28 @@ pub(crate) fn blend(
                     }
                 }
                 let (out, age) = running_estimate(c, hc, v, n, settings.alpha_min);
-                (out, age, true, true)
+                // The moments with the colour's weights; a history without them (or a
+                // texel without a finite luminance) starts over.
+                let m = match hm {
+                    Some(hm) if y.is_finite() && hm.iter().all(|v| v.is_finite()) => {
+                        fold_moments(y, hm, new_weight(v, n, settings.alpha_min))
+                    }
+                    _ => single(y),
+                };
+                (out, age, true, true, m)
             })
             .collect();
         let mut age_img = Image::new(w, h, 0u16)?;
-        for (k, (out, age, shaded, reused)) in results.into_iter().enumerate() {
+        let mut m_img = match luma {
+            Some(_) => Some(Image::new(w, h, [0.0f32, 0.0, 1.0])?),
+            None => None,
+        };
+        for (k, (out, age, shaded, reused, m)) in results.into_iter().enumerate() {
             color.data_mut()[k] = out;
             age_img.data_mut()[k] = age;
+            if let Some(mi) = m_img.as_mut() {
+                mi.data_mut()[k] = m;
+            }
             if shaded {
                 if reused {
                     stats.reused += 1;
@@ -365,6 +513,13 @@ pub(crate) fn blend(
             }
         }
         ages.push(age_img);
+        if let Some(mi) = m_img {
+            moments.push(mi);
+        }
     }
-    Ok((stats, ages))
+    // Every layer or none.
+    if moments.len() != ages.len() {
+        moments.clear();
+    }
+    Ok((stats, ages, moments))
 }
