@@ -34,7 +34,7 @@ use crate::surface::GpuSurfaces;
 use crate::trace::{DirectLightModel, GpuTracer, TraceUniform, MAX_DISTANCE};
 
 /// The module: the staged passes' files with `frame_shade.wgsl` appended; the frame creates
-/// pipelines for [`ENTRY_POINTS`] only, not for the nine the other files bring along.
+/// pipelines for [`ENTRY_POINTS`] only, not for the ten the other files bring along.
 pub const SHADER: ShaderSource = ShaderSource {
     file: "frame_shade.wgsl",
     source: concat!(
@@ -56,6 +56,7 @@ pub const SHADER: ShaderSource = ShaderSource {
         "surface_screen",
         "environment_light",
         "mix64_check",
+        "polar_point_check",
         "frame_surface",
         "frame_direct",
         "frame_environment",
