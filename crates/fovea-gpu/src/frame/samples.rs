@@ -90,26 +90,7 @@ impl DeviceSamples {
     /// [`GpuError::AdapterTooSmall`] when they exceed one storage binding, before anything is
     /// allocated.
     pub fn new(ctx: &GpuContext, sizes: &[BufferSize]) -> Result<Self> {
-        let (layers, texels) = Self::layout(sizes).ok_or_else(|| {
-            GpuError::Unsupported(format!("sample buffers of more than {} texels", u32::MAX))
-        })?;
-        let bytes = texels.max(1) * TEXEL_BYTES;
-        ctx.check_storage_binding("the frame's sample buffers", bytes)?;
-        let buffer = ctx.scoped("allocating the frame's sample buffers", || {
-            ctx.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("sample buffers"),
-                size: bytes,
-                usage: wgpu::BufferUsages::STORAGE
-                    | wgpu::BufferUsages::COPY_SRC
-                    | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            })
-        })?;
-        Ok(Self {
-            buffer,
-            layers,
-            texels,
-        })
+        Self::with_capacity(ctx, sizes, 0)
     }
 
     /// [`Self::new`] with room for at least `capacity_texels` texels, so that a later frame's
