@@ -520,7 +520,7 @@ impl GpuDof {
 
 /// The CoC pass's constants for `params` at `focus` (every one from
 /// [`coc_constants`], rounded once to f32).
-fn coc_uniform(params: &CocParams, focus: Metres) -> Result<CocUniform> {
+pub(crate) fn coc_uniform(params: &CocParams, focus: Metres) -> Result<CocUniform> {
     let k = coc_constants(params, focus).map_err(|e| GpuError::Input(e.to_string()))?;
     let (form, a, b) = match k.form {
         CocForm::ThinLens {

@@ -38,7 +38,8 @@
 //! * [`tonemap`]: exposure, tone curve and 8-bit sRGB encoding ([`GpuToneMap`]).
 //! * [`frame`]: the resident frame's buffers on the device ([`frame::DeviceSamples`]) and its
 //!   sample side: every texel traced and shaded by one kernel, both eyes in one submission
-//!   ([`frame::ResidentSamples`]).
+//!   ([`frame::ResidentSamples`]), and its screen side recorded into one encoder
+//!   ([`frame::ScreenContext`]).
 //! * [`shaders`]: the WGSL sources, validated with naga in a plain `cargo test`.
 //!
 //! ```no_run
@@ -115,4 +116,6 @@ pub const ALL_SHADERS: &[shaders::ShaderSource] = &[
     dof::GATHER_SHADER,
     tonemap::SHADER,
     frame::shade::SHADER,
+    frame::reconstruct::PAD_SHADER,
+    frame::screen::SPLIT_SHADER,
 ];

@@ -68,7 +68,7 @@ const RGB_BYTES: u64 = 12;
 /// the shader's loop finite.
 pub const MAX_SEARCH_STEPS: u32 = 1 << 16;
 /// Rows a polar column may hold (the alignment table packs two rows into a u32).
-const MAX_POLAR_ROWS: u32 = 1 << 16;
+pub(crate) const MAX_POLAR_ROWS: u32 = 1 << 16;
 
 /// The uniform block `SampleAaParams` of `sample_grid.wgsl` (same field order; see there).
 #[repr(C)]
@@ -118,20 +118,20 @@ pub struct SampleAaTimes {
 
 /// The tables of one grid, as uploaded.
 #[derive(Clone, Debug, PartialEq)]
-struct GridTables {
+pub(crate) struct GridTables {
     /// The buffer's size the tables are for.
     size: (u32, u32),
     /// The polar layout they come from (`None`: rect).
     polar: Option<(Vec<u32>, Vec<f64>)>,
     /// Per column: rows, left column, right column, 0.
-    columns: Vec<[u32; 4]>,
+    pub(crate) columns: Vec<[u32; 4]>,
     /// Per texel (polar): left row | right row << 16; one 0 for a rect.
-    align: Vec<u32>,
+    pub(crate) align: Vec<u32>,
 }
 
 impl GridTables {
     /// The key this table was built for.
-    fn is_for(&self, grid: &Grid, size: (u32, u32)) -> bool {
+    pub(crate) fn is_for(&self, grid: &Grid, size: (u32, u32)) -> bool {
         self.size == size
             && match (grid, &self.polar) {
                 (Grid::Rect { .. }, None) => true,
@@ -140,7 +140,7 @@ impl GridTables {
             }
     }
 
-    fn new(grid: &Grid, (w, h): (u32, u32)) -> Result<Self> {
+    pub(crate) fn new(grid: &Grid, (w, h): (u32, u32)) -> Result<Self> {
         match grid {
             Grid::Rect { width, height } => {
                 if (*width, *height) != (w, h) {

@@ -301,29 +301,7 @@ impl PolarTables {
                 ))
             }
         };
-        // u(r) lookup table from the mapping's forward map.
-        let corners = [
-            (0.0, 0.0),
-            (w as f64, 0.0),
-            (0.0, h as f64),
-            (w as f64, h as f64),
-        ];
-        let r_max = corners
-            .iter()
-            .map(|&(x, y)| (x - c.x_px).hypot(y - c.y_px))
-            .fold(0.0, f64::max)
-            + 2.0;
-        let n = (r_max / LUT_STEP_PX).ceil() as usize + 2;
-        let lut: Vec<f32> = (0..n)
-            .into_par_iter()
-            .map(|k| {
-                let r = k as f64 * LUT_STEP_PX;
-                match mapping.forward(ScreenPoint::new(c.x_px + r, c.y_px)) {
-                    Some(s) => s.u as f32,
-                    None => f32::INFINITY,
-                }
-            })
-            .collect();
+        let lut = polar_lut(mapping, c, w, h);
         // The pixel's footprint in every column: radial texels per pixel (`du/dr`) and rows
         // per pixel along the column (`period/(2πr)`), both at the column's centre radius.
         let footprint = match filter {
@@ -345,6 +323,37 @@ impl PolarTables {
             texels_per_px: footprint.map(|f| f.texels_per_px),
         })
     }
+}
+
+/// The `u(r)` lookup table of [`PolarTables::lut`]: the polar `mapping`'s column coordinate
+/// at `r = k · LUT_STEP_PX` from its pole `centre` (along +x, from its own forward map) out
+/// to the farthest corner of a `w × h` screen plus 2 px; `f32::INFINITY` where the mapping
+/// has no sample. Shared with executors that keep the columns on a device
+/// (`fovea_gpu::frame`), so both build it from the same numbers.
+pub fn polar_lut(mapping: &dyn FoveationMapping, centre: ScreenPoint, w: u32, h: u32) -> Vec<f32> {
+    let c = centre;
+    let corners = [
+        (0.0, 0.0),
+        (w as f64, 0.0),
+        (0.0, h as f64),
+        (w as f64, h as f64),
+    ];
+    let r_max = corners
+        .iter()
+        .map(|&(x, y)| (x - c.x_px).hypot(y - c.y_px))
+        .fold(0.0, f64::max)
+        + 2.0;
+    let n = (r_max / LUT_STEP_PX).ceil() as usize + 2;
+    (0..n)
+        .into_par_iter()
+        .map(|k| {
+            let r = k as f64 * LUT_STEP_PX;
+            match mapping.forward(ScreenPoint::new(c.x_px + r, c.y_px)) {
+                Some(s) => s.u as f32,
+                None => f32::INFINITY,
+            }
+        })
+        .collect()
 }
 
 fn polar(
@@ -580,17 +589,20 @@ impl PolarColumns {
 }
 
 /// What one screen pixel covers of every column of a polar buffer.
-struct ColumnFootprints {
+pub struct ColumnFootprints {
     /// Columns per pixel radially, `du/dr` at the column's centre (1 where unknown).
-    texels_per_px: Vec<f32>,
-    /// Rows per pixel along the column, `period/(2π r)` at its centre radius.
-    rows_per_px: Vec<f32>,
+    pub texels_per_px: Vec<f32>,
+    /// Rows per pixel along the column, `period/(2π r)` at its centre radius (`+∞` at the
+    /// pole).
+    pub rows_per_px: Vec<f32>,
 }
 
 /// The footprint of a pixel in columns `0..=last` from the `u(r)` lookup table: each column's
 /// centre radius `r_i` (where `u(r) = i + ½`, linear between table entries), the table's
-/// slope there and the column's rows per turn over the circumference `2π r_i`.
-fn column_footprints(
+/// slope there and the column's rows per turn over the circumference `2π r_i`. The
+/// footprint filter's tables ([`ReconstructFilter::Footprint`]), public for executors that
+/// prefilter the columns on a device.
+pub fn column_footprints(
     lut: &[f32],
     layout: &fovea_core::mapping::PolarLayout,
     last: usize,

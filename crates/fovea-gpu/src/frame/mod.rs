@@ -8,11 +8,23 @@
 //!   environment light per texel into [`DeviceSamples`] — and what it serves ([`supports`]).
 //! * [`context`]: each eye's persistent buffers and bind group; both eyes recorded into one
 //!   encoder and submitted once ([`ResidentSamples`]).
+//! * [`screen`]: the screen side — reconstruction, depth of field and tone map of one eye's
+//!   [`DeviceSamples`] recorded into the caller's encoder ([`ScreenContext`]).
+//! * [`reconstruct`]: the polar reconstruction the screen side records ([`ResidentPolar`]).
+//! * [`timing`]: per-pass GPU times read back frames late, never blocking ([`FrameTimer`]).
 
 pub mod context;
+pub mod reconstruct;
 pub mod samples;
+pub mod screen;
 pub mod shade;
+pub mod timing;
 
 pub use context::{EyeShade, RecordTimes, ResidentSamples};
+pub use reconstruct::{PolarCapacity, ResidentPolar, TableUpload};
 pub use samples::{DeviceSamples, SampleLayer};
+pub use screen::{
+    ScreenConfig, ScreenContext, ScreenDof, ScreenInput, ScreenLimits, SCREEN_PASSES,
+};
 pub use shade::{supports, RayLayout, ShadeScene};
+pub use timing::{FrameGpuTimes, FrameTimer};

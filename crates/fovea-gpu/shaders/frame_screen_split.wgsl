@@ -1,0 +1,35 @@
+// frame_screen_split.wgsl: one screen of `vec4<u32>` pixels (RGB bits, depth bits: what the
+// polar reconstruction writes, or a full-resolution sample buffer, which is the screen) split
+// into the planar buffers the screen post reads — linear RGB as 3 × f32 a pixel (the DOF's and
+// the tone map's input, `Image<Rgb>`'s layout) and depth as u32 bits (the CoC pass's input).
+// Bits are copied, never read as floats (depth is +∞ for misses). See src/frame/screen.rs.
+
+struct SplitParams {
+    // The screen's first pixel in the source buffer (a sample layer's offset, or 0).
+    offset: u32,
+    // Screen width, pixels.
+    width: u32,
+    // Screen height, pixels.
+    height: u32,
+    pad: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: SplitParams;
+@group(0) @binding(1) var<storage, read> screen: array<vec4<u32>>;
+@group(0) @binding(2) var<storage, read_write> color: array<u32>;
+@group(0) @binding(3) var<storage, read_write> depth: array<u32>;
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn split_screen(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let x = gid.x;
+    let y = gid.y;
+    if x >= params.width || y >= params.height {
+        return;
+    }
+    let k = y * params.width + x;
+    let px = screen[params.offset + k];
+    color[3u * k] = px.x;
+    color[3u * k + 1u] = px.y;
+    color[3u * k + 2u] = px.z;
+    depth[k] = px.w;
+}

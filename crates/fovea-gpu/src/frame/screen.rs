@@ -1,0 +1,822 @@
+//! The screen side of the resident frame (issue 37): from one eye's shaded sample buffers on
+//! the device ([`DeviceSamples`]) to its tone-mapped 8-bit image on the device, recorded into
+//! the caller's command encoder — no submission, no readback, nothing created per frame.
+//!
+//! Passes, in the order of DESIGN.md's stages 6–7 (each its own compute pass, so that
+//! [`FrameTimer`] can time them one by one):
+//!
+//! | pass | what | shader |
+//! |---|---|---|
+//! | `aa` | sample-space FXAA or 3×3 Gaussian on the polar layer (when configured) | `frame_screen_split.wgsl`, `fxaa.wgsl` / `gaussian_aa.wgsl` |
+//! | `columns` | the polar layer padded column by column and angularly prefiltered | `frame_polar_columns.wgsl` |
+//! | `reconstruct` | every pixel's `u(r)`, angle, bilinear or footprint lookup (VaFR Sec. 3.4) | `polar_reconstruct.wgsl` |
+//! | `split` | the screen's `vec4` pixels into planar colour (3 × f32) and depth bits | `frame_screen_split.wgsl` |
+//! | `dof` | the eye's CoC map, tile max, tile reach and the scatter-as-gather filter | `dof_coc.wgsl`, `dof_gather.wgsl` |
+//! | `tonemap` | exposure, tone curve, 8-bit sRGB, four codes a word | `tonemap.wgsl` |
+//!
+//! Full resolution (the samples are the screen) skips the first two: `split` reads the sample
+//! layer itself. The DOF runs when the context was built with it and the frame has a focus.
+//!
+//! A [`ScreenContext`] is built for one display, method, filter, DOF and tone settings and for
+//! sample buffers up to its [`ScreenLimits`]; it owns every buffer, bind group and pipeline of
+//! these passes. Per frame ([`ScreenContext::record`]) only the uniforms go up — the pole, the
+//! focus's CoC constants — plus, when the mapping changed (a new gaze), the entries of the
+//! reconstruction's tables that changed ([`crate::frame::reconstruct`]). An image comes back
+//! only when asked for ([`ScreenContext::read_srgb8`]).
+
+use bytemuck::Zeroable;
+use fovea_core::display::DisplayProfile;
+use fovea_core::mapping::{FoveationMapping, Method};
+use fovea_core::units::Metres;
+use fovea_core::Image;
+use fovea_post::dof::coc::CocParams;
+use fovea_post::dof::gather::ScatterAsGather;
+use fovea_post::inverse_map::{PolarColumns, ReconstructFilter};
+use fovea_post::tonemap::{srgb8_thresholds, ToneCurve};
+use fovea_post::Rgb;
+
+use crate::device::GpuContext;
+use crate::dof::{coc_uniform, CocUniform, GatherUniform, OFFSET_BYTES, PLANE_BYTES};
+use crate::error::{GpuError, Result};
+use crate::frame::reconstruct::{PolarCapacity, ResidentPolar, TableUpload};
+use crate::frame::samples::DeviceSamples;
+use crate::frame::timing::FrameTimer;
+use crate::sample_aa::SampleFilter;
+use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
+use crate::tonemap::ToneUniform;
+use crate::transfer::{bind_group, read_buffers};
+
+/// The split module: entry point `split_screen`, [`SplitUniform`] at binding 0.
+pub const SPLIT_SHADER: ShaderSource = ShaderSource {
+    file: "frame_screen_split.wgsl",
+    source: concat!(
+        include_str!("../../shaders/common.wgsl"),
+        include_str!("../../shaders/frame_screen_split.wgsl")
+    ),
+    entry_points: &["split_screen"],
+    uniform: ("SplitParams", std::mem::size_of::<SplitUniform>()),
+};
+
+/// The passes [`ScreenContext::record`] times, in order ([`FrameTimer::new`]'s `passes`).
+pub const SCREEN_PASSES: [&str; 6] = ["aa", "columns", "reconstruct", "split", "dof", "tonemap"];
+
+/// Workgroups along x of one row of the tone map's dispatch (its shader's `65535u`).
+const TONE_GROUPS_PER_ROW: u32 = 65535;
+
+/// The uniform block `SplitParams` of `frame_screen_split.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, bytemuck::Pod, Zeroable)]
+pub struct SplitUniform {
+    /// The screen's first pixel in the source buffer.
+    pub offset: u32,
+    /// Screen width, pixels.
+    pub width: u32,
+    /// Screen height, pixels.
+    pub height: u32,
+    /// Padding.
+    pub pad: u32,
+}
+
+/// The depth of field the screen side runs (the gather filter; its CoC model thin lens or
+/// stabilised).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ScreenDof {
+    /// The filter's parameters.
+    pub filter: ScatterAsGather,
+    /// The eye's CoC model (`fovea_render::dof::coc_params` of the frame's settings and camera).
+    pub coc: CocParams,
+}
+
+/// What a [`ScreenContext`] is built for besides the display and method.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ScreenConfig {
+    /// Sample-space AA before the reconstruction (polar mappings; `None`: off).
+    pub aa: Option<SampleFilter>,
+    /// How polar buffers are read at each pixel.
+    pub filter: ReconstructFilter,
+    /// The depth of field, if any.
+    pub dof: Option<ScreenDof>,
+    /// Exposure, stops.
+    pub exposure_stops: f32,
+    /// Tone curve.
+    pub curve: ToneCurve,
+}
+
+/// The largest sample buffer a context serves (a polar buffer's columns and rows); beyond them
+/// a new context is needed ([`ScreenContext::fits`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ScreenLimits {
+    /// Columns (buffer width).
+    pub max_columns: u32,
+    /// Rows (buffer height).
+    pub max_rows: u32,
+    /// Texels of a polar buffer's columns as the reconstruction lays them out, each padded
+    /// by a row on either side (`fovea_post::inverse_map::PolarColumns::texel_count`).
+    pub max_padded_texels: u64,
+    /// Texels of the buffer's rectangle, width × height (the AA pass's buffers).
+    pub max_texels: u64,
+}
+
+impl ScreenLimits {
+    /// The smallest limits that hold every mapping of `mappings` (e.g. one per gaze at the
+    /// screen's centre and corners, where a screen-covering polar buffer is largest).
+    pub fn of(mappings: &[&dyn FoveationMapping]) -> Self {
+        let mut l = Self {
+            max_columns: 1,
+            max_rows: 1,
+            max_padded_texels: 1,
+            max_texels: 1,
+        };
+        for m in mappings {
+            let buffers = m.buffers();
+            for b in &buffers {
+                l.max_columns = l.max_columns.max(b.width);
+                l.max_rows = l.max_rows.max(b.height);
+                l.max_texels = l.max_texels.max(b.pixels());
+            }
+            if let (Some(layout), Some(b)) = (m.polar_layout(), buffers.first()) {
+                l.max_padded_texels = l
+                    .max_padded_texels
+                    .max(PolarColumns::texel_count(&layout, b.height));
+            }
+        }
+        l
+    }
+}
+
+/// One frame's input besides its samples.
+pub struct ScreenInput<'a> {
+    /// The frame's mapping (its pole is the gaze).
+    pub mapping: &'a dyn FoveationMapping,
+    /// The eye's focus distance, for the depth of field (`None`: no DOF this frame).
+    pub focus: Option<Metres>,
+}
+
+/// The depth-of-field passes' buffers and bindings.
+struct DofPasses {
+    params: CocParams,
+    coc: wgpu::ComputePipeline,
+    tile_max: wgpu::ComputePipeline,
+    tile_reach: wgpu::ComputePipeline,
+    gather: wgpu::ComputePipeline,
+    coc_uniform: wgpu::Buffer,
+    /// The CoC block without the focus's constants (sizes and table parameters).
+    coc_base: CocUniform,
+    coc_bind: wgpu::BindGroup,
+    max_bind: wgpu::BindGroup,
+    reach_bind: wgpu::BindGroup,
+    gather_bind: wgpu::BindGroup,
+    tiles: (u32, u32),
+    out: wgpu::Buffer,
+}
+
+/// The screen side of one eye's resident frame (see the module).
+pub struct ScreenContext {
+    ctx: GpuContext,
+    method: Method,
+    config: ScreenConfig,
+    limits: ScreenLimits,
+    display: DisplayProfile,
+    width: u32,
+    height: u32,
+    polar: Option<ResidentPolar>,
+    split: wgpu::ComputePipeline,
+    split_uniform: wgpu::Buffer,
+    /// The split pass's bindings and the buffer they read (the polar output, or the samples).
+    split_bind: Option<(wgpu::Buffer, wgpu::BindGroup)>,
+    color: wgpu::Buffer,
+    depth: wgpu::Buffer,
+    dof: Option<DofPasses>,
+    tone: wgpu::ComputePipeline,
+    tone_from_color: wgpu::BindGroup,
+    tone_from_dof: Option<wgpu::BindGroup>,
+    out: wgpu::Buffer,
+    /// The staging buffer of [`Self::read_srgb8`], made on the first image asked for.
+    staging: Option<wgpu::Buffer>,
+    /// Whether the last recorded frame ran the DOF.
+    last_dof: bool,
+}
+
+impl ScreenContext {
+    /// Whether the screen side runs `method`: the polar mappings (VaFR, KFR/LMFR, LaFR,
+    /// visual-polar) and full resolution. Guenter, the insets and Weier are not resident yet.
+    pub fn supports(method: Method) -> bool {
+        matches!(
+            method,
+            Method::Vafr | Method::Kfr | Method::Lafr | Method::VisualPolar | Method::Full
+        )
+    }
+
+    /// Everything for `display`, `method`, `config` and buffers within `limits`, sized and
+    /// checked against the adapter before anything is allocated. [`GpuError::Unsupported`] for
+    /// a method the screen side does not run or a CoC model the GPU does not evaluate.
+    pub fn new(
+        ctx: &GpuContext,
+        display: &DisplayProfile,
+        method: Method,
+        config: ScreenConfig,
+        limits: ScreenLimits,
+    ) -> Result<Self> {
+        if !Self::supports(method) {
+            return Err(GpuError::Unsupported(format!(
+                "the resident screen side for {method} (it runs vafr, kfr, lafr, visual-polar \
+                 and full; use the per-stage GPU path or --backend cpu)"
+            )));
+        }
+        if !config.exposure_stops.is_finite() {
+            return Err(GpuError::Input(format!(
+                "exposure {} stops (a finite number of stops)",
+                config.exposure_stops
+            )));
+        }
+        let (w, h) = (display.width_px, display.height_px);
+        let n = u64::from(w) * u64::from(h);
+        let groups = ctx.limits().max_compute_workgroups_per_dimension;
+        if w.div_ceil(WORKGROUP_SIZE) > groups || h > groups {
+            return Err(GpuError::Unsupported(format!(
+                "a {w}x{h} screen (more than {groups} workgroups a side)"
+            )));
+        }
+        let n_values = 3 * n;
+        let n_words = n_values.div_ceil(4);
+        for (what, bytes) in [
+            ("the screen's colour", n * 12),
+            ("the screen's depth", n * 4),
+            ("the tone-mapped screen", n_words * 4),
+        ] {
+            ctx.check_storage_binding(what, bytes)?;
+        }
+        let dof_tables = match &config.dof {
+            Some(d) => {
+                if !crate::GpuDof::supports_coc(&d.coc.model) {
+                    return Err(GpuError::Unsupported(format!(
+                        "the {} CoC model on the resident screen side (thin-lens and \
+                         stabilised run there)",
+                        d.coc.model.name()
+                    )));
+                }
+                let t = d
+                    .filter
+                    .tables()
+                    .map_err(|e| GpuError::Input(e.to_string()))?;
+                for (what, bytes) in [
+                    ("the depth-of-field planes", n * PLANE_BYTES),
+                    ("the blurred colour", n * 12),
+                    (
+                        "the gather's disc offsets",
+                        t.offsets.len() as u64 * OFFSET_BYTES,
+                    ),
+                ] {
+                    ctx.check_storage_binding(what, bytes)?;
+                }
+                Some(t)
+            }
+            None => None,
+        };
+        let polar = match method {
+            Method::Full if config.aa.is_some() => {
+                return Err(GpuError::Unsupported(
+                    "sample-space AA on the resident screen side at full resolution (it runs \
+                     on polar buffers)"
+                        .into(),
+                ))
+            }
+            Method::Full => None,
+            _ => Some(ResidentPolar::new(
+                ctx,
+                display,
+                config.filter,
+                config.aa,
+                PolarCapacity {
+                    columns: limits.max_columns,
+                    rows: limits.max_rows,
+                    texels: limits.max_padded_texels,
+                    rect_texels: limits.max_texels,
+                    lut_entries: PolarCapacity::lut_for_screen(w, h),
+                },
+            )?),
+        };
+        let device = ctx.device();
+        let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
+            ctx.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: size.max(4),
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let storage = wgpu::BufferUsages::STORAGE;
+        let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
+        let copy_dst = wgpu::BufferUsages::COPY_DST;
+        let missing = || GpuError::Input("a screen-side module lacks an entry point".into());
+        let what = format!("building the resident screen side at {w}x{h}");
+        let (split, tone, split_uniform, color, depth, tone_uniform, thresholds, out) = ctx
+            .scoped(&what, || {
+                let split = SPLIT_SHADER.pipelines(device).pop();
+                let tone = crate::tonemap::SHADER.pipelines(device).pop();
+                let split_uniform = buffer(
+                    "split parameters",
+                    std::mem::size_of::<SplitUniform>() as u64,
+                    uniform,
+                );
+                let color = buffer(
+                    "screen colour",
+                    n * 12,
+                    storage | wgpu::BufferUsages::COPY_SRC,
+                );
+                let depth = buffer(
+                    "screen depth",
+                    n * 4,
+                    storage | wgpu::BufferUsages::COPY_SRC,
+                );
+                let tone_uniform = buffer(
+                    "tone parameters",
+                    std::mem::size_of::<ToneUniform>() as u64,
+                    uniform,
+                );
+                let thresholds = buffer("sRGB thresholds", 255 * 4, storage | copy_dst);
+                ctx.write_buffer(
+                    &thresholds,
+                    0,
+                    bytemuck::cast_slice(srgb8_thresholds().as_slice()),
+                );
+                let out = buffer(
+                    "tone-mapped screen",
+                    n_words * 4,
+                    storage | wgpu::BufferUsages::COPY_SRC,
+                );
+                (
+                    split,
+                    tone,
+                    split_uniform,
+                    color,
+                    depth,
+                    tone_uniform,
+                    thresholds,
+                    out,
+                )
+            })?;
+        let (split, tone) = (split.ok_or_else(missing)?, tone.ok_or_else(missing)?);
+        let dof = match (&config.dof, dof_tables) {
+            (Some(d), Some(t)) => Some(ctx.scoped(&what, || -> Result<DofPasses> {
+                let mut coc_p = crate::dof::COC_SHADER.pipelines(device);
+                let mut gather_p = crate::dof::GATHER_SHADER.pipelines(device);
+                let gather = gather_p.pop().ok_or_else(missing)?;
+                let tile_reach = gather_p.pop().ok_or_else(missing)?;
+                let tile_max = gather_p.pop().ok_or_else(missing)?;
+                let coc = coc_p.pop().ok_or_else(missing)?;
+                let tile = t.tile_px;
+                let tiles = (w.div_ceil(tile), h.div_ceil(tile));
+                let coc_base = CocUniform {
+                    width: w,
+                    height: h,
+                    lut_max_k: (t.inv_area.len().max(2) - 2) as u32,
+                    max_radius_px: d.filter.max_radius_px,
+                    lut_steps_per_px: t.inv_area_steps_per_px,
+                    ..CocUniform::zeroed()
+                };
+                let flags =
+                    u32::from(d.filter.fill_behind) | (u32::from(d.filter.separate_near) << 1);
+                let gather_u = GatherUniform {
+                    width: w,
+                    height: h,
+                    tiles_x: tiles.0,
+                    tiles_y: tiles.1,
+                    tile_px: tile,
+                    span: ((d.filter.max_radius_px + 0.5) / tile as f32).ceil() as i32 + 1,
+                    n_offsets: t.offsets.len() as u32,
+                    flags,
+                    near_factor: 1.0 - d.filter.depth_tolerance,
+                    far_factor: 1.0 + d.filter.depth_tolerance,
+                    pad: [0; 2],
+                };
+                let offsets: Vec<[u32; 4]> = t
+                    .offsets
+                    .iter()
+                    .map(|&(dx, dy, r)| [dx as u32, dy as u32, r.to_bits(), 0])
+                    .collect();
+                let mut inv_area = t.inv_area.clone();
+                if inv_area.len() < 2 {
+                    inv_area.resize(2, 1.0);
+                }
+                let coc_uniform = buffer(
+                    "CoC parameters",
+                    std::mem::size_of::<CocUniform>() as u64,
+                    uniform,
+                );
+                let gather_uniform = buffer(
+                    "gather parameters",
+                    std::mem::size_of::<GatherUniform>() as u64,
+                    uniform,
+                );
+                ctx.write_buffer(&gather_uniform, 0, bytemuck::bytes_of(&gather_u));
+                let no_map = buffer("no CoC map", 4, storage);
+                let area = buffer(
+                    "1/A(r) table",
+                    inv_area.len() as u64 * 4,
+                    storage | copy_dst,
+                );
+                ctx.write_buffer(&area, 0, bytemuck::cast_slice(&inv_area));
+                let offsets_buf = buffer(
+                    "disc offsets",
+                    offsets.len() as u64 * OFFSET_BYTES,
+                    storage | copy_dst,
+                );
+                ctx.write_buffer(&offsets_buf, 0, bytemuck::cast_slice(&offsets));
+                let coc_out = buffer("CoC map", n * 4, storage);
+                let planes = buffer("DOF planes", n * PLANE_BYTES, storage);
+                let tile_bytes = u64::from(tiles.0) * u64::from(tiles.1) * 4;
+                let tile_max_buf = buffer("tile max", tile_bytes, storage);
+                let reach = buffer("tile reach", tile_bytes, storage);
+                let dof_out = buffer(
+                    "blurred colour",
+                    n * 12,
+                    storage | wgpu::BufferUsages::COPY_SRC,
+                );
+                let g = &gather_uniform;
+                let coc_bind = bind_group(
+                    ctx,
+                    "resident CoC",
+                    &coc,
+                    &[
+                        (0, &coc_uniform),
+                        (1, &depth),
+                        (2, &no_map),
+                        (3, &area),
+                        (4, &coc_out),
+                        (5, &planes),
+                    ],
+                );
+                let max_bind = bind_group(
+                    ctx,
+                    "resident tile max",
+                    &tile_max,
+                    &[(0, g), (1, &planes), (4, &tile_max_buf)],
+                );
+                let reach_bind = bind_group(
+                    ctx,
+                    "resident tile reach",
+                    &tile_reach,
+                    &[(0, g), (4, &tile_max_buf), (5, &reach)],
+                );
+                let gather_bind = bind_group(
+                    ctx,
+                    "resident gather",
+                    &gather,
+                    &[
+                        (0, g),
+                        (1, &planes),
+                        (2, &color),
+                        (3, &offsets_buf),
+                        (5, &reach),
+                        (6, &dof_out),
+                    ],
+                );
+                Ok(DofPasses {
+                    params: d.coc,
+                    coc,
+                    tile_max,
+                    tile_reach,
+                    gather,
+                    coc_uniform,
+                    coc_base,
+                    coc_bind,
+                    max_bind,
+                    reach_bind,
+                    gather_bind,
+                    tiles,
+                    out: dof_out,
+                })
+            })??),
+            _ => None,
+        };
+        let curve = match config.curve {
+            ToneCurve::Clamp => 0,
+            ToneCurve::Reinhard => 1,
+        };
+        let tone_u = ToneUniform {
+            n_values: n_values as u32,
+            n_words: n_words as u32,
+            scale: 2f32.powf(config.exposure_stops),
+            curve,
+        };
+        let (tone_from_color, tone_from_dof) = ctx.scoped(&what, || {
+            ctx.write_buffer(&tone_uniform, 0, bytemuck::bytes_of(&tone_u));
+            let bind = |values: &wgpu::Buffer| {
+                bind_group(
+                    ctx,
+                    "resident tone map",
+                    &tone,
+                    &[(0, &tone_uniform), (1, values), (2, &thresholds), (3, &out)],
+                )
+            };
+            (bind(&color), dof.as_ref().map(|d| bind(&d.out)))
+        })?;
+        Ok(Self {
+            ctx: ctx.clone(),
+            method,
+            config,
+            limits,
+            display: display.clone(),
+            width: w,
+            height: h,
+            polar,
+            split,
+            split_uniform,
+            split_bind: None,
+            color,
+            depth,
+            dof,
+            tone,
+            tone_from_color,
+            tone_from_dof,
+            out,
+            staging: None,
+            last_dof: false,
+        })
+    }
+
+    /// Whether this context serves frames of `display`, `method`, `config` and `limits`
+    /// (otherwise build a new one).
+    pub fn matches(
+        &self,
+        display: &DisplayProfile,
+        method: Method,
+        config: &ScreenConfig,
+        limits: ScreenLimits,
+    ) -> bool {
+        (display.width_px, display.height_px) == (self.width, self.height)
+            && method == self.method
+            && *config == self.config
+            && limits.max_columns <= self.limits.max_columns
+            && limits.max_rows <= self.limits.max_rows
+            && limits.max_padded_texels <= self.limits.max_padded_texels
+            && limits.max_texels <= self.limits.max_texels
+    }
+
+    /// Whether `mapping`'s buffers fit this context (its method and limits).
+    pub fn fits(&self, mapping: &dyn FoveationMapping) -> bool {
+        mapping.method() == self.method
+            && match &self.polar {
+                Some(p) => p.fits(mapping),
+                None => mapping
+                    .buffers()
+                    .first()
+                    .is_some_and(|b| (b.width, b.height) == (self.width, self.height)),
+            }
+    }
+
+    /// What the last recorded frame sent up for the reconstruction's tables (zero for full
+    /// resolution and for a frame whose mapping was the previous one's).
+    pub fn last_table_upload(&self) -> TableUpload {
+        self.polar
+            .as_ref()
+            .map(ResidentPolar::last_upload)
+            .unwrap_or_default()
+    }
+
+    /// Bytes of the reconstruction's tables on the device (`u(r)` table, column records);
+    /// zero for full resolution.
+    pub fn table_bytes(&self) -> (u64, u64) {
+        self.polar
+            .as_ref()
+            .map_or((0, 0), ResidentPolar::table_bytes)
+    }
+
+    /// The tone-mapped screen on the device: 8-bit sRGB RGB bytes, row-major, four a `u32`
+    /// (the bytes of `fovea_post::tonemap::to_srgb8`, padded to a whole word).
+    pub fn output(&self) -> &wgpu::Buffer {
+        &self.out
+    }
+
+    /// Records one frame's screen side into `encoder`: uniforms (and changed tables) are
+    /// written to the queue, which applies them before the caller's next submission; nothing
+    /// is submitted or read. With `timer`, each pass is timed ([`SCREEN_PASSES`]; the caller
+    /// calls [`FrameTimer::begin_frame`] before and [`FrameTimer::end_frame`] after).
+    /// Refuses, before recording anything, a mapping of another method or one beyond the
+    /// context's limits, and samples of another layout.
+    pub fn record(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        samples: &DeviceSamples,
+        input: &ScreenInput<'_>,
+        mut timer: Option<&mut FrameTimer>,
+    ) -> Result<()> {
+        let mapping = input.mapping;
+        if mapping.method() != self.method {
+            return Err(GpuError::Unsupported(format!(
+                "a {} frame on a screen context built for {}",
+                mapping.method(),
+                self.method
+            )));
+        }
+        // The split pass's source: the reconstructed screen, or the samples themselves.
+        let (source, offset) = match &mut self.polar {
+            Some(p) => {
+                p.prepare(mapping, &self.display, samples)?;
+                (p.output().clone(), 0)
+            }
+            None => {
+                let fits = samples.layers().len() == 1
+                    && samples
+                        .layers()
+                        .first()
+                        .is_some_and(|l| (l.width, l.height) == (self.width, self.height));
+                if !fits {
+                    return Err(GpuError::Input(format!(
+                        "full-resolution samples {:?} for a {}x{} screen",
+                        samples.layers(),
+                        self.width,
+                        self.height
+                    )));
+                }
+                (samples.buffer().clone(), samples.layers()[0].offset)
+            }
+        };
+        let dof_coc = match (&self.dof, input.focus) {
+            (Some(d), Some(focus)) => {
+                let k = coc_uniform(&d.params, focus)?;
+                Some(CocUniform {
+                    form: k.form,
+                    a: k.a,
+                    b: k.b,
+                    max_coc_px: k.max_coc_px,
+                    no_hit_coc_px: k.no_hit_coc_px,
+                    ..d.coc_base
+                })
+            }
+            _ => None,
+        };
+        let split_u = SplitUniform {
+            offset,
+            width: self.width,
+            height: self.height,
+            pad: 0,
+        };
+        let same_source = self.split_bind.as_ref().is_some_and(|(b, _)| *b == source);
+        let ctx = &self.ctx;
+        ctx.scoped("recording the resident screen side", || {
+            ctx.write_buffer(&self.split_uniform, 0, bytemuck::bytes_of(&split_u));
+            if let (Some(d), Some(u)) = (&self.dof, &dof_coc) {
+                ctx.write_buffer(&d.coc_uniform, 0, bytemuck::bytes_of(u));
+            }
+            if !same_source {
+                let bind = bind_group(
+                    ctx,
+                    "resident split",
+                    &self.split,
+                    &[
+                        (0, &self.split_uniform),
+                        (1, &source),
+                        (2, &self.color),
+                        (3, &self.depth),
+                    ],
+                );
+                self.split_bind = Some((source.clone(), bind));
+            }
+        })?;
+        let Some((_, split_bind)) = &self.split_bind else {
+            return Err(GpuError::Input("the split pass has no bindings".into()));
+        };
+        let (w, h) = (self.width, self.height);
+        ctx.scoped("recording the resident screen side", || -> Result<()> {
+            if let Some(p) = &self.polar {
+                p.record(encoder, timer.as_deref_mut(), 0)?;
+            }
+            {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("split"),
+                    timestamp_writes: timer.as_deref_mut().and_then(|t| t.writes(3)),
+                });
+                pass.set_pipeline(&self.split);
+                pass.set_bind_group(0, split_bind, &[]);
+                pass.dispatch_workgroups(w.div_ceil(WORKGROUP_SIZE), h, 1);
+            }
+            let mut tone_bind = &self.tone_from_color;
+            if let (Some(d), Some(_)) = (&self.dof, &dof_coc) {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("depth of field"),
+                    timestamp_writes: timer.as_deref_mut().and_then(|t| t.writes(4)),
+                });
+                let tile_groups = d.tiles.0.div_ceil(WORKGROUP_SIZE);
+                pass.set_pipeline(&d.coc);
+                pass.set_bind_group(0, &d.coc_bind, &[]);
+                pass.dispatch_workgroups(w.div_ceil(WORKGROUP_SIZE), h, 1);
+                pass.set_pipeline(&d.tile_max);
+                pass.set_bind_group(0, &d.max_bind, &[]);
+                pass.dispatch_workgroups(tile_groups, d.tiles.1, 1);
+                pass.set_pipeline(&d.tile_reach);
+                pass.set_bind_group(0, &d.reach_bind, &[]);
+                pass.dispatch_workgroups(tile_groups, d.tiles.1, 1);
+                pass.set_pipeline(&d.gather);
+                pass.set_bind_group(0, &d.gather_bind, &[]);
+                pass.dispatch_workgroups(w.div_ceil(WORKGROUP_SIZE), h, 1);
+                if let Some(b) = &self.tone_from_dof {
+                    tone_bind = b;
+                }
+            }
+            let words = (3 * u64::from(w) * u64::from(h)).div_ceil(4);
+            let groups = words.div_ceil(u64::from(WORKGROUP_SIZE));
+            let gx = groups.min(u64::from(TONE_GROUPS_PER_ROW)) as u32;
+            let gy = groups.div_ceil(u64::from(TONE_GROUPS_PER_ROW)) as u32;
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("tone map"),
+                timestamp_writes: timer.and_then(|t| t.writes(5)),
+            });
+            pass.set_pipeline(&self.tone);
+            pass.set_bind_group(0, tone_bind, &[]);
+            pass.dispatch_workgroups(gx.max(1), gy.max(1), 1);
+            Ok(())
+        })??;
+        self.last_dof = dof_coc.is_some();
+        Ok(())
+    }
+
+    /// The tone-mapped image of the last submitted frame: copies the output to a staging
+    /// buffer (made on the first call and kept), submits that copy and waits for it — a
+    /// blocking, counted readback, for `render --out`, screenshots and sequences only. Call
+    /// after the frame's encoder was submitted. 3 bytes a pixel, as `to_srgb8`.
+    pub fn read_srgb8(&mut self) -> Result<Vec<u8>> {
+        let size = self.out.size();
+        let ctx = &self.ctx;
+        let staging = ctx.scoped("reading back the tone-mapped screen", || {
+            let staging = self.staging.get_or_insert_with(|| {
+                ctx.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("tone-mapped screen readback"),
+                    size,
+                    usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                    mapped_at_creation: false,
+                })
+            });
+            let mut encoder =
+                ctx.device()
+                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                        label: Some("tone-mapped screen readback"),
+                    });
+            encoder.copy_buffer_to_buffer(&self.out, 0, staging, 0, size);
+            ctx.submit([encoder.finish()]);
+            staging.clone()
+        })?;
+        let n = 3 * self.width as usize * self.height as usize;
+        let mut bytes = Vec::new();
+        read_buffers(ctx, &[&staging], "the tone-mapped screen", |_, b| {
+            bytes = b[..n.min(b.len())].to_vec();
+        })?;
+        Ok(bytes)
+    }
+
+    /// The linear screen of the last submitted frame before its depth of field and tone map
+    /// (the reconstruction's colour and depth): a blocking, counted readback for tests and
+    /// debugging views.
+    pub fn read_linear(&self) -> Result<(Image<Rgb>, Image<f32>)> {
+        let ctx = &self.ctx;
+        let staging = ctx.scoped("reading back the linear screen", || {
+            let mut encoder =
+                ctx.device()
+                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                        label: Some("linear screen readback"),
+                    });
+            let out: Vec<wgpu::Buffer> = [&self.color, &self.depth]
+                .into_iter()
+                .map(|b| {
+                    let s = ctx.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("linear screen readback"),
+                        size: b.size(),
+                        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                        mapped_at_creation: false,
+                    });
+                    encoder.copy_buffer_to_buffer(b, 0, &s, 0, b.size());
+                    s
+                })
+                .collect();
+            ctx.submit([encoder.finish()]);
+            out
+        })?;
+        let n = self.width as usize * self.height as usize;
+        let (mut color, mut depth) = (Vec::new(), Vec::new());
+        read_buffers(
+            ctx,
+            &[&staging[0], &staging[1]],
+            "the linear screen",
+            |k, b| {
+                if k == 0 {
+                    color = bytemuck::pod_collect_to_vec::<u8, [f32; 3]>(b);
+                    color.truncate(n);
+                } else {
+                    depth = bytemuck::pod_collect_to_vec::<u8, f32>(b);
+                    depth.truncate(n);
+                }
+            },
+        )?;
+        let err = |e: fovea_core::FoveaError| GpuError::Input(e.to_string());
+        Ok((
+            Image::from_vec(self.width, self.height, color).map_err(err)?,
+            Image::from_vec(self.width, self.height, depth).map_err(err)?,
+        ))
+    }
+
+    /// Whether the last recorded frame ran the depth of field.
+    pub fn last_ran_dof(&self) -> bool {
+        self.last_dof
+    }
+}
