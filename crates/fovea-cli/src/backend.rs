@@ -127,6 +127,8 @@ pub struct Backend {
     pub dof: Option<Box<dyn DofExecutor>>,
     /// The AA executor to plug into the frame's context.
     pub anti_aliaser: Option<Box<dyn AaExecutor>>,
+    /// The sample-space denoiser to plug into the frame's context.
+    pub denoiser: Option<Box<dyn fovea_render::pipeline::DenoiseExecutor>>,
     /// The executor of the 8-bit output's tone curve and encoding.
     pub tone_map: Option<Box<dyn ToneMapExecutor>>,
     /// The GPU's BVH, when it traces.
@@ -178,6 +180,7 @@ impl Backend {
             times: Arc::default(),
             dof_times: Arc::default(),
             anti_aliaser: None,
+            denoiser: None,
             tone_map: None,
             tone_times: Arc::default(),
             aa_times: Arc::default(),
@@ -238,6 +241,7 @@ impl Backend {
             reconstructor: self.executor.take(),
             dof: self.dof.take(),
             anti_aliaser: self.anti_aliaser.take(),
+            denoiser: self.denoiser.take(),
         }
     }
 
@@ -258,6 +262,7 @@ impl Backend {
                     Stage::Trace => trace,
                     Stage::Dof => frame.dof_backend.as_str(),
                     Stage::Aa => frame.aa_backend.as_str(),
+                    Stage::Denoise => frame.denoise_backend.as_str(),
                     _ => "cpu",
                 };
                 (k.name().to_string(), serde_json::Value::from(on))
@@ -532,6 +537,9 @@ fn gpu(requested: BackendArg, world: &World) -> Result<Backend> {
             gpu: Arc::new(fovea_gpu::GpuSampleAa::new(&ctx)?),
             times: aa_times.clone(),
         })),
+        denoiser: Some(Box::new(fovea_gpu::executors::GpuDenoiseExecutor::new(
+            &ctx,
+        )?)),
     };
     Ok(Backend {
         requested,
@@ -539,6 +547,9 @@ fn gpu(requested: BackendArg, world: &World) -> Result<Backend> {
         adapter: facts.adapter,
         executor: Some(Box::new(executor)),
         anti_aliaser: Some(Box::new(anti_aliaser)),
+        denoiser: Some(Box::new(fovea_gpu::executors::GpuDenoiseExecutor::new(
+            &ctx,
+        )?)),
         tone_map: Some(Box::new(tone_map)),
         tone_times,
         tracer: Some(Box::new(tracer)),

@@ -35,6 +35,10 @@
 //!   ([`GpuSurfaces`], [`GpuTracer::surfaces_polar_timed`]).
 //! * [`dof`]: the signed CoC map from depth with the eye model and the scatter-as-gather
 //!   depth-of-field filter ([`GpuDof`]).
+//! * [`denoise`]: the sample-space SVGF à-trous denoiser, the twin of
+//!   `fovea_post::denoise` ([`GpuDenoiser`], its guides [`DeviceGuides`]).
+//! * [`executors`]: GPU passes as the frame pipeline's executors
+//!   ([`executors::GpuDenoiseExecutor`]).
 //! * [`tonemap`]: exposure, tone curve and 8-bit sRGB encoding ([`GpuToneMap`]).
 //! * [`frame`]: the resident frame's buffers on the device ([`frame::DeviceSamples`]) and its
 //!   sample side: every texel traced and shaded by one kernel, both eyes in one submission
@@ -63,11 +67,13 @@
 //! ```
 
 pub mod backend;
+pub mod denoise;
 pub mod device;
 pub mod direct_light;
 pub mod dof;
 pub mod environment_light;
 pub mod error;
+pub mod executors;
 pub mod frame;
 pub mod lockstep;
 pub mod mapping;
@@ -84,6 +90,7 @@ pub mod traffic;
 mod transfer;
 
 pub use backend::{BackendChoice, Resolved};
+pub use denoise::{DenoiseTimes, DeviceGuides, GpuDenoiser};
 pub use device::{AdapterSummary, DeviceKind, GpuContext, GpuRequest};
 pub use direct_light::{DirectLight, GpuLight, GpuSurface};
 pub use dof::{DofTimes, GpuDof};
@@ -118,4 +125,5 @@ pub const ALL_SHADERS: &[shaders::ShaderSource] = &[
     frame::shade::SHADER,
     frame::reconstruct::PAD_SHADER,
     frame::screen::SPLIT_SHADER,
+    denoise::SHADER,
 ];

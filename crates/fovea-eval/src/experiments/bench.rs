@@ -755,6 +755,15 @@ impl BenchResult {
             "runs": self.runs.iter().map(|r| {
                 let s = &r.stats;
                 let post = |st: &StageMs| st.sum(&[Stage::Aa, Stage::Reconstruct]);
+                // The denoise stage where it ran (the CPU, or the GPU's upload, passes and
+                // readback), its wall and CPU ms, and the frame without it.
+                let denoise_stage = serde_json::json!({
+                    "backend": s.denoise_backend,
+                    "ms": s.stages_ms.get(Stage::Denoise),
+                    "cpu_ms": s.stages_cpu_ms.get(Stage::Denoise),
+                    "frame_ms_without": s.total_ms - s.stages_ms.get(Stage::Denoise),
+                    "frame_cpu_ms_without": s.total_cpu_ms - s.stages_cpu_ms.get(Stage::Denoise),
+                });
                 serde_json::json!({
                     "method": s.method,
                     "width": s.width,
@@ -774,6 +783,7 @@ impl BenchResult {
                     // The sample-space denoiser's share of the frame (0 when it is off).
                     "denoise_fraction": s.stages_ms.get(Stage::Denoise) / s.total_ms,
                     "denoise_fraction_cpu": s.stages_cpu_ms.get(Stage::Denoise) / s.total_cpu_ms,
+                    "denoise_stage": denoise_stage,
                     "speedup_vs_full": r.speedup,
                     "speedup_vs_full_cpu": r.speedup_cpu,
                     "fps": r.fps(),

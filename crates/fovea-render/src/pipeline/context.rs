@@ -14,7 +14,7 @@ use fovea_post::inverse_map::SampleBuffers;
 use fovea_post::Rgb;
 
 use super::reconstruct::ReconstructExecutor;
-use super::sample_post::AaExecutor;
+use super::sample_post::{AaExecutor, DenoiseExecutor};
 use super::screen_post::DofExecutor;
 use super::trace_shade::TraceExecutor;
 use super::{Frame, Prefill};
@@ -68,6 +68,8 @@ pub struct Executors {
     pub dof: Option<Box<dyn DofExecutor>>,
     /// The sample-space AA filter (see [`FrameContext::set_anti_aliaser`]).
     pub anti_aliaser: Option<Box<dyn AaExecutor>>,
+    /// The sample-space denoiser (see [`FrameContext::set_denoiser`]).
+    pub denoiser: Option<Box<dyn DenoiseExecutor>>,
 }
 
 impl Executors {
@@ -77,6 +79,7 @@ impl Executors {
             && self.reconstructor.is_none()
             && self.dof.is_none()
             && self.anti_aliaser.is_none()
+            && self.denoiser.is_none()
     }
 }
 
@@ -246,16 +249,28 @@ impl FrameContext {
     }
 
     /// The sample buffers [`samples_for`](Self::samples_for) prepared, with the denoiser's
-    /// guides (as the trace wrote them) and working buffers.
+    /// guides (as the trace wrote them) and working buffers, and the executor of the
+    /// denoiser, if one is plugged in.
+    #[allow(clippy::type_complexity)]
     pub(crate) fn samples_and_denoiser(
         &mut self,
-    ) -> (&mut SampleBuffers, &DenoiseGuides, &mut DenoiseScratch) {
+    ) -> (
+        &mut SampleBuffers,
+        &DenoiseGuides,
+        &mut DenoiseScratch,
+        Option<&mut (dyn DenoiseExecutor + 'static)>,
+    ) {
         let samples = self
             .samples
             .as_mut()
             .expect("samples_for runs before the denoiser");
         let (guides, scratch) = &mut self.denoise;
-        (samples, &*guides, scratch)
+        (
+            samples,
+            &*guides,
+            scratch,
+            self.executors.denoiser.as_deref_mut(),
+        )
     }
 
     /// Casts the trace stage's primary rays on `executor` (e.g. the GPU's) in every frame
@@ -285,6 +300,12 @@ impl FrameContext {
     /// for the modes and grids it supports, in every frame rendered with this context.
     pub fn set_anti_aliaser(&mut self, executor: Box<dyn AaExecutor>) {
         self.executors.anti_aliaser = Some(executor);
+    }
+
+    /// Runs the sample-space denoiser on `executor` (e.g. the GPU's) for the buffers it
+    /// supports, in every frame rendered with this context.
+    pub fn set_denoiser(&mut self, executor: Box<dyn DenoiseExecutor>) {
+        self.executors.denoiser = Some(executor);
     }
 
     /// Plugs in `executors`, replacing every executor the context had.

@@ -49,7 +49,7 @@ pub use context::{Executors, FrameContext};
 pub use fovea_core::mapping::footprint::sample_spread_rad;
 pub use lockstep::{in_lockstep, Lockstep};
 pub use reconstruct::ReconstructExecutor;
-pub use sample_post::AaExecutor;
+pub use sample_post::{AaExecutor, DenoiseExecutor};
 pub use screen_post::DofExecutor;
 pub use timing::{Stage, StageMs, StageTimes, Stopwatch};
 pub use trace_shade::{PolarRay, TraceExecutor};
@@ -115,6 +115,9 @@ pub struct FrameStats {
     pub inset_smoothing: Option<String>,
     /// What the sample-space denoiser did (`null` when it is off).
     pub denoise: Option<fovea_post::denoise::DenoiseStats>,
+    /// The backend that ran the sample-space denoiser: `cpu`, or the name of the
+    /// [`sample_post::DenoiseExecutor`] in the frame's context (`gpu`); `cpu` when it is off.
+    pub denoise_backend: String,
     /// Whether every screen pixel had samples (see [`FramePlan::covers_screen`]).
     pub covers_screen: bool,
     /// The backend that ran the sample-space AA filter (stage 5): `cpu`, or the name of the
@@ -351,17 +354,18 @@ pub fn render_planned<'c>(
         None => None,
     };
     // Denoising, before the reconstruction magnifies the periphery's noise.
-    let denoise = match plan.settings.denoise {
+    let (denoise, denoise_backend) = match plan.settings.denoise {
         Some(params) => {
             let t = Stopwatch::start();
-            let (samples, guides, scratch) = ctx.samples_and_denoiser();
-            let s = sample_post::denoise(plan, &params, samples, guides, scratch)?;
+            let (samples, guides, scratch, executor) = ctx.samples_and_denoiser();
+            let (s, backend) =
+                sample_post::denoise(plan, &params, samples, guides, scratch, executor)?;
             times.add(Stage::Denoise, &t);
-            Some(s)
+            (Some(s), backend)
         }
-        None => None,
+        None => (None, sample_post::CPU.to_string()),
     };
-    let (samples, _, _) = ctx.samples_and_denoiser();
+    let (samples, _, _, _) = ctx.samples_and_denoiser();
     let kept_samples = plan.settings.keep_samples.then(|| samples.clone());
     let (samples, anti_aliaser) = ctx.samples_and_anti_aliaser();
     let aa_backend = times.time(Stage::Aa, || {
@@ -410,6 +414,7 @@ pub fn render_planned<'c>(
     stats.inset_smoothing = inset_smoothing.map(|s| s.name().to_string());
     stats.aa_backend = aa_backend;
     stats.denoise = denoise;
+    stats.denoise_backend = denoise_backend;
     stats.reconstruct_backend = reconstruct_backend;
     stats.trace_backend = casters.primary;
     stats.ray_generation_backend = casters.ray_generation;
@@ -468,6 +473,7 @@ fn frame_stats(
         temporal,
         inset_smoothing: None,
         denoise: None,
+        denoise_backend: sample_post::CPU.to_string(),
         covers_screen: plan.covers_screen,
         aa_backend: sample_post::CPU.to_string(),
         reconstruct_backend: reconstruct::CPU.to_string(),

@@ -7,8 +7,9 @@
 //! (Meng et al.), none for the others unless asked.
 //!
 //! Another executor (the GPU's, `fovea-gpu`, plugged in by the CLI) can take over the AA
-//! filter through [`AaExecutor`]; the frame's stats say which one ran
-//! ([`super::FrameStats::aa_backend`]). The minified columns are restored on the CPU either
+//! filter through [`AaExecutor`], and the denoiser through [`DenoiseExecutor`]; the frame's
+//! stats say which one ran ([`super::FrameStats::aa_backend`],
+//! [`super::FrameStats::denoise_backend`]). The minified columns are restored on the CPU either
 //! way.
 
 use fovea_core::Image;
@@ -40,7 +41,10 @@ pub fn accumulate(
 /// (VaFR, KFR/LMFR, LaFR, visual-polar) wraps around the angle axis and reads across the
 /// fovea half a turn on; a screen-aligned one (full resolution, Weier's sparse screen grid,
 /// Guenter's layers, the inset) is a rectangle. Texels with no surface record (sky, unshaded,
-/// Weier's unsampled pixels, prefilled) are left as they are and never read.
+/// Weier's unsampled pixels, prefilled) are left as they are and never read. On `executor`
+/// (e.g. the GPU's) where it [supports](DenoiseExecutor::supports) the buffers, else on the
+/// CPU; returns what the filter did and the backend that ran it (`cpu` or the executor's
+/// name).
 ///
 /// After temporal accumulation, `guides.noisy` must hold the accumulated colour's Monte Carlo
 /// part ([`complement_part`] before and after it).
@@ -50,33 +54,76 @@ pub fn denoise(
     samples: &mut SampleBuffers,
     guides: &DenoiseGuides,
     scratch: &mut DenoiseScratch,
-) -> Result<DenoiseStats> {
+    executor: Option<&mut (dyn DenoiseExecutor + 'static)>,
+) -> Result<(DenoiseStats, String)> {
+    if guides.albedo.len() != samples.color.len() || guides.normal.len() != samples.color.len() {
+        return Err(RenderError::invalid(
+            "denoise guides",
+            format!("{} layers", guides.albedo.len()),
+            format!("one per sample buffer ({})", samples.depth.len()),
+        ));
+    }
     let polar = plan.mapping().polar_layout();
-    let mut stats = DenoiseStats::default();
-    for (l, (c, d)) in samples
+    let grids: Vec<Grid> = samples
         .color
-        .iter_mut()
-        .zip(samples.depth.iter())
-        .enumerate()
-    {
-        let (Some(albedo), Some(normal)) = (guides.albedo.get(l), guides.normal.get(l)) else {
-            return Err(RenderError::invalid(
-                "denoise guides",
-                format!("{} layers", guides.albedo.len()),
-                format!("one per sample buffer ({})", samples.depth.len()),
-            ));
-        };
-        let grid = match &polar {
+        .iter()
+        .map(|c| match &polar {
             Some(layout) => Grid::polar(layout),
             None => Grid::Rect {
                 width: c.width(),
                 height: c.height(),
             },
-        };
-        let noisy = guides.noisy.get(l);
-        stats += fovea_post::denoise::denoise(c, d, albedo, normal, noisy, &grid, params, scratch)?;
+        })
+        .collect();
+    let sizes: Vec<(u32, u32)> = samples
+        .color
+        .iter()
+        .map(|c| (c.width(), c.height()))
+        .collect();
+    if let Some(ex) = executor.filter(|e| e.supports(&sizes)) {
+        let stats = ex
+            .denoise(params, &grids, samples, guides)
+            .map_err(|message| RenderError::Executor {
+                stage: "denoise",
+                backend: ex.backend().to_string(),
+                message,
+            })?;
+        return Ok((stats, ex.backend().to_string()));
     }
-    Ok(stats)
+    let mut stats = DenoiseStats::default();
+    for (l, ((c, d), grid)) in samples
+        .color
+        .iter_mut()
+        .zip(samples.depth.iter())
+        .zip(&grids)
+        .enumerate()
+    {
+        let (albedo, normal) = (&guides.albedo[l], &guides.normal[l]);
+        let noisy = guides.noisy.get(l);
+        stats += fovea_post::denoise::denoise(c, d, albedo, normal, noisy, grid, params, scratch)?;
+    }
+    Ok((stats, CPU.to_string()))
+}
+
+/// Another executor of the sample-space denoiser (e.g. the GPU's), kept in a
+/// [`super::FrameContext`] from frame to frame. For the buffers it
+/// [`supports`](Self::supports) it replaces `fovea_post::denoise::denoise` over every layer
+/// and must return what it returns (within the executor's documented agreement: the GPU's is
+/// ≥ 40 dB in luma), the colours filtered in place and the depths untouched.
+pub trait DenoiseExecutor: Send {
+    /// The backend's short name in stats and JSON, e.g. `gpu`.
+    fn backend(&self) -> &str;
+    /// Whether it denoises sample buffers of these layer sizes (width, height).
+    fn supports(&self, sizes: &[(u32, u32)]) -> bool;
+    /// Denoises every layer of `samples` in place with `params` over `grids` (one per layer),
+    /// guided by `guides` and the depths. An error is one line saying what to do.
+    fn denoise(
+        &mut self,
+        params: &DenoiseParams,
+        grids: &[Grid],
+        samples: &mut SampleBuffers,
+        guides: &DenoiseGuides,
+    ) -> std::result::Result<DenoiseStats, String>;
 }
 
 /// Replaces each texel's part in `guides.noisy` by its colour less that part (NaN, unknown,
