@@ -21,233 +21,26 @@
 //!     [frames=4] [method=vafr] [headset=vive-pro-eye] [lights=1]
 //! ```
 
+mod staged;
+
 use std::time::Instant;
 
 use fovea_core::display::DisplayProfile;
 use fovea_core::mapping::Method;
-use fovea_core::units::ScreenPoint;
 use fovea_core::Image;
 use fovea_gpu::frame::ResidentSamples;
-use fovea_gpu::{
-    DirectLightModel, GpuContext, GpuEnvironment, GpuLight, GpuPolarRay, GpuRay, GpuRequest,
-    GpuScreenRay, GpuSurface, GpuSurfaceRay, GpuSurfaces, GpuTracer, RayGenCamera, TrafficCounts,
-};
+use fovea_gpu::{GpuContext, GpuEnvironment, GpuRequest, GpuSurfaces, GpuTracer, TrafficCounts};
 use fovea_post::inverse_map::SampleBuffers;
-use fovea_render::bvh::{Backend, Hit, Ray};
+use fovea_render::bvh::Backend;
 use fovea_render::camera::EyeCamera;
 use fovea_render::eye::EyeState;
 use fovea_render::pipeline::trace_shade::trace_and_shade;
-use fovea_render::pipeline::{FrameSettings, PolarRay, StageTimes, TraceExecutor};
+use fovea_render::pipeline::{FrameSettings, StageTimes, TraceExecutor};
 use fovea_render::plan::FramePlan;
-use fovea_render::scene::{builtin, Light};
+use fovea_render::scene::builtin;
 use fovea_render::shade::{FrameNoise, ShadingMode};
-use fovea_render::trace::GSample;
 use fovea_render::world::World;
-use glam::{Vec2, Vec3};
-
-/// The staged path: `GpuTracer`'s passes lent to the CPU pipeline one call at a time.
-struct Staged {
-    gpu: GpuTracer,
-    surfaces: GpuSurfaces,
-    environment: GpuEnvironment,
-    fingerprint: u64,
-}
-
-fn ray_gen(camera: &EyeCamera, origin: [f64; 2]) -> RayGenCamera {
-    RayGenCamera::new(
-        camera.position.into(),
-        [camera.forward.into(), camera.right.into(), camera.up.into()],
-        camera.focal_px(),
-        camera.principal_point_px(),
-        origin,
-    )
-}
-
-fn generated(out: Vec<([f32; 3], Option<fovea_gpu::GpuHit>)>) -> Vec<(Vec3, Option<Hit>)> {
-    out.into_iter()
-        .map(|(d, h)| {
-            (
-                Vec3::from(d),
-                h.map(|h| Hit {
-                    t: h.t,
-                    tri: h.tri,
-                    bary: Vec2::from(h.bary),
-                }),
-            )
-        })
-        .collect()
-}
-
-fn gpu_rays(rays: &[Ray]) -> Vec<GpuRay> {
-    rays.iter()
-        .map(|r| GpuRay {
-            origin: r.origin.into(),
-            t_min: r.t_min,
-            dir: r.dir.into(),
-            t_max: r.t_max,
-        })
-        .collect()
-}
-
-impl TraceExecutor for Staged {
-    fn backend(&self) -> &str {
-        "gpu (staged)"
-    }
-    fn serves(&self, world: &World) -> bool {
-        world.tris_fingerprint == self.fingerprint
-    }
-    fn closest_hits(&mut self, rays: &[Ray]) -> Result<Vec<Option<Hit>>, String> {
-        let hits = self
-            .gpu
-            .closest_hits(&gpu_rays(rays))
-            .map_err(|e| e.to_string())?;
-        Ok(hits
-            .into_iter()
-            .map(|h| {
-                h.map(|h| Hit {
-                    t: h.t,
-                    tri: h.tri,
-                    bary: Vec2::from(h.bary),
-                })
-            })
-            .collect())
-    }
-    fn occluded(&mut self, rays: &[Ray]) -> Result<Vec<bool>, String> {
-        self.gpu
-            .occluded(&gpu_rays(rays))
-            .map_err(|e| e.to_string())
-    }
-    fn generates_rays(&self) -> bool {
-        true
-    }
-    fn closest_hits_polar(
-        &mut self,
-        camera: &EyeCamera,
-        centre: ScreenPoint,
-        rays: &[PolarRay],
-    ) -> Result<Vec<(Vec3, Option<Hit>)>, String> {
-        let polar: Vec<GpuPolarRay> = rays
-            .iter()
-            .map(|r| GpuPolarRay {
-                r_px: r.r_px as f32,
-                turn: r.turn as f32,
-            })
-            .collect();
-        let cam = ray_gen(camera, [centre.x_px, centre.y_px]);
-        let (out, _) = self
-            .gpu
-            .closest_hits_polar_timed(&cam, &polar)
-            .map_err(|e| e.to_string())?;
-        Ok(generated(out))
-    }
-    fn closest_hits_screen(
-        &mut self,
-        camera: &EyeCamera,
-        points: &[ScreenPoint],
-    ) -> Result<Vec<(Vec3, Option<Hit>)>, String> {
-        let screen: Vec<GpuScreenRay> = points
-            .iter()
-            .map(|p| GpuScreenRay {
-                x_px: p.x_px as f32,
-                y_px: p.y_px as f32,
-            })
-            .collect();
-        let (out, _) = self
-            .gpu
-            .closest_hits_screen_timed(&ray_gen(camera, [0.0, 0.0]), &screen)
-            .map_err(|e| e.to_string())?;
-        Ok(generated(out))
-    }
-    fn interpolates_surfaces(&self) -> bool {
-        true
-    }
-    fn surfaces_polar(
-        &mut self,
-        camera: &EyeCamera,
-        centre: ScreenPoint,
-        rays: &[PolarRay],
-        spreads: &[f32],
-    ) -> Result<Vec<GSample>, String> {
-        let rays: Vec<GpuSurfaceRay> = rays
-            .iter()
-            .zip(spreads)
-            .map(|(r, &spread)| GpuSurfaceRay {
-                a: r.r_px as f32,
-                b: r.turn as f32,
-                spread,
-            })
-            .collect();
-        let cam = ray_gen(camera, [centre.x_px, centre.y_px]);
-        let (out, _) = self
-            .gpu
-            .surfaces_polar_timed(&self.surfaces, &cam, &rays)
-            .map_err(|e| e.to_string())?;
-        Ok(out)
-    }
-    fn surfaces_screen(
-        &mut self,
-        camera: &EyeCamera,
-        points: &[ScreenPoint],
-        spreads: &[f32],
-    ) -> Result<Vec<GSample>, String> {
-        let rays: Vec<GpuSurfaceRay> = points
-            .iter()
-            .zip(spreads)
-            .map(|(p, &spread)| GpuSurfaceRay {
-                a: p.x_px as f32,
-                b: p.y_px as f32,
-                spread,
-            })
-            .collect();
-        let (out, _) = self
-            .gpu
-            .surfaces_screen_timed(&self.surfaces, &ray_gen(camera, [0.0, 0.0]), &rays)
-            .map_err(|e| e.to_string())?;
-        Ok(out)
-    }
-    fn shades_direct_light(&self) -> bool {
-        true
-    }
-    fn direct_light(
-        &mut self,
-        hits: &[&GSample],
-        lights: &[Light],
-    ) -> Result<Vec<(Vec3, u32)>, String> {
-        let surfaces: Vec<GpuSurface> = hits.iter().map(|g| GpuSurface::of(g)).collect();
-        let lights: Vec<GpuLight> = lights.iter().map(GpuLight::of).collect();
-        let (out, _) = self
-            .gpu
-            .direct_light_timed(&surfaces, &lights, &DirectLightModel::RENDERER)
-            .map_err(|e| e.to_string())?;
-        Ok(out
-            .into_iter()
-            .map(|d| (Vec3::from(d.radiance), d.shadow_rays))
-            .collect())
-    }
-    fn shades_environment(&self) -> bool {
-        true
-    }
-    fn environment_light(
-        &mut self,
-        hits: &[&GSample],
-        keys: &[u64],
-        samples: u32,
-    ) -> Result<Vec<(Vec3, u32)>, String> {
-        let surfaces: Vec<GpuSurface> = hits
-            .iter()
-            .zip(keys)
-            .map(|(g, &k)| GpuSurface::keyed(g, k))
-            .collect();
-        let (out, _) = self
-            .gpu
-            .environment_light_timed(&surfaces, &self.environment, samples)
-            .map_err(|e| e.to_string())?;
-        Ok(out
-            .into_iter()
-            .map(|e| (Vec3::from(e.radiance), e.rays))
-            .collect())
-    }
-}
+use staged::Staged;
 
 fn line(what: &str, wall_ms: f64, host_ms: Option<f64>, t: &TrafficCounts) {
     let host = host_ms.map_or("—".to_string(), |h| format!("{h:.2}"));
