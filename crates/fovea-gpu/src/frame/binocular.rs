@@ -91,6 +91,9 @@ pub struct BinocularTimes {
     pub submit_ms: f64,
 }
 
+/// Each pass's name and GPU ms (`None`: not run, or not arrived yet).
+type PassTimes = Vec<(&'static str, Option<f64>)>;
+
 /// One eye's screen side and the limits it was built for.
 struct EyeScreen {
     screen: ScreenContext,
@@ -107,7 +110,7 @@ pub struct ResidentFrame {
     /// device without timestamp queries.
     timers: Option<[FrameTimer; 3]>,
     /// Frames whose timers have partly arrived: (frame, timers arrived, passes).
-    pending: Vec<(u64, u8, Vec<(&'static str, Option<f64>)>)>,
+    pending: Vec<(u64, u8, PassTimes)>,
     frames: u64,
 }
 
