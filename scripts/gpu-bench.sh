@@ -18,6 +18,8 @@
 #   * trace_timing on the built-in scene at the Vive Pro Eye and 8K presets;
 #   * `fovea render --backend gpu` against `--backend cpu`, VaFR, Vive Pro Eye and 8K, with
 #     each frame's stage times and backend JSON;
+#   * binocular_frame (issue 37's resident frame, both eyes in one submission, against the
+#     staged path at the Vive Pro Eye and 4K) at the Vive Pro Eye, 4K, 8K and retinal;
 #   * `fovea bench --backend gpu` at the Vive Pro Eye, 4K and 8K, then issue 18's headline:
 #     both eyes (`--eyes both`), VaFR at 8K per eye and retinal, 1 light and 12, on the
 #     classroom when the bundle holds it (`build --with-classroom` copies
@@ -45,7 +47,8 @@ build)
   cargo build --release --locked -p fovea-cli --features gpu
   cargo build --release --locked -p fovea-gpu --examples
   cp "$target/release/fovea" "$target/release/examples/reconstruct_timing" \
-    "$target/release/examples/trace_timing" "$bundle/bin/"
+    "$target/release/examples/trace_timing" "$target/release/examples/binocular_frame" \
+    "$bundle/bin/"
   # The test binaries' paths, from cargo's JSON messages.
   cargo test --release --locked -p fovea-gpu --no-run --message-format=json 2>/dev/null |
     grep -o '"executable":"[^"]*"' | sed 's/"executable":"//; s/"$//' |
@@ -54,7 +57,7 @@ build)
       # Only the tests that need an adapter: not tests/shaders.rs (naga's validation, which
       # reads the source tree), the crate's unit tests or the examples built as tests.
       case "$name" in
-        shaders | fovea_gpu | *_timing) ;;
+        shaders | fovea_gpu | *_timing | *_frame) ;;
         *) cp "$exe" "$bundle/bin/test-$name" ;;
       esac
     done
@@ -132,6 +135,16 @@ run)
     step "bench both eyes, 1 light, --lockstep $lockstep" -- "$bin/fovea" bench --backend gpu \
       "${scene_args[@]}" --eyes both --stereo-reps 3 --lights 1 --res 8k --methods vafr \
       --bvh-rays 0 --lockstep "$lockstep" --json
+  done
+  # Issue 37: the whole binocular frame resident on the device (one submission, nothing read
+  # back) against the staged --backend gpu path, VaFR, 1 light, per-pass GPU ms; the staged
+  # path only where it finishes in reasonable time (the Vive Pro Eye and 4K).
+  for preset in vive-pro-eye 4k 8k retinal; do
+    staged=on
+    case "$preset" in 8k | retinal) staged=off ;; esac
+    step "resident binocular frame, vafr $preset (staged $staged)" -- \
+      "$bin/binocular_frame" 6 vafr "$preset" 1 "$staged"
+    step "resident binocular frame, full $preset" -- "$bin/binocular_frame" 4 full "$preset" 1 off
   done
   echo "gpu-bench: $failed step(s) failed; report in $report" | tee -a "$report"
   [ "$failed" = 0 ]

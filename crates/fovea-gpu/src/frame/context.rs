@@ -454,9 +454,20 @@ impl EyeShade {
     /// Records this eye's pass into `encoder`: one compute pass, the surface kernel's dispatch,
     /// then the lights', then the environment's.
     pub fn record(&self, scene: &ShadeScene, encoder: &mut wgpu::CommandEncoder) {
+        self.record_timed(scene, encoder, None);
+    }
+
+    /// [`Self::record`] with the pass's timestamps written where `timestamp_writes` says (a
+    /// [`super::FrameTimer`]'s slot).
+    pub fn record_timed(
+        &self,
+        scene: &ShadeScene,
+        encoder: &mut wgpu::CommandEncoder,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("resident frame: trace and shade"),
-            timestamp_writes: None,
+            timestamp_writes,
         });
         pass.set_bind_group(0, &self.bind_group, &[]);
         for pipeline in &scene.pipelines {
@@ -508,6 +519,12 @@ impl ResidentSamples {
             eyes: [None, None],
             tables_ms: 0.0,
         })
+    }
+
+    /// Wall ms spent on the per-column tables by [`Self::prepare_eye`] since the last
+    /// [`Self::render_eyes`] (which resets it).
+    pub fn tables_ms(&self) -> f64 {
+        self.tables_ms
     }
 
     /// The scene on the device.

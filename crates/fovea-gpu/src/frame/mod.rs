@@ -11,8 +11,11 @@
 //! * [`screen`]: the screen side — reconstruction, depth of field and tone map of one eye's
 //!   [`DeviceSamples`] recorded into the caller's encoder ([`ScreenContext`]).
 //! * [`reconstruct`]: the polar reconstruction the screen side records ([`ResidentPolar`]).
+//! * [`binocular`]: both eyes' sample and screen sides in one encoder, one submission
+//!   ([`ResidentFrame`]).
 //! * [`timing`]: per-pass GPU times read back frames late, never blocking ([`FrameTimer`]).
 
+pub mod binocular;
 pub mod context;
 pub mod reconstruct;
 pub mod samples;
@@ -20,6 +23,7 @@ pub mod screen;
 pub mod shade;
 pub mod timing;
 
+pub use binocular::{BinocularTimes, ResidentFrame, ToneSettings, BINOCULAR_PASSES};
 pub use context::{EyeShade, RecordTimes, ResidentSamples};
 pub use reconstruct::{PolarCapacity, ResidentPolar, TableUpload};
 pub use samples::{DeviceSamples, SampleLayer};

@@ -1,0 +1,235 @@
+//! The whole binocular resident frame against today's staged `--backend gpu` path, side by
+//! side in one run (issue 37): both eyes of the built-in scene at a display preset, direct
+//! shading (the environment through its default occluded rays), one ray per texel, the
+//! method's own AA, the footprint reconstruction, the tone map; the gaze moving by a
+//! saccade-sized step (about 8°) every frame.
+//!
+//! * resident: `fovea_gpu::frame::ResidentFrame::render` — both eyes' every pass recorded
+//!   into one encoder, one submission — then a wait for the device (here only, outside the
+//!   counted frame, to time its wall clock); per-pass GPU ms from its late timers;
+//! * staged: `fovea_render::pipeline::render_planned` of each eye with the GPU's per-call
+//!   passes as the executors (trace, surfaces, direct and environment light, AA,
+//!   reconstruction; `fovea_gpu::executors::GpuExecutors`), then its tone map of each eye, as
+//!   `fovea render --backend gpu` runs them (records and images going back and forth).
+//!
+//! For each, per binocular frame: wall ms, host ms (resident: checking, tables, uniforms and
+//! recording, without the submission), submissions, blocking waits, bytes up and back —
+//! the device's own counters (`GpuContext::traffic`); then the median wall ratio. The plans
+//! (`FramePlan::new`, the mapping at each gaze) are built beforehand and timed apart.
+//!
+//! ```sh
+//! XDG_RUNTIME_DIR=$(mktemp -d) cargo run --release -p fovea-gpu --example binocular_frame -- \
+//!     [frames=4] [method=vafr] [res=vive-pro-eye|4k|8k|retinal] [lights=1] [staged=on|off]
+//! ```
+
+use std::time::Instant;
+
+use fovea_core::display::DisplayProfile;
+use fovea_core::mapping::Method;
+use fovea_gpu::executors::GpuExecutors;
+use fovea_gpu::frame::{ResidentFrame, ToneSettings};
+use fovea_gpu::{GpuContext, GpuRequest, TrafficCounts};
+use fovea_post::tonemap::ToneCurve;
+use fovea_render::bvh::Backend;
+use fovea_render::camera::EyeCamera;
+use fovea_render::eye::EyeState;
+use fovea_render::pipeline::{
+    render_planned, FrameContext, FrameInputs, FrameSettings, StageTimes,
+};
+use fovea_render::plan::FramePlan;
+use fovea_render::scene::builtin;
+use fovea_render::shade::{FrameNoise, ShadingMode};
+use fovea_render::world::World;
+
+const TONE: ToneSettings = ToneSettings {
+    exposure_stops: 0.0,
+    curve: ToneCurve::Reinhard,
+};
+
+fn line(what: &str, wall_ms: f64, host_ms: Option<f64>, t: &TrafficCounts) {
+    let host = host_ms.map_or("—".to_string(), |h| format!("{h:.2}"));
+    println!(
+        "| {what} | {wall_ms:.1} | {host} | {} | {} | {:.3} | {:.3} | {} | {} |",
+        t.submissions,
+        t.blocking_waits,
+        t.bytes_uploaded as f64 / 1e6,
+        t.bytes_read_back as f64 / 1e6,
+        t.buffers_created,
+        t.bind_groups_created
+    );
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(|a, b| a.total_cmp(b));
+    v[v.len() / 2]
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let frames: usize = args.first().map_or(Ok(4), |a| a.parse())?;
+    let method = Method::parse(args.get(1).map_or("vafr", String::as_str))?;
+    let res = args.get(2).map_or("vive-pro-eye", String::as_str);
+    let lights: usize = args.get(3).map_or(Ok(1), |a| a.parse())?;
+    let with_staged = match args.get(4).map_or("on", String::as_str) {
+        "on" => true,
+        "off" => false,
+        other => return Err(format!("staged={other} (on or off)").into()),
+    };
+
+    let scene = builtin::depth_range()?;
+    let desc = scene.cameras[0].clone();
+    let mut world = World::new(scene, Backend::Obvhs)?;
+    world.lights.truncate(lights);
+    let display = DisplayProfile::preset(res)?;
+    let left = EyeCamera::from_desc(&desc, &display)?;
+    let right = EyeCamera::new(
+        desc.position + left.right * 0.063,
+        desc.forward,
+        desc.up,
+        &display,
+    )?;
+    let cams = [left, right];
+    let mut settings = FrameSettings::new(method);
+    settings.shading = ShadingMode::DIRECT;
+    settings.periphery_rays = 1;
+
+    let ctx = GpuContext::new(&GpuRequest::default())?;
+    println!(
+        "{method} at {res} ({}x{}), both eyes, {} light(s), direct shading; on {}",
+        display.width_px,
+        display.height_px,
+        world.lights.len(),
+        ctx.adapter()
+    );
+
+    // The gaze moves ~8° every frame, around a circle of a fifth of the screen's height.
+    let (w, h) = (display.width_px as f64, display.height_px as f64);
+    let step_px = 8.0 / display.c_r().atan().to_degrees();
+    let gaze_at = |f: usize, eye: usize| {
+        let a = f as f64 * step_px / (0.2 * h);
+        let x = 0.5 * w + 0.2 * h * a.cos() + eye as f64 * 0.02 * w;
+        let y = 0.5 * h + 0.2 * h * a.sin();
+        display.gaze(x, y)
+    };
+    let plans_of = |f: usize| -> Result<Vec<FramePlan>, Box<dyn std::error::Error>> {
+        (0..2)
+            .map(|e| {
+                Ok(FramePlan::new(
+                    &world,
+                    &cams[e],
+                    &settings,
+                    &EyeState::looking_at(gaze_at(f, e)?),
+                    [0.0, 0.0],
+                )?
+                .with_noise(FrameNoise::new(f as u64, e as u32)))
+            })
+            .collect()
+    };
+
+    let t = Instant::now();
+    let p0 = plans_of(0)?;
+    let mut resident =
+        ResidentFrame::new(&ctx, &world, [&p0[0], &p0[1]], [&cams[0], &cams[1]], TONE)?;
+    println!(
+        "resident frame built in {:.1} ms (scene, both screen sides, timers)",
+        t.elapsed().as_secs_f64() * 1e3
+    );
+    let mut staged = if with_staged {
+        // The staged path: the library's GPU executors lent to the CPU pipeline.
+        let gx = GpuExecutors::new(&ctx, &world)?;
+        let mut fc = FrameContext::new();
+        fc.set_executors(gx.first);
+        Some((fc, gx.tone_map))
+    } else {
+        None
+    };
+
+    println!(
+        "| frame | wall ms | host ms | submissions | waits | MB up | MB back | buffers | bind groups |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    let (mut walls, mut staged_walls, mut hosts) = (Vec::new(), Vec::new(), Vec::new());
+    let mut gpu_lines = Vec::new();
+    for f in 0..frames {
+        let t = Instant::now();
+        let plans = plans_of(f)?;
+        let plan_ms = t.elapsed().as_secs_f64() * 1e3;
+
+        let before = ctx.traffic();
+        let t = Instant::now();
+        let times = resident.render(&world, [&plans[0], &plans[1]], [&cams[0], &cams[1]])?;
+        let moved = ctx.traffic().since(&before);
+        // Here only, to time the frame's wall clock (outside the counted frame).
+        ctx.wait_idle("the resident frame")?;
+        let wall = t.elapsed().as_secs_f64() * 1e3;
+        line(
+            &format!(
+                "{f} resident (tables {:.2} ms of the host's; plans {plan_ms:.1} ms apart)",
+                times.tables_ms
+            ),
+            wall,
+            Some(times.host_ms),
+            &moved,
+        );
+        if f > 0 {
+            walls.push(wall);
+            hosts.push(times.host_ms);
+        }
+        for g in resident.poll_gpu_times()? {
+            let passes: Vec<String> = g
+                .passes
+                .iter()
+                .filter_map(|(n, ms)| ms.map(|ms| format!("{n} {ms:.2}")))
+                .collect();
+            gpu_lines.push(format!(
+                "frame {}: total {:.2} GPU ms; {}",
+                g.frame,
+                g.total_ms(),
+                passes.join(", ")
+            ));
+        }
+
+        if let Some((fc, tone)) = &mut staged {
+            let before = ctx.traffic();
+            let t = Instant::now();
+            for e in 0..2 {
+                let frame = render_planned(
+                    fc,
+                    &world,
+                    &cams[e],
+                    &plans[e],
+                    FrameInputs::default(),
+                    StageTimes::default(),
+                    &|_, _| {},
+                )?;
+                let _bytes = tone.to_srgb8(&frame.color, TONE.exposure_stops, TONE.curve)?;
+            }
+            let wall = t.elapsed().as_secs_f64() * 1e3;
+            let moved = ctx.traffic().since(&before);
+            line(&format!("{f} staged"), wall, None, &moved);
+            if f > 0 {
+                staged_walls.push(wall);
+            }
+        }
+    }
+    println!();
+    println!("resident per-pass GPU ms (timestamps read frames late, without waiting):");
+    if !resident.timed() {
+        println!("(the device has no timestamp queries)");
+    }
+    for l in gpu_lines {
+        println!("  {l}");
+    }
+    let (rw, sw) = (median(walls), median(staged_walls));
+    println!(
+        "median over frames 1..{frames}: resident {rw:.1} ms wall ({:.1} fps binocular), host \
+         {:.2} ms; staged {sw:.1} ms wall; staged / resident {:.2}",
+        1e3 / rw,
+        median(hosts),
+        sw / rw
+    );
+    Ok(())
+}

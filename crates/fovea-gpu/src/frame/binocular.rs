@@ -1,0 +1,458 @@
+//! The whole binocular frame on the device (issue 37, item 1): both eyes' sample side
+//! ([`ResidentSamples`]: ray generation, trace, surfaces, direct and environment light into
+//! each eye's [`super::DeviceSamples`]) and both eyes' screen side ([`ScreenContext`]: AA,
+//! polar reconstruction (VaFR Sec. 3.4), gather DOF, tone map) recorded into **one** command
+//! encoder and submitted **once**; nothing is read back unless an eye's image is asked for
+//! ([`ResidentFrame::image`]). Per-pass GPU times come from [`FrameTimer`]s read frames late
+//! ([`ResidentFrame::poll_gpu_times`]), never blocking.
+//!
+//! The order inside the encoder: left shade, right shade, then the left eye's screen passes,
+//! then the right eye's (the screen side reads the samples the shade passes wrote; wgpu orders
+//! the passes of one encoder).
+//!
+//! What it cannot serve is refused with [`GpuError::Unsupported`] before anything is written
+//! or recorded ([`ResidentFrame::supports`]): everything the sample side refuses
+//! ([`super::supports`]: indirect light, several rays per texel, culling, several layers), what
+//! the screen side refuses ([`ScreenContext::supports`]: Guenter, the insets, Weier), the
+//! denoiser (the sample side does not write its guides — albedo, shading normal, the colour's
+//! Monte Carlo part — so the GPU twin has nothing to read), peripheral contrast, DOF filters
+//! other than the gather, and sample-space AA at full resolution.
+
+use std::time::Instant;
+
+use fovea_core::mapping::{build, FoveationMapping};
+use fovea_core::units::Metres;
+use fovea_post::dof::gather::ScatterAsGather;
+use fovea_post::dof::FilterKind;
+use fovea_post::fxaa::FxaaParams;
+use fovea_post::tonemap::ToneCurve;
+use fovea_render::camera::EyeCamera;
+use fovea_render::dof::coc_params;
+use fovea_render::plan::FramePlan;
+use fovea_render::settings::AaMode;
+use fovea_render::world::World;
+
+use super::context::ResidentSamples;
+use super::screen::{
+    ScreenConfig, ScreenContext, ScreenDof, ScreenInput, ScreenLimits, SCREEN_PASSES,
+};
+use super::shade::supports as samples_support;
+use super::timing::{FrameGpuTimes, FrameTimer};
+use crate::device::GpuContext;
+use crate::error::{GpuError, Result};
+use crate::sample_aa::SampleFilter;
+
+/// Every pass of a binocular frame as [`ResidentFrame::poll_gpu_times`] names them: per eye
+/// the sample side's pass, then the screen side's ([`SCREEN_PASSES`]).
+pub const BINOCULAR_PASSES: [[&str; 7]; 2] = [
+    [
+        "left shade",
+        "left aa",
+        "left columns",
+        "left reconstruct",
+        "left split",
+        "left dof",
+        "left tonemap",
+    ],
+    [
+        "right shade",
+        "right aa",
+        "right columns",
+        "right reconstruct",
+        "right split",
+        "right dof",
+        "right tonemap",
+    ],
+];
+
+/// Frames each timer's ring holds in flight.
+const TIMER_RING: usize = 4;
+
+/// The tone map the frame ends with (the CLI's `--exposure` and `--tone`; not in the plan).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ToneSettings {
+    /// Exposure, stops.
+    pub exposure_stops: f32,
+    /// Tone curve.
+    pub curve: ToneCurve,
+}
+
+/// Where one binocular frame's host time went.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BinocularTimes {
+    /// The frame's index in the timers (counted from 0 by [`ResidentFrame::render`]).
+    pub frame: u64,
+    /// Checking, preparing (tables, uniforms) and recording both eyes' every pass, wall ms:
+    /// the render thread's work on the frame without the submission.
+    pub host_ms: f64,
+    /// Of that, the sample side's per-column tables, wall ms.
+    pub tables_ms: f64,
+    /// The `queue.submit` call, wall ms.
+    pub submit_ms: f64,
+}
+
+/// Each pass's name and GPU ms (`None`: not run, or not arrived yet).
+type PassTimes = Vec<(&'static str, Option<f64>)>;
+
+/// One eye's screen side and the limits it was built for.
+struct EyeScreen {
+    screen: ScreenContext,
+    limits: ScreenLimits,
+}
+
+/// Both eyes' resident frame (see the module).
+pub struct ResidentFrame {
+    ctx: GpuContext,
+    samples: ResidentSamples,
+    screens: [Option<EyeScreen>; 2],
+    tone: ToneSettings,
+    /// The sample side's timer (one pass per eye) and each eye's screen timer; `None` on a
+    /// device without timestamp queries.
+    timers: Option<[FrameTimer; 3]>,
+    /// Frames whose timers have partly arrived: (frame, timers arrived, passes).
+    pending: Vec<(u64, u8, PassTimes)>,
+    frames: u64,
+}
+
+/// The screen side's settings of `plan` seen by `camera`, or why the resident frame does not
+/// run it.
+fn screen_config(plan: &FramePlan, camera: &EyeCamera, tone: ToneSettings) -> Result<ScreenConfig> {
+    let unsupported = |what: &str| {
+        Err(GpuError::Unsupported(format!(
+            "{what} in the resident frame"
+        )))
+    };
+    let method = plan.method();
+    if !ScreenContext::supports(method) {
+        return Err(GpuError::Unsupported(format!(
+            "the {method} mapping in the resident frame (it runs vafr, kfr, lafr, \
+             visual-polar and full; use the staged --backend gpu or --backend cpu)"
+        )));
+    }
+    if plan.settings.denoise.is_some() {
+        return unsupported(
+            "the denoiser (the sample side does not write its guides: albedo, normal, the \
+             Monte Carlo part; use --denoise off or the staged path)",
+        );
+    }
+    if plan.settings.contrast.is_some() {
+        return unsupported("peripheral contrast enhancement");
+    }
+    let polar = plan.mapping().polar_layout().is_some();
+    let aa = match plan.aa {
+        AaMode::None | AaMode::Auto => None,
+        AaMode::Fxaa => Some(SampleFilter::Fxaa(FxaaParams::default())),
+        AaMode::Gaussian => Some(SampleFilter::Gaussian),
+    };
+    if aa.is_some() && !polar {
+        return unsupported("sample-space AA at full resolution (use --aa none)");
+    }
+    let dof = match &plan.settings.dof {
+        None => None,
+        Some(d) => match d.filter {
+            // The CoC map alone leaves the colour as it is.
+            None => None,
+            Some(FilterKind::Gather) => Some(ScreenDof {
+                filter: ScatterAsGather::default(),
+                coc: coc_params(d, camera),
+            }),
+            Some(other) => {
+                return Err(GpuError::Unsupported(format!(
+                    "the {} DOF filter in the resident frame (it runs the gather)",
+                    other.name()
+                )))
+            }
+        },
+    };
+    Ok(ScreenConfig {
+        aa,
+        filter: plan.settings.reconstruct_filter,
+        dof,
+        exposure_stops: tone.exposure_stops,
+        curve: tone.curve,
+        // No presenter reads it yet (`fovea view` presents through its own device).
+        texture: false,
+    })
+}
+
+/// Limits that hold `plan`'s mapping and its method's mappings at the screen's corners and
+/// centre (where a screen-covering polar buffer is largest), so that a moving gaze does not
+/// outgrow the screen side.
+fn screen_limits(plan: &FramePlan) -> ScreenLimits {
+    let d = &plan.display;
+    let (w, h) = (d.width_px as f64, d.height_px as f64);
+    let mut maps: Vec<Box<dyn FoveationMapping>> = Vec::new();
+    for (x, y) in [
+        (0.0, 0.0),
+        (w - 1.0, 0.0),
+        (0.0, h - 1.0),
+        (w - 1.0, h - 1.0),
+        (0.5 * w, 0.5 * h),
+    ] {
+        let Ok(gaze) = d.gaze(x, y) else {
+            continue;
+        };
+        if let Ok(m) = build(plan.method(), d, gaze, &plan.settings.mapping) {
+            maps.push(m);
+        }
+    }
+    let mut refs: Vec<&dyn FoveationMapping> = maps.iter().map(|m| m.as_ref()).collect();
+    refs.push(plan.mapping());
+    ScreenLimits::of(&refs)
+}
+
+impl ResidentFrame {
+    /// Whether the resident frame renders `plan` seen by `camera`: `Ok` or the
+    /// [`GpuError::Unsupported`] (or [`GpuError::Input`]) that [`Self::render`] would return,
+    /// decided from the plan alone.
+    pub fn supports(plan: &FramePlan, camera: &EyeCamera) -> Result<()> {
+        samples_support(plan)?;
+        screen_config(
+            plan,
+            camera,
+            ToneSettings {
+                exposure_stops: 0.0,
+                curve: ToneCurve::Reinhard,
+            },
+        )?;
+        if (camera.display.width_px, camera.display.height_px)
+            != (plan.display.width_px, plan.display.height_px)
+        {
+            return Err(GpuError::Input(
+                "the camera's display is not the plan's".into(),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The scene of `world` on `ctx`, each eye's screen side for `plans` (index = eye: left,
+    /// right) seen by `cameras`, and the timers; each eye's sample buffers are made with its
+    /// first frame. Refuses what [`Self::supports`] refuses, before allocating anything.
+    pub fn new(
+        ctx: &GpuContext,
+        world: &World,
+        plans: [&FramePlan; 2],
+        cameras: [&EyeCamera; 2],
+        tone: ToneSettings,
+    ) -> Result<Self> {
+        for e in 0..2 {
+            Self::supports(plans[e], cameras[e])?;
+        }
+        if !tone.exposure_stops.is_finite() {
+            return Err(GpuError::Input(format!(
+                "exposure {} stops (a finite number of stops)",
+                tone.exposure_stops
+            )));
+        }
+        let samples = ResidentSamples::new(ctx, world)?;
+        let timers = match (
+            FrameTimer::new(ctx, &["left shade", "right shade"], TIMER_RING)?,
+            FrameTimer::new(ctx, &SCREEN_PASSES, TIMER_RING)?,
+            FrameTimer::new(ctx, &SCREEN_PASSES, TIMER_RING)?,
+        ) {
+            (Some(a), Some(b), Some(c)) => Some([a, b, c]),
+            _ => None,
+        };
+        let mut frame = Self {
+            ctx: ctx.clone(),
+            samples,
+            screens: [None, None],
+            tone,
+            timers,
+            pending: Vec::new(),
+            frames: 0,
+        };
+        for e in 0..2 {
+            frame.ensure_screen(e, plans[e], cameras[e])?;
+        }
+        Ok(frame)
+    }
+
+    /// Keeps eye `eye`'s screen side when it serves `plan`, else builds one for it.
+    fn ensure_screen(&mut self, eye: usize, plan: &FramePlan, camera: &EyeCamera) -> Result<()> {
+        let config = screen_config(plan, camera, self.tone)?;
+        let keep = self.screens[eye].as_ref().is_some_and(|s| {
+            s.screen
+                .matches(&plan.display, plan.method(), &config, s.limits)
+                && s.screen.fits(plan.mapping())
+        });
+        if !keep {
+            let limits = screen_limits(plan);
+            let screen =
+                ScreenContext::new(&self.ctx, &plan.display, plan.method(), config, limits)?;
+            self.screens[eye] = Some(EyeScreen { screen, limits });
+        }
+        Ok(())
+    }
+
+    /// The sample side (its scene, each eye's buffers).
+    pub fn samples(&self) -> &ResidentSamples {
+        &self.samples
+    }
+
+    /// Eye `eye`'s screen side.
+    pub fn screen(&self, eye: usize) -> Option<&ScreenContext> {
+        self.screens.get(eye)?.as_ref().map(|s| &s.screen)
+    }
+
+    /// Whether per-pass GPU times are measured (the device has timestamp queries).
+    pub fn timed(&self) -> bool {
+        self.timers.is_some()
+    }
+
+    /// Renders one binocular frame: checks both eyes' plans (refusals before anything is
+    /// written), readies each eye's buffers and uniforms, records both eyes' sample side and
+    /// then both eyes' screen side — every pass, timed — into one encoder, and submits it once.
+    /// No wait, nothing read back (but the timers' slots of earlier frames, mapped without
+    /// waiting). `plans` and `cameras` are indexed by eye (left, right).
+    pub fn render(
+        &mut self,
+        world: &World,
+        plans: [&FramePlan; 2],
+        cameras: [&EyeCamera; 2],
+    ) -> Result<BinocularTimes> {
+        let t = Instant::now();
+        for e in 0..2 {
+            Self::supports(plans[e], cameras[e])?;
+        }
+        for e in 0..2 {
+            self.ensure_screen(e, plans[e], cameras[e])?;
+        }
+        let t_tables = self.samples_tables_ms();
+        let mut encoder =
+            self.ctx
+                .device()
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("resident binocular frame"),
+                });
+        for e in 0..2 {
+            self.samples.prepare_eye(e, world, cameras[e], plans[e])?;
+        }
+        let tables_ms = self.samples_tables_ms() - t_tables;
+        let frame = self.frames;
+        self.frames += 1;
+        let ctx = self.ctx.clone();
+        ctx.scoped(
+            "recording the resident binocular frame",
+            || -> Result<()> {
+                if let Some(timers) = &mut self.timers {
+                    for timer in timers.iter_mut() {
+                        timer.begin_frame();
+                    }
+                }
+                for e in 0..2 {
+                    let eye = self.samples.eye(e).ok_or_else(|| {
+                        GpuError::Input(format!("eye {e} of the resident frame was not prepared"))
+                    })?;
+                    let writes = self.timers.as_mut().and_then(|t| t[0].writes(e));
+                    eye.record_timed(self.samples.scene(), &mut encoder, writes);
+                }
+                for e in 0..2 {
+                    let samples = self.samples.samples(e).ok_or_else(|| {
+                        GpuError::Input(format!("eye {e} of the resident frame has no samples"))
+                    })?;
+                    let Some(s) = &mut self.screens[e] else {
+                        return Err(GpuError::Input(format!("eye {e} has no screen side")));
+                    };
+                    let input = ScreenInput {
+                        mapping: plans[e].mapping(),
+                        focus: plans[e].focus_m().map(Metres),
+                    };
+                    let timer = self.timers.as_mut().map(|t| &mut t[1 + e]);
+                    s.screen.record(&mut encoder, samples, &input, timer)?;
+                }
+                if let Some(timers) = &self.timers {
+                    for timer in timers {
+                        timer.end_frame(&mut encoder);
+                    }
+                }
+                Ok(())
+            },
+        )??;
+        let commands = encoder.finish();
+        let host_ms = t.elapsed().as_secs_f64() * 1e3;
+        let t = Instant::now();
+        ctx.scoped("submitting the resident binocular frame", || {
+            ctx.submit([commands])
+        })?;
+        if let Some(timers) = &mut self.timers {
+            for timer in timers.iter_mut() {
+                timer.submitted();
+            }
+        }
+        Ok(BinocularTimes {
+            frame,
+            host_ms,
+            tables_ms,
+            submit_ms: t.elapsed().as_secs_f64() * 1e3,
+        })
+    }
+
+    /// The sample side's table time so far (its counter is reset by `render_eyes` only).
+    fn samples_tables_ms(&self) -> f64 {
+        self.samples.tables_ms()
+    }
+
+    /// Eye `eye`'s (0 left, 1 right) tone-mapped image of the last submitted frame: 8-bit
+    /// sRGB, 3 bytes a pixel, row-major (`to_srgb8`'s bytes) — a counted, blocking readback,
+    /// for `render --out`, screenshots and sequences only.
+    pub fn image(&mut self, eye: usize) -> Result<Vec<u8>> {
+        let Some(Some(s)) = self.screens.get_mut(eye) else {
+            return Err(GpuError::Input(format!("eye {eye} (0 left, 1 right)")));
+        };
+        s.screen.read_srgb8()
+    }
+
+    /// The frames whose every pass's GPU time has arrived since the last call, oldest first,
+    /// the passes named as [`BINOCULAR_PASSES`] (left eye, then right). Never blocks.
+    pub fn poll_gpu_times(&mut self) -> Result<Vec<FrameGpuTimes>> {
+        let Some(timers) = &mut self.timers else {
+            return Ok(Vec::new());
+        };
+        for (k, timer) in timers.iter_mut().enumerate() {
+            for t in timer.poll()? {
+                let at = match self.pending.iter().position(|p| p.0 == t.frame) {
+                    Some(at) => at,
+                    None => {
+                        let passes = BINOCULAR_PASSES
+                            .iter()
+                            .flat_map(|eye| eye.iter().map(|&n| (n, None)))
+                            .collect();
+                        self.pending.push((t.frame, 0, passes));
+                        self.pending.len() - 1
+                    }
+                };
+                let entry = &mut self.pending[at];
+                entry.1 |= 1 << k;
+                for (p, (_, ms)) in t.passes.iter().enumerate() {
+                    let slot = match k {
+                        0 => 7 * p,
+                        eye => 7 * (eye - 1) + 1 + p,
+                    };
+                    if let Some(e) = entry.2.get_mut(slot) {
+                        e.1 = *ms;
+                    }
+                }
+            }
+        }
+        let mut done: Vec<FrameGpuTimes> = Vec::new();
+        self.pending.retain(|(frame, arrived, passes)| {
+            if *arrived == 0b111 {
+                done.push(FrameGpuTimes {
+                    frame: *frame,
+                    passes: passes.clone(),
+                });
+                false
+            } else {
+                true
+            }
+        });
+        // A frame one timer left untimed never completes: forget those far behind.
+        if let Some(last) = done.iter().map(|d| d.frame).max() {
+            let horizon = 4 * TIMER_RING as u64;
+            self.pending.retain(|p| p.0 + horizon > last);
+        }
+        done.sort_by_key(|d| d.frame);
+        Ok(done)
+    }
+}
