@@ -23,24 +23,23 @@
 //! fails under FOVEA_REQUIRE_GPU=1.
 
 mod common;
+#[path = "common/resident.rs"]
+mod resident;
 
 use common::{gpu_or_skip, shout};
-use fovea_core::display::{DisplayProfile, Gaze};
 use fovea_core::mapping::Method;
 use fovea_gpu::frame::{ResidentFrame, ToneSettings};
 use fovea_gpu::{GpuContext, GpuError};
 use fovea_post::denoise::DenoiseParams;
 use fovea_post::tonemap::{to_srgb8, ToneCurve};
-use fovea_render::bvh::Backend;
 use fovea_render::camera::EyeCamera;
-use fovea_render::eye::EyeState;
 use fovea_render::pipeline::{
     render_planned, FrameContext, FrameInputs, FrameSettings, StageTimes,
 };
 use fovea_render::plan::FramePlan;
-use fovea_render::scene::builtin;
-use fovea_render::shade::{FrameNoise, ShadingMode};
+use fovea_render::shade::ShadingMode;
 use fovea_render::world::World;
+use resident::{plan, setup};
 
 const PSNR_MIN_DB: f64 = 40.0;
 const STEADY_UPLOAD_MAX: u64 = 256 * 1024;
@@ -49,47 +48,9 @@ const TONE: ToneSettings = ToneSettings {
     curve: ToneCurve::Reinhard,
 };
 
-/// The built-in scene at the Vive Pro Eye, and both eyes' cameras.
-fn setup() -> (World, [EyeCamera; 2]) {
-    let scene = builtin::depth_range().unwrap();
-    let desc = scene.cameras[0].clone();
-    let world = World::new(scene, Backend::Obvhs).unwrap();
-    let display = DisplayProfile::preset("vive-pro-eye").unwrap();
-    let left = EyeCamera::from_desc(&desc, &display).unwrap();
-    let right = EyeCamera::new(
-        desc.position + left.right * 0.063,
-        desc.forward,
-        desc.up,
-        &display,
-    )
-    .unwrap();
-    (world, [left, right])
-}
-
+/// `method` with direct shading, one ray per texel.
 fn settings(method: Method) -> FrameSettings {
-    let mut s = FrameSettings::new(method);
-    s.shading = ShadingMode::DIRECT;
-    s.periphery_rays = 1;
-    s
-}
-
-fn plan(
-    world: &World,
-    camera: &EyeCamera,
-    settings: &FrameSettings,
-    gaze: Gaze,
-    frame: u64,
-    eye: u32,
-) -> FramePlan {
-    FramePlan::new(
-        world,
-        camera,
-        settings,
-        &EyeState::looking_at(gaze),
-        [0.0, 0.0],
-    )
-    .unwrap()
-    .with_noise(FrameNoise::new(frame, eye))
+    resident::settings(method, ShadingMode::DIRECT)
 }
 
 /// The CPU's frame of `plan`, tone-mapped as the resident frame does.

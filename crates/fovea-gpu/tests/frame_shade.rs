@@ -19,67 +19,23 @@
 //! fails under FOVEA_REQUIRE_GPU=1.
 
 mod common;
+#[path = "common/resident.rs"]
+mod resident;
 
 use common::{gpu_or_skip, shout};
-use fovea_core::display::{DisplayProfile, Gaze};
 use fovea_core::mapping::Method;
 use fovea_core::Image;
 use fovea_gpu::frame::ResidentSamples;
 use fovea_gpu::{GpuContext, GpuError};
 use fovea_post::inverse_map::SampleBuffers;
 use fovea_post::tonemap::{to_srgb8, ToneCurve};
-use fovea_render::bvh::Backend;
 use fovea_render::camera::EyeCamera;
-use fovea_render::eye::EyeState;
 use fovea_render::pipeline::trace_shade::trace_and_shade;
-use fovea_render::pipeline::{FrameSettings, StageTimes};
+use fovea_render::pipeline::StageTimes;
 use fovea_render::plan::FramePlan;
-use fovea_render::scene::builtin;
-use fovea_render::shade::{EnvLight, FrameNoise, ShadingMode};
+use fovea_render::shade::{EnvLight, ShadingMode};
 use fovea_render::world::World;
-
-/// The built-in scene at the Vive Pro Eye, and both eyes' cameras.
-fn setup() -> (World, [EyeCamera; 2]) {
-    let scene = builtin::depth_range().unwrap();
-    let desc = scene.cameras[0].clone();
-    let world = World::new(scene, Backend::Obvhs).unwrap();
-    let display = DisplayProfile::preset("vive-pro-eye").unwrap();
-    let left = EyeCamera::from_desc(&desc, &display).unwrap();
-    let right = EyeCamera::new(
-        desc.position + left.right * 0.063,
-        desc.forward,
-        desc.up,
-        &display,
-    )
-    .unwrap();
-    (world, [left, right])
-}
-
-fn settings(method: Method, shading: ShadingMode) -> FrameSettings {
-    let mut s = FrameSettings::new(method);
-    s.shading = shading;
-    s.periphery_rays = 1;
-    s
-}
-
-fn plan(
-    world: &World,
-    camera: &EyeCamera,
-    settings: &FrameSettings,
-    gaze: Gaze,
-    frame: u64,
-    eye: u32,
-) -> FramePlan {
-    FramePlan::new(
-        world,
-        camera,
-        settings,
-        &EyeState::looking_at(gaze),
-        [0.0, 0.0],
-    )
-    .unwrap()
-    .with_noise(FrameNoise::new(frame, eye))
-}
+use resident::{plan, settings, setup};
 
 /// The CPU's sample buffers of `plan`, from the frame context's starting state (black, +∞).
 fn cpu_samples(world: &World, camera: &EyeCamera, plan: &FramePlan) -> SampleBuffers {
