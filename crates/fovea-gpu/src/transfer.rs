@@ -24,6 +24,22 @@ pub(crate) fn upload(
     buffer
 }
 
+/// An uninitialised buffer of `size` bytes (at least 4: wgpu refuses empty bindings), for
+/// passes to write.
+pub(crate) fn empty(
+    ctx: &GpuContext,
+    label: &str,
+    size: u64,
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    ctx.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: size.max(4),
+        usage,
+        mapped_at_creation: false,
+    })
+}
+
 /// A bind group of group 0 of `pipeline` with each buffer of `entries` bound whole at its
 /// binding.
 pub(crate) fn bind_group(

@@ -27,13 +27,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let m = build(method, &d, d.centre_gaze(), &MappingConfig::default())?;
         let b = &m.buffers()[0];
         let (w, h) = (b.width, b.height);
-        let grid = match m.polar_layout() {
-            Some(l) => Grid::polar(&l),
-            None => Grid::Rect {
-                width: w,
-                height: h,
-            },
-        };
+        let grid = Grid::of_layer(m.polar_layout().as_ref(), w, h);
         let n = (w * h) as usize;
         let mut seed = 0x9e37_79b9_7f4a_7c15u64;
         let mut next = || {

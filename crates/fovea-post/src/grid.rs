@@ -38,6 +38,15 @@ impl Grid {
         }
     }
 
+    /// The grid of a sample layer `width` × `height` texels: the mapping's polar layout where
+    /// it has one, else the rectangle.
+    pub fn of_layer(polar: Option<&PolarLayout>, width: u32, height: u32) -> Self {
+        match polar {
+            Some(layout) => Self::polar(layout),
+            None => Grid::Rect { width, height },
+        }
+    }
+
     /// Whether `(i, j)` holds a sample.
     #[inline]
     pub fn valid(&self, i: u32, j: u32) -> bool {

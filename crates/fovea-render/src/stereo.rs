@@ -409,13 +409,7 @@ fn fill_cracks(rm: &dyn FoveationMapping, mut p: Prefill) -> (Prefill, u64) {
     let mut filled = 0;
     for l in 0..p.color.len() {
         let (w, h) = (p.color[l].width(), p.color[l].height());
-        let grid = match &polar {
-            Some(layout) => Grid::polar(layout),
-            None => Grid::Rect {
-                width: w,
-                height: h,
-            },
-        };
+        let grid = Grid::of_layer(polar.as_ref(), w, h);
         let layer = l as u32;
         let (known, color, depth) = (&p.known[l], &p.color[l], &p.depth[l]);
         let fills: Vec<(u32, u32, Rgb, f32)> = (0..w as usize * h as usize)

@@ -744,12 +744,7 @@ impl AaStage {
         let device = ctx.device();
         let missing = || GpuError::Input("an AA module lacks an entry point".into());
         let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
-            ctx.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: size.max(4),
-                usage,
-                mapped_at_creation: false,
-            })
+            crate::transfer::empty(ctx, label, size, usage)
         };
         let storage = wgpu::BufferUsages::STORAGE;
         let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;

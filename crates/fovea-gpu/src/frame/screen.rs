@@ -344,12 +344,7 @@ impl ScreenContext {
         };
         let device = ctx.device();
         let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
-            ctx.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: size.max(4),
-                usage,
-                mapped_at_creation: false,
-            })
+            crate::transfer::empty(ctx, label, size, usage)
         };
         let storage = wgpu::BufferUsages::STORAGE;
         let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;

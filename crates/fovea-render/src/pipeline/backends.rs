@@ -233,16 +233,10 @@ fn aa(executors: &Executors, plan: &FramePlan) -> Placement {
         return Placement::cpu();
     }
     let polar = plan.mapping().polar_layout();
-    let fits = plan.buffers.iter().all(|b| {
-        let grid = match &polar {
-            Some(l) => Grid::polar(l),
-            None => Grid::Rect {
-                width: b.width,
-                height: b.height,
-            },
-        };
-        ex.supports(plan.aa, &grid)
-    });
+    let fits = plan
+        .buffers
+        .iter()
+        .all(|b| ex.supports(plan.aa, &Grid::of_layer(polar.as_ref(), b.width, b.height)));
     match fits {
         true => Placement::on(ex.backend()),
         false => Placement::cpu_because(format!(

@@ -80,13 +80,7 @@ pub fn denoise(
     let grids: Vec<Grid> = samples
         .color
         .iter()
-        .map(|c| match &polar {
-            Some(layout) => Grid::polar(layout),
-            None => Grid::Rect {
-                width: c.width(),
-                height: c.height(),
-            },
-        })
+        .map(|c| Grid::of_layer(polar.as_ref(), c.width(), c.height()))
         .collect();
     let sizes: Vec<(u32, u32)> = samples
         .color
@@ -205,13 +199,7 @@ pub fn anti_alias(
         ReconstructFilter::Bilinear => None,
     };
     for c in color.iter_mut() {
-        let grid = match &polar {
-            Some(l) => Grid::polar(l),
-            None => Grid::Rect {
-                width: c.width(),
-                height: c.height(),
-            },
-        };
+        let grid = Grid::of_layer(polar.as_ref(), c.width(), c.height());
         if matches!(plan.aa, AaMode::None | AaMode::Auto) {
             // `FramePlan` resolves `Auto`; `None` returned above.
             return Ok(());

@@ -273,13 +273,7 @@ fn grids_of(mapping: &dyn FoveationMapping, buffers: &SampleBuffers) -> Vec<Grid
     buffers
         .color
         .iter()
-        .map(|c| match &polar {
-            Some(l) => Grid::polar(l),
-            None => Grid::Rect {
-                width: c.width(),
-                height: c.height(),
-            },
-        })
+        .map(|c| Grid::of_layer(polar.as_ref(), c.width(), c.height()))
         .collect()
 }
 
