@@ -12,19 +12,15 @@
 //! Arguments: the scene (a file or a built-in name), the resolution `WxH` (default 180x200, the
 //! Vive Pro Eye's aspect), the path tracer's paths per pixel (default 64).
 
-use std::path::Path;
+#[path = "common/file_view.rs"]
+mod file_view;
 
-use fovea_core::display::DisplayProfile;
+use file_view::{file_view, resolution};
 use fovea_core::mapping::Method;
-use fovea_core::units::Degrees;
 use fovea_core::Image;
 use fovea_post::Rgb;
-use fovea_render::bvh::Backend;
-use fovea_render::camera::EyeCamera;
 use fovea_render::pipeline::{render_frame, FrameSettings};
-use fovea_render::scene::{builtin, Scene};
 use fovea_render::shade::{EnvLight, ShadingMode};
-use fovea_render::world::World;
 
 /// Rec. 709 luma of linear RGB.
 fn luma(c: Rgb) -> f64 {
@@ -47,28 +43,10 @@ fn means(img: &Image<Rgb>) -> (f64, f64) {
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let scene_arg = args.first().map_or("depth-range", String::as_str);
-    let (w, h) = match args.get(1) {
-        Some(r) => {
-            let (a, b) = r.split_once('x').ok_or("resolution WxH")?;
-            (a.parse()?, b.parse()?)
-        }
-        None => (180u32, 200u32),
-    };
+    let (w, h) = resolution(args.get(1), (180, 200))?;
     let spp: u32 = args.get(2).map_or(Ok(64), |s| s.parse())?;
-    let scene = if Path::new(scene_arg).extension().is_some() {
-        Scene::load(Path::new(scene_arg))?
-    } else {
-        builtin::by_name(scene_arg)?
-    };
-    let desc = scene
-        .cameras
-        .first()
-        .ok_or("the scene has no camera")?
-        .clone();
-    let vfov = desc.yfov_deg.unwrap_or(90.0) as f64;
-    let display = DisplayProfile::with_vertical_fov("measure", w, h, Degrees(vfov))?;
-    let world = World::new(scene, Backend::best_available())?;
-    let camera = EyeCamera::from_desc(&desc, &display)?;
+    let (world, camera, display) = file_view(scene_arg, (w, h), 90.0)?;
+    let vfov = display.vfov.0;
     let gaze = display.centre_gaze();
     let run = |shading: ShadingMode, pixel_samples: u32| -> Result<_, Box<dyn std::error::Error>> {
         let mut s = FrameSettings::new(Method::Full);
