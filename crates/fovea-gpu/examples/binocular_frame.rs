@@ -22,24 +22,22 @@
 //!     [frames=4] [method=vafr] [res=vive-pro-eye|4k|8k|retinal] [lights=1] [staged=on|off]
 //! ```
 
+#[path = "common/binocular_view.rs"]
+mod binocular_view;
+
+use binocular_view::{binocular_view, direct_settings};
+
 use std::time::Instant;
 
-use fovea_core::display::DisplayProfile;
 use fovea_core::mapping::Method;
 use fovea_gpu::executors::GpuExecutors;
 use fovea_gpu::frame::{ResidentFrame, ToneSettings};
 use fovea_gpu::{GpuContext, GpuRequest, TrafficCounts};
 use fovea_post::tonemap::ToneCurve;
-use fovea_render::bvh::Backend;
-use fovea_render::camera::EyeCamera;
 use fovea_render::eye::EyeState;
-use fovea_render::pipeline::{
-    render_planned, FrameContext, FrameInputs, FrameSettings, StageTimes,
-};
+use fovea_render::pipeline::{render_planned, FrameContext, FrameInputs, StageTimes};
 use fovea_render::plan::FramePlan;
-use fovea_render::scene::builtin;
-use fovea_render::shade::{FrameNoise, ShadingMode};
-use fovea_render::world::World;
+use fovea_render::shade::FrameNoise;
 
 const TONE: ToneSettings = ToneSettings {
     exposure_stops: 0.0,
@@ -79,22 +77,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         other => return Err(format!("staged={other} (on or off)").into()),
     };
 
-    let scene = builtin::depth_range()?;
-    let desc = scene.cameras[0].clone();
-    let mut world = World::new(scene, Backend::Obvhs)?;
-    world.lights.truncate(lights);
-    let display = DisplayProfile::preset(res)?;
-    let left = EyeCamera::from_desc(&desc, &display)?;
-    let right = EyeCamera::new(
-        desc.position + left.right * 0.063,
-        desc.forward,
-        desc.up,
-        &display,
-    )?;
-    let cams = [left, right];
-    let mut settings = FrameSettings::new(method);
-    settings.shading = ShadingMode::DIRECT;
-    settings.periphery_rays = 1;
+    let (world, cams, display) = binocular_view(res, lights)?;
+    let settings = direct_settings(method);
 
     let ctx = GpuContext::new(&GpuRequest::default())?;
     println!(
@@ -222,6 +206,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     for l in gpu_lines {
         println!("  {l}");
+    }
+    if walls.is_empty() {
+        println!("one frame: no steady frames to take the median of (ask for 2 or more)");
+        return Ok(());
     }
     let (rw, sw) = (median(walls), median(staged_walls));
     println!(

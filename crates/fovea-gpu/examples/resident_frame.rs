@@ -21,23 +21,23 @@
 //!     [frames=4] [method=vafr] [headset=vive-pro-eye] [lights=1]
 //! ```
 
+#[path = "common/binocular_view.rs"]
+mod binocular_view;
+
+use binocular_view::{binocular_view, direct_settings};
+
 use std::time::Instant;
 
-use fovea_core::display::DisplayProfile;
 use fovea_core::mapping::Method;
 use fovea_core::Image;
 use fovea_gpu::frame::ResidentSamples;
 use fovea_gpu::{GpuContext, GpuRequest, TrafficCounts};
 use fovea_post::inverse_map::SampleBuffers;
-use fovea_render::bvh::Backend;
-use fovea_render::camera::EyeCamera;
 use fovea_render::eye::EyeState;
 use fovea_render::pipeline::trace_shade::trace_and_shade;
-use fovea_render::pipeline::{FrameSettings, StageBackends, StageTimes};
+use fovea_render::pipeline::{StageBackends, StageTimes};
 use fovea_render::plan::FramePlan;
-use fovea_render::scene::builtin;
-use fovea_render::shade::{FrameNoise, ShadingMode};
-use fovea_render::world::World;
+use fovea_render::shade::FrameNoise;
 
 fn line(what: &str, wall_ms: f64, host_ms: Option<f64>, t: &TrafficCounts) {
     let host = host_ms.map_or("—".to_string(), |h| format!("{h:.2}"));
@@ -59,22 +59,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let headset = args.get(2).map_or("vive-pro-eye", String::as_str);
     let lights: usize = args.get(3).map_or(Ok(1), |a| a.parse())?;
 
-    let scene = builtin::depth_range()?;
-    let desc = scene.cameras[0].clone();
-    let mut world = World::new(scene, Backend::Obvhs)?;
-    world.lights.truncate(lights);
-    let display = DisplayProfile::preset(headset)?;
-    let left = EyeCamera::from_desc(&desc, &display)?;
-    let right = EyeCamera::new(
-        desc.position + left.right * 0.063,
-        desc.forward,
-        desc.up,
-        &display,
-    )?;
-    let cams = [left, right];
-    let mut settings = FrameSettings::new(method);
-    settings.shading = ShadingMode::DIRECT;
-    settings.periphery_rays = 1;
+    let (world, cams, display) = binocular_view(headset, lights)?;
+    let settings = direct_settings(method);
 
     let ctx = GpuContext::new(&GpuRequest::default())?;
     println!(
