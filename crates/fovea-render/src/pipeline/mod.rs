@@ -389,17 +389,16 @@ pub fn render_planned<'c>(
         }
     };
     // Denoising, before the reconstruction magnifies the periphery's noise.
-    let (denoise, denoise_backend) = match plan.settings.denoise {
+    let denoise = match plan.settings.denoise {
         Some(params) => {
             let t = Stopwatch::start();
             let (samples, guides, scratch, executor) = ctx.samples_and_denoiser();
             let executor = executor.filter(|_| backends.denoise.on_executor());
-            let (s, backend) =
-                sample_post::denoise(plan, &params, samples, guides, scratch, executor)?;
+            let s = sample_post::denoise(plan, &params, samples, guides, scratch, executor)?;
             times.add(Stage::Denoise, &t);
-            (Some(s), backend)
+            Some(s)
         }
-        None => (None, sample_post::CPU.to_string()),
+        None => None,
     };
     let (samples, _, _, _) = ctx.samples_and_denoiser();
     let kept_samples = plan.settings.keep_samples.then(|| samples.clone());
@@ -451,8 +450,6 @@ pub fn render_planned<'c>(
     stats.inset_smoothing = inset_smoothing.map(|s| s.name().to_string());
     stats.denoise = denoise;
     stats.set_backends(backends);
-    // What ran (the decision's backend unless the executor refused the call's buffers).
-    stats.denoise_backend = denoise_backend;
     Ok(ctx.store(Frame {
         color,
         depth,

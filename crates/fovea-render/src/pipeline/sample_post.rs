@@ -68,7 +68,7 @@ pub fn denoise(
     guides: &DenoiseGuides,
     scratch: &mut DenoiseScratch,
     executor: Option<&mut (dyn DenoiseExecutor + 'static)>,
-) -> Result<(DenoiseStats, String)> {
+) -> Result<DenoiseStats> {
     if guides.albedo.len() != samples.color.len() || guides.normal.len() != samples.color.len() {
         return Err(RenderError::invalid(
             "denoise guides",
@@ -82,12 +82,9 @@ pub fn denoise(
         .iter()
         .map(|c| Grid::of_layer(polar.as_ref(), c.width(), c.height()))
         .collect();
-    let sizes: Vec<(u32, u32)> = samples
-        .color
-        .iter()
-        .map(|c| (c.width(), c.height()))
-        .collect();
-    if let Some(ex) = executor.filter(|e| e.supports(&sizes)) {
+    // `executor` is the one the frame's `StageBackends` placed the stage on (it supports
+    // these buffers' sizes), or none: the CPU.
+    if let Some(ex) = executor {
         let stats = ex
             .denoise(params, &grids, samples, guides)
             .map_err(|message| RenderError::Executor {
@@ -95,7 +92,7 @@ pub fn denoise(
                 backend: ex.backend().to_string(),
                 message,
             })?;
-        return Ok((stats, ex.backend().to_string()));
+        return Ok(stats);
     }
     let mut stats = DenoiseStats::default();
     for (l, ((c, d), grid)) in samples
@@ -112,7 +109,7 @@ pub fn denoise(
             c, d, albedo, normal, noisy, variance, grid, params, scratch,
         )?;
     }
-    Ok((stats, CPU.to_string()))
+    Ok(stats)
 }
 
 /// Another executor of the sample-space denoiser (e.g. the GPU's), kept in a
