@@ -130,4 +130,5 @@ pub const ALL_SHADERS: &[shaders::ShaderSource] = &[
     frame::screen::PRESENT_SHADER,
     denoise::SHADER,
     frame::shade::SHADER,
+    frame::temporal::SHADER,
 ];

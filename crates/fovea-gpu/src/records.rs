@@ -205,6 +205,17 @@ fn records() -> Vec<Record> {
         }),
         record!(frame::screen::PresentUniform => "PresentParams"
             in [frame::screen::PRESENT_SHADER] { width, height, row_words }),
+        record!(frame::temporal::TemporalCameraGpu => "TemporalCamera"
+            in [frame::temporal::SHADER] { origin, fx, forward, fy, right, cx, up, cy }),
+        record!(frame::temporal::TemporalViewGpu => "TemporalView"
+            in [frame::temporal::SHADER] {
+            camera, gaze, offset, width, height, kind, columns, table, spacing, spacing_len,
+            steps_per_deg,
+        }),
+        record!(frame::temporal::TemporalUniform => "TemporalParams"
+            in [frame::temporal::SHADER] {
+            cur, prev, screen, alpha_min, tau, c_r, clamp, history, row_invocations, inf_bits,
+        }),
         record!(dn::DenoiseUniform => "DenoiseParams" in [dn::SHADER] {
             texels, layer_count, atrous_step, taps, sigma_l, sigma_z, sigma_n, firefly_k,
             same_normal, layers,

@@ -6,9 +6,11 @@
 //! ([`ResidentFrame::image`]). Per-pass GPU times come from [`FrameTimer`]s read frames late
 //! ([`ResidentFrame::poll_gpu_times`]), never blocking.
 //!
-//! The order inside the encoder: left shade, right shade, then the left eye's screen passes,
-//! then the right eye's (the screen side reads the samples the shade passes wrote; wgpu orders
-//! the passes of one encoder).
+//! The order inside the encoder: left shade, right shade, with temporal accumulation on
+//! ([`ResidentFrame::set_temporal`]) each eye's accumulation pass and the copy of its result
+//! over the samples ([`super::temporal`]), then the left eye's screen passes, then the right
+//! eye's (the screen side reads the samples the passes before wrote; wgpu orders the passes of
+//! one encoder).
 //!
 //! What it cannot serve is refused with [`GpuError::Unsupported`] before anything is written
 //! or recorded ([`ResidentFrame::supports`]): everything the sample side refuses
@@ -37,6 +39,7 @@ use super::screen::{
     ScreenConfig, ScreenContext, ScreenDof, ScreenInput, ScreenLimits, SCREEN_PASSES,
 };
 use super::shade::supports as samples_support;
+use super::temporal::ResidentTemporal;
 use super::timing::{FrameGpuTimes, FrameTimer};
 use crate::device::GpuContext;
 use crate::error::{GpuError, Result};
@@ -112,6 +115,9 @@ pub struct ResidentFrame {
     /// Frames whose timers have partly arrived: (frame, timers arrived, passes).
     pending: Vec<(u64, u8, PassTimes)>,
     frames: u64,
+    /// Temporal accumulation between the shading and the screen side, when set
+    /// ([`Self::set_temporal`]).
+    temporal: Option<ResidentTemporal>,
 }
 
 /// The screen side's settings of `plan` seen by `camera`, or why the resident frame does not
@@ -261,6 +267,7 @@ impl ResidentFrame {
             timers,
             pending: Vec::new(),
             frames: 0,
+            temporal: None,
         };
         for e in 0..2 {
             frame.ensure_screen(e, plans[e], cameras[e])?;
@@ -283,6 +290,36 @@ impl ResidentFrame {
             self.screens[eye] = Some(EyeScreen { screen, limits });
         }
         Ok(())
+    }
+
+    /// Turns temporal accumulation on with `settings` (the CPU's `TemporalSettings`, checked
+    /// as the CPU checks them: [`GpuError::Input`]) or off (`None`). A new setting starts
+    /// without history; the same one keeps it. The plans' jitter and noise frame should be the
+    /// CPU accumulator's (`TemporalAccumulator::jitter`, `frame`), as for `render_planned`.
+    pub fn set_temporal(
+        &mut self,
+        settings: Option<fovea_render::temporal::TemporalSettings>,
+    ) -> Result<()> {
+        if self.temporal.as_ref().map(|t| t.settings()) == settings.as_ref() {
+            return Ok(());
+        }
+        self.temporal = match settings {
+            Some(s) => Some(ResidentTemporal::new(&self.ctx, s)?),
+            None => None,
+        };
+        Ok(())
+    }
+
+    /// Forgets the temporal history (a cut): the next frame is accumulated afresh.
+    pub fn reset_temporal(&mut self) {
+        if let Some(t) = &mut self.temporal {
+            t.reset();
+        }
+    }
+
+    /// The temporal accumulation's settings, when on.
+    pub fn temporal(&self) -> Option<&fovea_render::temporal::TemporalSettings> {
+        self.temporal.as_ref().map(|t| t.settings())
     }
 
     /// The sample side (its scene, each eye's buffers).
@@ -328,6 +365,14 @@ impl ResidentFrame {
         for e in 0..2 {
             self.samples.prepare_eye(e, world, cameras[e], plans[e])?;
         }
+        if let Some(t) = &mut self.temporal {
+            for e in 0..2 {
+                let shade = self.samples.eye(e).ok_or_else(|| {
+                    GpuError::Input(format!("eye {e} of the resident frame was not prepared"))
+                })?;
+                t.prepare(e, plans[e], cameras[e], shade)?;
+            }
+        }
         let tables_ms = self.samples_tables_ms() - t_tables;
         let frame = self.frames;
         self.frames += 1;
@@ -346,6 +391,12 @@ impl ResidentFrame {
                     })?;
                     let writes = self.timers.as_mut().and_then(|t| t[0].writes(e));
                     eye.record_timed(self.samples.scene(), &mut encoder, writes);
+                }
+                // Temporal accumulation: after the shading, before the screen side.
+                if let Some(t) = &mut self.temporal {
+                    for e in 0..2 {
+                        t.record(e, &mut encoder, None)?;
+                    }
                 }
                 for e in 0..2 {
                     let samples = self.samples.samples(e).ok_or_else(|| {

@@ -200,7 +200,7 @@ fn tables(plan: &FramePlan, layout: RayLayout) -> Tables {
 
 /// The largest buffer (texels) and the most columns of `plan`'s mapping over gazes at the
 /// screen's corners and centre (built here, once per eye's buffers).
-fn worst_case(plan: &FramePlan) -> (u64, usize) {
+pub(crate) fn worst_case(plan: &FramePlan) -> (u64, usize) {
     let d = &plan.display;
     let (w, h) = (d.width_px as f64, d.height_px as f64);
     let mut most = (0u64, 0usize);
@@ -486,6 +486,12 @@ impl EyeShade {
     /// The eye's sample buffers on the device.
     pub fn samples(&self) -> &DeviceSamples {
         &self.samples
+    }
+
+    /// This frame's column records (`FrameColumn`) and runs of shaded rows, for a pass that
+    /// asks which texels the mapping shades (the temporal accumulation).
+    pub(crate) fn tables(&self) -> (&wgpu::Buffer, &wgpu::Buffer) {
+        (&self.columns, &self.runs)
     }
 }
 

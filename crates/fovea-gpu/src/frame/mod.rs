@@ -13,6 +13,8 @@
 //! * [`reconstruct`]: the polar reconstruction the screen side records ([`ResidentPolar`]).
 //! * [`binocular`]: both eyes' sample and screen sides in one encoder, one submission
 //!   ([`ResidentFrame`]).
+//! * [`temporal`]: temporal accumulation in sample space between the shading and the screen
+//!   side, with per-eye histories kept on the device ([`ResidentTemporal`]).
 //! * [`timing`]: per-pass GPU times read back frames late, never blocking ([`FrameTimer`]).
 
 pub mod binocular;
@@ -21,6 +23,7 @@ pub mod reconstruct;
 pub mod samples;
 pub mod screen;
 pub mod shade;
+pub mod temporal;
 pub mod timing;
 
 pub use binocular::{BinocularTimes, ResidentFrame, ToneSettings, BINOCULAR_PASSES};
@@ -31,4 +34,5 @@ pub use screen::{
     ScreenConfig, ScreenContext, ScreenDof, ScreenInput, ScreenLimits, SCREEN_PASSES,
 };
 pub use shade::{supports, RayLayout, ShadeScene};
+pub use temporal::ResidentTemporal;
 pub use timing::{FrameGpuTimes, FrameTimer};

@@ -1,0 +1,521 @@
+//! Temporal accumulation inside the resident frame (issue 37, item 4): the GPU twin of the
+//! CPU's sample-space accumulation (`fovea_render::temporal::sample_space`, the running
+//! estimate after Weier et al. 2018, Sec. 3.1; VaFR's stated limitation, flicker, is Zhang et
+//! al. Sec. 8). Every shaded texel of this frame's sample layer takes its centre through the
+//! inverse mapping to the screen, back into the world with its depth, into the previous camera
+//! and through the previous frame's forward map, reads the previous *accumulated* layer there
+//! (bilinear, or Catmull-Rom where all 16 taps agree in depth; each tap weighted by its depth
+//! agreement), scales the trust by the sample densities' ratio, clamps the history to the
+//! fresh 3×3 neighbourhood and folds it in with the weight
+//! `α = 1 − (1 − max(α_min, 1/(n + 1)))·v` (`shaders/frame_temporal.wgsl` has the steps).
+//!
+//! **What stays on the device.** Per eye two histories (colour + depth, 16 B a texel, and the
+//! age, 4 B a texel), ping-ponged: this frame reads one and writes the other, which the next
+//! frame reads. They are sized from the eye's sample buffers (which the sample side sizes for
+//! the largest gaze), made with the eye's first accumulated frame and again only when the
+//! sample side's buffers are replaced (which resets the history). The pass is one compute
+//! pass per eye recorded after the shading and before the screen side, in the frame's one
+//! encoder; the accumulated colour is then copied over the frame's samples on the device
+//! (`copy_buffer_to_buffer`), so the screen side (and a denoiser after this pass) reads it.
+//!
+//! **What goes up per frame.** The uniform block (272 B: both frames' cameras, gazes, layers,
+//! the blend's settings) and this frame's column table — per polar column the ring's radius
+//! and rows per turn at `u = i + ½` (the CPU mapping's `FoveationMapping::ring`, f64 rounded
+//! to f32), the layout's rows and period (what `Grid` steps with) — plus the spacing table
+//! (`SpacingLut` every 0.1° of eccentricity): 16 B a column and 4 B an entry, into the half of
+//! a double table the previous frame did not write, so the previous frame's table stays for
+//! its forward map. Whether a texel is shaded this frame is read from the sample side's own
+//! run table; in the previous frame, from the history's age (0 where it did not shade).
+//!
+//! **Against the CPU.** The forward map of the previous frame is its columns' exact radii
+//! interpolated linearly between column centres (the CPU evaluates the mapping's own
+//! `forward`); the rest is the CPU's arithmetic in f32. The temporal moments of the Monte
+//! Carlo part (`TemporalSettings::variance`) are kept by the CPU only for its denoiser, which
+//! reads the colour's Monte Carlo part; the sample side does not write that part, so they are
+//! not kept here (nothing reads them: the resident frame refuses the denoiser).
+
+use bytemuck::{Pod, Zeroable};
+use fovea_core::mapping::Method;
+use fovea_render::camera::EyeCamera;
+use fovea_render::plan::FramePlan;
+use fovea_render::temporal::TemporalSettings;
+
+use super::context::EyeShade;
+use super::samples::TEXEL_BYTES;
+use crate::device::GpuContext;
+use crate::error::{GpuError, Result};
+use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
+
+/// The temporal module: entry point `temporal_blend`, [`TemporalUniform`] at binding 0.
+pub const SHADER: ShaderSource = ShaderSource {
+    file: "frame_temporal.wgsl",
+    source: concat!(
+        include_str!("../../shaders/common.wgsl"),
+        include_str!("../../shaders/frame_temporal.wgsl")
+    ),
+    entry_points: &["temporal_blend"],
+    uniform: ("TemporalParams", std::mem::size_of::<TemporalUniform>()),
+};
+
+/// `TemporalView::kind` of a polar layer.
+const KIND_POLAR: u32 = 0;
+/// `TemporalView::kind` of a screen-aligned (full-resolution) layer.
+const KIND_SCREEN: u32 = 1;
+/// The spacing table's step, degrees of eccentricity (`SpacingLut`'s).
+const SPACING_STEP_DEG: f64 = 0.1;
+/// Room for the spacing table: 0.1° steps to 91°, the most any display's corner needs.
+const SPACING_CAPACITY: usize = 912;
+/// The most workgroups a dispatch takes along one dimension.
+const MAX_GROUPS: u32 = 65_535;
+
+/// A camera as the pass reads it (`TemporalCamera`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct TemporalCameraGpu {
+    /// Eye position, world space.
+    pub origin: [f32; 3],
+    /// Focal length along x, pixels.
+    pub fx: f32,
+    /// Unit viewing direction.
+    pub forward: [f32; 3],
+    /// Focal length along y, pixels.
+    pub fy: f32,
+    /// Unit right vector (screen +x).
+    pub right: [f32; 3],
+    /// Principal point x, pixels.
+    pub cx: f32,
+    /// Unit up vector (screen −y).
+    pub up: [f32; 3],
+    /// Principal point y, pixels.
+    pub cy: f32,
+}
+
+impl TemporalCameraGpu {
+    fn of(camera: &EyeCamera) -> Self {
+        let (fx, fy) = camera.focal_px();
+        let (cx, cy) = camera.principal_point_px();
+        Self {
+            origin: camera.position.into(),
+            fx,
+            forward: camera.forward.into(),
+            fy,
+            right: camera.right.into(),
+            cx,
+            up: camera.up.into(),
+            cy,
+        }
+    }
+}
+
+/// One frame's view of its sample layer (`TemporalView`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct TemporalViewGpu {
+    /// The camera.
+    pub camera: TemporalCameraGpu,
+    /// The gaze point (a polar buffer's pole) minus the principal point, pixels (f32 of the
+    /// f64 difference).
+    pub gaze: [f32; 2],
+    /// The layer's first texel in the sample buffer.
+    pub offset: u32,
+    /// Width, texels.
+    pub width: u32,
+    /// Height, texels.
+    pub height: u32,
+    /// Polar (0) or screen-aligned (1).
+    pub kind: u32,
+    /// Column records in the table.
+    pub columns: u32,
+    /// The first column record's index in the tables (floats).
+    pub table: u32,
+    /// The spacing table's index in the tables (floats).
+    pub spacing: u32,
+    /// Entries of the spacing table.
+    pub spacing_len: u32,
+    /// Entries per degree of eccentricity.
+    pub steps_per_deg: f32,
+    /// Padding.
+    pub _pad0: u32,
+}
+
+/// The pass's uniform block (`TemporalParams`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct TemporalUniform {
+    /// This frame.
+    pub cur: TemporalViewGpu,
+    /// The previous frame.
+    pub prev: TemporalViewGpu,
+    /// The display, pixels.
+    pub screen: [f32; 2],
+    /// `TemporalSettings::alpha_min`.
+    pub alpha_min: f32,
+    /// `TemporalSettings::depth_tolerance`.
+    pub tau: f32,
+    /// The display's `c_r` (VaFR Eq. 3).
+    pub c_r: f32,
+    /// `TemporalSettings::clamp`.
+    pub clamp: u32,
+    /// 1 where the previous frame is held, 0 for a first frame.
+    pub history: u32,
+    /// Invocations per row of the dispatch's grid.
+    pub row_invocations: u32,
+    /// +∞ as bits.
+    pub inf_bits: u32,
+    /// Padding.
+    pub _pad1: u32,
+    /// Padding.
+    pub _pad2: u32,
+    /// Padding.
+    pub _pad3: u32,
+}
+
+/// Checks `settings` for the resident frame: the CPU's ranges (`TemporalSettings::validate`).
+/// Every sample-space option is served (jitter moves the rays, which the sample side casts;
+/// the history is read at the texel centres as on the CPU).
+pub fn supports(settings: &TemporalSettings) -> Result<()> {
+    settings
+        .validate()
+        .map_err(|e| GpuError::Input(format!("temporal accumulation: {e}")))
+}
+
+/// What the previous frame left for this one.
+#[derive(Clone, Copy)]
+struct Previous {
+    view: TemporalViewGpu,
+    method: Method,
+    display: (u32, u32),
+}
+
+/// One eye's histories, tables, uniform and bind groups.
+struct EyeTemporal {
+    color: [wgpu::Buffer; 2],
+    /// The ages (bound in the bind groups only).
+    _ages: [wgpu::Buffer; 2],
+    /// Two halves of `half` floats each: this frame's columns and spacing, the previous's.
+    tables: wgpu::Buffer,
+    half: usize,
+    columns_capacity: usize,
+    uniform: wgpu::Buffer,
+    /// Index = the history written (the other is read).
+    bind_groups: [wgpu::BindGroup; 2],
+    /// The sample side's buffers the bind groups name: samples, columns, runs.
+    bound: [wgpu::Buffer; 3],
+    texel_capacity: u64,
+    /// The history this frame writes.
+    next: usize,
+    previous: Option<Previous>,
+    groups: [u32; 2],
+    /// The layer's texels (offset, count) to copy back after the pass; `None` on a first
+    /// frame (the samples are already the result).
+    copy: Option<(u64, u64)>,
+}
+
+/// Temporal accumulation for both eyes of the resident frame (see the module).
+pub struct ResidentTemporal {
+    ctx: GpuContext,
+    settings: TemporalSettings,
+    pipeline: wgpu::ComputePipeline,
+    eyes: [Option<EyeTemporal>; 2],
+}
+
+/// The per-frame table of `plan` (polar: columns then spacing; screen: spacing only) and the
+/// column count.
+fn frame_table(plan: &FramePlan) -> (Vec<f32>, usize, Vec<f32>) {
+    let mapping = plan.mapping();
+    let mut columns = Vec::new();
+    let mut n = 0;
+    if let Some(polar) = mapping.polar_layout() {
+        n = polar.rows.len().min(plan.buffers[0].width as usize);
+        columns.reserve(4 * n);
+        let mut radii: Vec<f64> = Vec::with_capacity(n);
+        for i in 0..n {
+            let (r, period) = match mapping.ring(0, i as f64 + 0.5) {
+                Some(ring) => (ring.r_px, ring.period),
+                // Past the buffer's edge: the radius continued outwards (the forward map
+                // searches the radii), no ring (the texel's centre maps nowhere).
+                None => {
+                    let r = match i {
+                        0 => 0.0,
+                        1 => 3.0 * radii[0],
+                        _ => 2.0 * radii[i - 1] - radii[i - 2],
+                    };
+                    (r, -1.0)
+                }
+            };
+            radii.push(r);
+            columns.extend_from_slice(&[
+                r as f32,
+                period as f32,
+                polar.rows[i] as f32,
+                polar.period[i] as f32,
+            ]);
+        }
+    }
+    let e_max = plan.display.farthest_corner_eccentricity(&plan.eye.gaze).0 + 1.0;
+    let len = ((e_max / SPACING_STEP_DEG).ceil() as usize + 2).clamp(2, SPACING_CAPACITY);
+    let spacing = (0..len)
+        .map(|k| plan.spacing.at(k as f64 * SPACING_STEP_DEG))
+        .collect();
+    (columns, n, spacing)
+}
+
+impl EyeTemporal {
+    fn new(
+        ctx: &GpuContext,
+        pipeline: &wgpu::ComputePipeline,
+        shade: &EyeShade,
+        columns_capacity: usize,
+    ) -> Result<Self> {
+        let samples = shade.samples().buffer();
+        let (shade_columns, shade_runs) = shade.tables();
+        let texel_capacity = (samples.size() / TEXEL_BYTES).max(1);
+        let color_bytes = texel_capacity * TEXEL_BYTES;
+        let age_bytes = texel_capacity * 4;
+        ctx.check_storage_binding("the temporal history (colour)", color_bytes)?;
+        let half = 4 * columns_capacity + SPACING_CAPACITY;
+        let table_bytes = (2 * half * 4) as u64;
+        ctx.check_storage_binding("the temporal tables", table_bytes)?;
+        ctx.scoped("allocating the resident frame's temporal history", || {
+            let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
+                ctx.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: size.max(16),
+                    usage: usage | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                })
+            };
+            let storage = wgpu::BufferUsages::STORAGE;
+            let color = ["temporal history A", "temporal history B"]
+                .map(|l| buffer(l, color_bytes, storage | wgpu::BufferUsages::COPY_SRC));
+            let age = ["temporal ages A", "temporal ages B"].map(|l| buffer(l, age_bytes, storage));
+            let tables = buffer("temporal tables", table_bytes, storage);
+            let uniform = buffer(
+                "temporal parameters",
+                std::mem::size_of::<TemporalUniform>() as u64,
+                wgpu::BufferUsages::UNIFORM,
+            );
+            let bind_groups = [0usize, 1].map(|next| {
+                let prev = 1 - next;
+                crate::transfer::bind_group(
+                    ctx,
+                    "resident frame temporal",
+                    pipeline,
+                    &[
+                        (0, &uniform),
+                        (1, samples),
+                        (2, &color[prev]),
+                        (3, &age[prev]),
+                        (4, &color[next]),
+                        (5, &age[next]),
+                        (6, &tables),
+                        (7, shade_columns),
+                        (8, shade_runs),
+                    ],
+                )
+            });
+            Self {
+                color,
+                _ages: age,
+                tables,
+                half,
+                columns_capacity,
+                uniform,
+                bind_groups,
+                bound: [samples.clone(), shade_columns.clone(), shade_runs.clone()],
+                texel_capacity,
+                next: 0,
+                previous: None,
+                groups: [1, 1],
+                copy: None,
+            }
+        })
+    }
+
+    /// Whether the bind groups name `shade`'s buffers.
+    fn binds(&self, shade: &EyeShade) -> bool {
+        let (c, r) = shade.tables();
+        self.bound[0] == *shade.samples().buffer() && self.bound[1] == *c && self.bound[2] == *r
+    }
+}
+
+impl ResidentTemporal {
+    /// The pass's pipeline on `ctx` for `settings` (checked by [`supports`]); each eye's
+    /// histories are made with its first frame.
+    pub fn new(ctx: &GpuContext, settings: TemporalSettings) -> Result<Self> {
+        supports(&settings)?;
+        let pipeline = ctx
+            .scoped("building the temporal pipeline", || {
+                SHADER.pipelines(ctx.device()).pop()
+            })?
+            .ok_or_else(|| GpuError::Input("the temporal module has no entry point".into()))?;
+        Ok(Self {
+            ctx: ctx.clone(),
+            settings,
+            pipeline,
+            eyes: [None, None],
+        })
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &TemporalSettings {
+        &self.settings
+    }
+
+    /// Forgets both eyes' history (a cut): the next frame starts afresh.
+    pub fn reset(&mut self) {
+        for e in self.eyes.iter_mut().flatten() {
+            e.previous = None;
+        }
+    }
+
+    /// Readies eye `eye`'s pass for `plan` seen by `camera`, after the sample side prepared
+    /// the eye (`shade`): (re)builds the eye's histories where the sample side's buffers were
+    /// replaced or the columns outgrow the table, and writes the uniform block and this
+    /// frame's table. The history is forgotten where the method or the display changed (as
+    /// the CPU's accumulator does) or the buffers were rebuilt.
+    pub fn prepare(
+        &mut self,
+        eye: usize,
+        plan: &FramePlan,
+        camera: &EyeCamera,
+        shade: &EyeShade,
+    ) -> Result<()> {
+        if eye > 1 {
+            return Err(GpuError::Input(format!("eye {eye} (0 left, 1 right)")));
+        }
+        let (columns, n_columns, spacing) = frame_table(plan);
+        let size = plan.buffers[0];
+        let texels = u64::from(size.width) * u64::from(size.height);
+        let keep = self.eyes[eye].as_ref().is_some_and(|e| {
+            e.binds(shade) && n_columns < e.columns_capacity && texels <= e.texel_capacity
+        });
+        if !keep {
+            let (_, worst_columns) = super::context::worst_case(plan);
+            let capacity = n_columns.max(worst_columns) + 1;
+            self.eyes[eye] = Some(EyeTemporal::new(
+                &self.ctx,
+                &self.pipeline,
+                shade,
+                capacity,
+            )?);
+        }
+        let Some(e) = self.eyes[eye].as_mut() else {
+            return Err(GpuError::Input(format!(
+                "eye {eye} has no temporal history"
+            )));
+        };
+        let layer = shade
+            .samples()
+            .layers()
+            .first()
+            .copied()
+            .ok_or_else(|| GpuError::Input("a sample buffer without layers".into()))?;
+        let polar = plan.mapping().polar_layout();
+        let (cx, cy) = camera.principal_point_px();
+        let centre = polar.as_ref().map_or(plan.eye.gaze.point, |p| p.centre);
+        let base = e.next * e.half;
+        let view = TemporalViewGpu {
+            camera: TemporalCameraGpu::of(camera),
+            gaze: [
+                (centre.x_px - cx as f64) as f32,
+                (centre.y_px - cy as f64) as f32,
+            ],
+            offset: layer.offset,
+            width: layer.width,
+            height: layer.height,
+            kind: if polar.is_some() {
+                KIND_POLAR
+            } else {
+                KIND_SCREEN
+            },
+            columns: n_columns as u32,
+            table: base as u32,
+            spacing: (base + 4 * e.columns_capacity) as u32,
+            spacing_len: spacing.len() as u32,
+            steps_per_deg: (1.0 / SPACING_STEP_DEG) as f32,
+            _pad0: 0,
+        };
+        let display = (plan.display.width_px, plan.display.height_px);
+        let previous = e
+            .previous
+            .filter(|p| p.method == plan.method() && p.display == display);
+        let groups_total = texels.div_ceil(u64::from(WORKGROUP_SIZE)).max(1);
+        let gx = groups_total.min(u64::from(MAX_GROUPS));
+        let gy = groups_total.div_ceil(gx);
+        if gy > u64::from(MAX_GROUPS) {
+            return Err(GpuError::Unsupported(format!(
+                "{texels} texels in one temporal dispatch"
+            )));
+        }
+        e.groups = [gx as u32, gy as u32];
+        let uniform = TemporalUniform {
+            cur: view,
+            prev: previous.map_or(view, |p| p.view),
+            screen: [display.0 as f32, display.1 as f32],
+            alpha_min: self.settings.alpha_min,
+            tau: self.settings.depth_tolerance,
+            c_r: plan.display.c_r() as f32,
+            clamp: u32::from(self.settings.clamp),
+            history: u32::from(previous.is_some()),
+            row_invocations: e.groups[0] * WORKGROUP_SIZE,
+            inf_bits: f32::INFINITY.to_bits(),
+            _pad1: 0,
+            _pad2: 0,
+            _pad3: 0,
+        };
+        let ctx = &self.ctx;
+        ctx.write_buffer(&e.uniform, 0, bytemuck::bytes_of(&uniform));
+        if !columns.is_empty() {
+            ctx.write_buffer(&e.tables, (base * 4) as u64, bytemuck::cast_slice(&columns));
+        }
+        ctx.write_buffer(
+            &e.tables,
+            ((base + 4 * e.columns_capacity) * 4) as u64,
+            bytemuck::cast_slice(&spacing),
+        );
+        e.copy = previous.map(|_| (u64::from(layer.offset), texels));
+        e.previous = Some(Previous {
+            view,
+            method: plan.method(),
+            display,
+        });
+        Ok(())
+    }
+
+    /// Records eye `eye`'s pass (after [`Self::prepare`]) into `encoder`: the blend, then the
+    /// accumulated colour copied over the eye's samples (`samples`, the buffer the sample side
+    /// wrote). The next frame reads what this one wrote.
+    pub fn record(
+        &mut self,
+        eye: usize,
+        encoder: &mut wgpu::CommandEncoder,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) -> Result<()> {
+        let Some(e) = self.eyes.get_mut(eye).and_then(Option::as_mut) else {
+            return Err(GpuError::Input(format!(
+                "eye {eye}'s temporal pass was not prepared"
+            )));
+        };
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("resident frame: temporal accumulation"),
+                timestamp_writes,
+            });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &e.bind_groups[e.next], &[]);
+            pass.dispatch_workgroups(e.groups[0], e.groups[1], 1);
+        }
+        if let Some((offset, texels)) = e.copy.take() {
+            encoder.copy_buffer_to_buffer(
+                &e.color[e.next],
+                offset * TEXEL_BYTES,
+                &e.bound[0],
+                offset * TEXEL_BYTES,
+                texels * TEXEL_BYTES,
+            );
+        }
+        e.next = 1 - e.next;
+        Ok(())
+    }
+}

@@ -1,0 +1,298 @@
+//! Temporal accumulation inside the resident frame (`ResidentFrame::set_temporal`,
+//! `fovea_gpu::frame::temporal`, issue 37 item 4) against the CPU's sample-space accumulation
+//! (`fovea_render::temporal`, through `render_planned` with a `TemporalAccumulator` per eye):
+//!
+//! * VaFR and full resolution at the Vive Pro Eye, both eyes, the built-in scene with direct
+//!   shading (the occluded environment's Monte Carlo estimate: every frame's noise differs),
+//!   the default `TemporalSettings`: a sequence of a still view (three frames), then the
+//!   camera turning 0.6° and moving 3 cm a frame, with a saccade-sized gaze step (to the
+//!   first gaze's mirror through the screen's centre) in the fifth frame — each frame's
+//!   tone-mapped image of each eye against the CPU's with the same plans and settings: luma
+//!   PSNR ≥ 40 dB; every frame after the first: one submission, no blocking wait, at most
+//!   256 KiB up, nothing read back, no buffer and no bind group created;
+//! * a still view with one environment ray per sample: each frame's image against a
+//!   many-ray reference (the CPU's frame with 32 rays per sample): the mean squared error
+//!   falls as frames accumulate (the last frame's below 60 % of the first's; the figures
+//!   printed);
+//! * settings the CPU refuses are refused (`GpuError::Input`), with nothing sent.
+//!
+//! Needs a GPU adapter (lavapipe will do); without one each test says SKIPPED on stderr, and
+//! fails under FOVEA_REQUIRE_GPU=1.
+
+mod common;
+#[path = "common/resident.rs"]
+mod resident;
+
+use common::{gpu_or_skip, shout};
+use fovea_core::mapping::Method;
+use fovea_gpu::frame::{ResidentFrame, ToneSettings};
+use fovea_gpu::{GpuContext, GpuError};
+use fovea_post::tonemap::{to_srgb8, ToneCurve};
+use fovea_render::camera::EyeCamera;
+use fovea_render::pipeline::{
+    render_planned, FrameContext, FrameInputs, FrameSettings, StageTimes,
+};
+use fovea_render::plan::FramePlan;
+use fovea_render::shade::{EnvLight, ShadingMode};
+use fovea_render::temporal::{TemporalAccumulator, TemporalSettings};
+use fovea_render::world::World;
+use resident::{plan, setup};
+
+const PSNR_MIN_DB: f64 = 40.0;
+const STEADY_UPLOAD_MAX: u64 = 256 * 1024;
+const TONE: ToneSettings = ToneSettings {
+    exposure_stops: 0.0,
+    curve: ToneCurve::Reinhard,
+};
+
+/// Luma PSNR of two 8-bit sRGB images (Rec. 601 luma of the codes / 255), dB.
+fn luma_psnr(a: &[u8], b: &[u8]) -> f64 {
+    let mse = luma_mse(a, b);
+    if mse == 0.0 {
+        f64::INFINITY
+    } else {
+        10.0 * (1.0 / mse).log10()
+    }
+}
+
+/// Mean squared difference of the Rec. 601 luma of two 8-bit sRGB images (codes / 255).
+fn luma_mse(a: &[u8], b: &[u8]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    let luma = |p: &[u8]| (0.299 * p[0] as f64 + 0.587 * p[1] as f64 + 0.114 * p[2] as f64) / 255.0;
+    let n = a.len() / 3;
+    a.chunks_exact(3)
+        .zip(b.chunks_exact(3))
+        .map(|(x, y)| (luma(x) - luma(y)).powi(2))
+        .sum::<f64>()
+        / n as f64
+}
+
+/// Both eyes' cameras of frame `f`: still for the first three frames, then turning 0.6° and
+/// moving 3 cm to the right (and 1 cm forward) per frame.
+fn cameras(base: &[EyeCamera; 2], f: u64) -> [EyeCamera; 2] {
+    let k = f.saturating_sub(2) as f32;
+    base.clone().map(|c| {
+        let yaw = (0.6f32 * k).to_radians();
+        let forward = c.forward * yaw.cos() + c.right * yaw.sin();
+        let position = c.position + c.right * (0.03 * k) + c.forward * (0.01 * k);
+        EyeCamera::new(position, forward, c.up, &c.display).unwrap()
+    })
+}
+
+/// Both eyes' gazes of frame `f` (screen pixels; the screen's centre is (720, 800)): the
+/// first gazes, then from frame 4 on each mirrored through the centre (a saccade-sized step:
+/// 8° for the left eye, 6° for the right, which keeps the foveated buffers' sizes and so the
+/// AA and reconstruction tables: a step that changes them sends those again, the
+/// gaze-dependent layout of issue 37's item 3).
+fn gazes(f: u64) -> [(f64, f64); 2] {
+    if f < 4 {
+        [(620.0, 800.0), (660.0, 760.0)]
+    } else {
+        [(820.0, 800.0), (780.0, 840.0)]
+    }
+}
+
+fn plans(
+    world: &World,
+    cams: &[EyeCamera; 2],
+    s: &FrameSettings,
+    gazes: [(f64, f64); 2],
+    frame: u64,
+) -> [FramePlan; 2] {
+    let d = &cams[0].display;
+    [0usize, 1].map(|e| {
+        let g = d.gaze(gazes[e].0, gazes[e].1).unwrap();
+        plan(world, &cams[e], s, g, frame, e as u32)
+    })
+}
+
+/// The CPU's frame of `plan` (accumulated by `acc` when given), tone-mapped.
+fn cpu_image(
+    ctx: &mut FrameContext,
+    world: &World,
+    camera: &EyeCamera,
+    plan: &FramePlan,
+    acc: Option<&mut TemporalAccumulator>,
+) -> Vec<u8> {
+    let frame = render_planned(
+        ctx,
+        world,
+        camera,
+        plan,
+        FrameInputs {
+            accumulator: acc,
+            prefill: None,
+        },
+        StageTimes::default(),
+        &|_, _| {},
+    )
+    .unwrap();
+    to_srgb8(&frame.color, TONE.exposure_stops, TONE.curve)
+}
+
+fn accumulated_frames_are_the_cpus(ctx: &GpuContext, method: Method) {
+    let (world, base) = setup();
+    let s = resident::settings(method, ShadingMode::DIRECT);
+    let settings = TemporalSettings::default();
+    let cams = cameras(&base, 0);
+    let p0 = plans(&world, &cams, &s, gazes(0), 0);
+    let mut frame =
+        ResidentFrame::new(ctx, &world, [&p0[0], &p0[1]], [&cams[0], &cams[1]], TONE).unwrap();
+    frame.set_temporal(Some(settings)).unwrap();
+    let mut accs = [0, 1].map(|_| TemporalAccumulator::new(settings).unwrap());
+    let mut cpu_ctx = [FrameContext::new(), FrameContext::new()];
+    for f in 0..6u64 {
+        let cams = cameras(&base, f);
+        let p = plans(&world, &cams, &s, gazes(f), f);
+        let before = ctx.traffic();
+        let t = frame
+            .render(&world, [&p[0], &p[1]], [&cams[0], &cams[1]])
+            .unwrap();
+        let traffic = ctx.traffic().since(&before);
+        shout(&format!(
+            "[fovea-gpu] resident temporal {method} frame {f}: host {:.2} ms, {traffic:?}",
+            t.host_ms
+        ));
+        assert_eq!(traffic.submissions, 1, "one submission per binocular frame");
+        assert_eq!(traffic.bytes_read_back, 0, "{traffic:?}");
+        if f > 0 {
+            assert_eq!(traffic.blocking_waits, 0, "{traffic:?}");
+            assert!(traffic.bytes_uploaded <= STEADY_UPLOAD_MAX, "{traffic:?}");
+            assert_eq!(traffic.buffers_created, 0, "{traffic:?}");
+            assert_eq!(traffic.bind_groups_created, 0, "{traffic:?}");
+        }
+        for e in 0..2 {
+            let gpu = frame.image(e).unwrap();
+            let cpu = cpu_image(&mut cpu_ctx[e], &world, &cams[e], &p[e], Some(&mut accs[e]));
+            let psnr = luma_psnr(&cpu, &gpu);
+            let stats = accs[e].last_stats();
+            shout(&format!(
+                "[fovea-gpu] resident temporal {method} frame {f} eye {e}: luma PSNR {psnr:.2} \
+                 dB against render_planned with the CPU's accumulator (CPU: {} reused, {} \
+                 fresh)",
+                stats.reused, stats.fresh
+            ));
+            assert!(
+                psnr >= PSNR_MIN_DB,
+                "{method} frame {f} eye {e}: {psnr:.2} dB"
+            );
+            if f > 0 && f != 4 {
+                assert!(stats.reused > stats.fresh, "the history is used: {stats:?}");
+            }
+        }
+        ctx.wait_idle("the test").unwrap();
+    }
+}
+
+#[test]
+fn vafr_accumulated_frames_are_the_cpus() {
+    let Some(ctx) = gpu_or_skip("vafr_accumulated_frames_are_the_cpus") else {
+        return;
+    };
+    accumulated_frames_are_the_cpus(&ctx, Method::Vafr);
+}
+
+#[test]
+fn full_resolution_accumulated_frames_are_the_cpus() {
+    let Some(ctx) = gpu_or_skip("full_resolution_accumulated_frames_are_the_cpus") else {
+        return;
+    };
+    accumulated_frames_are_the_cpus(&ctx, Method::Full);
+}
+
+#[test]
+fn accumulating_a_still_view_approaches_the_many_ray_reference() {
+    let Some(ctx) = gpu_or_skip("accumulating_a_still_view_approaches_the_many_ray_reference")
+    else {
+        return;
+    };
+    let (world, cams) = setup();
+    let one = ShadingMode::Direct {
+        env_light: EnvLight::Occluded { samples: 1 },
+    };
+    let many = ShadingMode::Direct {
+        env_light: EnvLight::Occluded { samples: 32 },
+    };
+    let s = resident::settings(Method::Vafr, one);
+    let g = gazes(0);
+    let reference: Vec<Vec<u8>> = {
+        let r = plans(
+            &world,
+            &cams,
+            &resident::settings(Method::Vafr, many),
+            g,
+            1000,
+        );
+        (0..2)
+            .map(|e| cpu_image(&mut FrameContext::new(), &world, &cams[e], &r[e], None))
+            .collect()
+    };
+    let p0 = plans(&world, &cams, &s, g, 0);
+    let mut frame =
+        ResidentFrame::new(&ctx, &world, [&p0[0], &p0[1]], [&cams[0], &cams[1]], TONE).unwrap();
+    frame
+        .set_temporal(Some(TemporalSettings::default()))
+        .unwrap();
+    let frames = 8u64;
+    let mut mse = vec![[0.0f64; 2]; frames as usize];
+    for f in 0..frames {
+        let p = plans(&world, &cams, &s, g, f);
+        frame
+            .render(&world, [&p[0], &p[1]], [&cams[0], &cams[1]])
+            .unwrap();
+        for e in 0..2 {
+            mse[f as usize][e] = luma_mse(&frame.image(e).unwrap(), &reference[e]);
+        }
+        shout(&format!(
+            "[fovea-gpu] resident temporal VaFR still view, 1 environment ray: frame {f} luma \
+             MSE against 32 rays: left {:.3e}, right {:.3e}",
+            mse[f as usize][0], mse[f as usize][1]
+        ));
+    }
+    for e in 0..2 {
+        let (first, last) = (mse[0][e], mse[frames as usize - 1][e]);
+        assert!(
+            last < 0.6 * first,
+            "eye {e}: MSE {first:.3e} at frame 0, {last:.3e} at frame {}",
+            frames - 1
+        );
+        assert!(
+            mse[1][e] < first && mse[3][e] < mse[1][e],
+            "eye {e}: the error falls frame by frame: {mse:?}"
+        );
+    }
+}
+
+#[test]
+fn settings_the_cpu_refuses_are_refused_before_anything_is_sent() {
+    let Some(ctx) = gpu_or_skip("settings_the_cpu_refuses_are_refused_before_anything_is_sent")
+    else {
+        return;
+    };
+    let (world, cams) = setup();
+    let s = resident::settings(Method::Vafr, ShadingMode::DIRECT);
+    let p = plans(&world, &cams, &s, gazes(0), 0);
+    let mut frame =
+        ResidentFrame::new(&ctx, &world, [&p[0], &p[1]], [&cams[0], &cams[1]], TONE).unwrap();
+    for bad in [
+        TemporalSettings {
+            alpha_min: 0.0,
+            ..Default::default()
+        },
+        TemporalSettings {
+            depth_tolerance: f32::NAN,
+            ..Default::default()
+        },
+    ] {
+        let before = ctx.traffic();
+        let err = frame.set_temporal(Some(bad)).unwrap_err();
+        let moved = ctx.traffic().since(&before);
+        assert!(matches!(err, GpuError::Input(_)), "{err}");
+        assert_eq!(
+            moved.bytes_uploaded + moved.buffers_created + moved.submissions,
+            0,
+            "{moved:?}"
+        );
+        assert!(frame.temporal().is_none());
+    }
+}
