@@ -10,6 +10,8 @@
 //!   tone-mapped image of each eye against the CPU's with the same plans and settings: luma
 //!   PSNR ≥ 40 dB; every frame after the first: one submission, no blocking wait, at most
 //!   256 KiB up, nothing read back, no buffer and no bind group created;
+//! * VaFR with the accumulator's sub-texel jitter (`TemporalSettings::jitter`), four frames
+//!   of the same sequence: the same bar;
 //! * a still view with one environment ray per sample: each frame's image against a
 //!   many-ray reference (the CPU's frame with 32 rays per sample): the mean squared error
 //!   falls as frames accumulate (the last frame's below 60 % of the first's; the figures
@@ -29,11 +31,12 @@ use fovea_gpu::frame::{ResidentFrame, ToneSettings};
 use fovea_gpu::{GpuContext, GpuError};
 use fovea_post::tonemap::{to_srgb8, ToneCurve};
 use fovea_render::camera::EyeCamera;
+use fovea_render::eye::EyeState;
 use fovea_render::pipeline::{
     render_planned, FrameContext, FrameInputs, FrameSettings, StageTimes,
 };
 use fovea_render::plan::FramePlan;
-use fovea_render::shade::{EnvLight, ShadingMode};
+use fovea_render::shade::{EnvLight, FrameNoise, ShadingMode};
 use fovea_render::temporal::{TemporalAccumulator, TemporalSettings};
 use fovea_render::world::World;
 use resident::{plan, setup};
@@ -130,10 +133,13 @@ fn cpu_image(
     to_srgb8(&frame.color, TONE.exposure_stops, TONE.curve)
 }
 
-fn accumulated_frames_are_the_cpus(ctx: &GpuContext, method: Method) {
+fn accumulated_frames_are_the_cpus(ctx: &GpuContext, method: Method, jitter: bool, frames: u64) {
     let (world, base) = setup();
     let s = resident::settings(method, ShadingMode::DIRECT);
-    let settings = TemporalSettings::default();
+    let settings = TemporalSettings {
+        jitter,
+        ..Default::default()
+    };
     let cams = cameras(&base, 0);
     let p0 = plans(&world, &cams, &s, gazes(0), 0);
     let mut frame =
@@ -141,16 +147,27 @@ fn accumulated_frames_are_the_cpus(ctx: &GpuContext, method: Method) {
     frame.set_temporal(Some(settings)).unwrap();
     let mut accs = [0, 1].map(|_| TemporalAccumulator::new(settings).unwrap());
     let mut cpu_ctx = [FrameContext::new(), FrameContext::new()];
-    for f in 0..6u64 {
+    for f in 0..frames {
         let cams = cameras(&base, f);
-        let p = plans(&world, &cams, &s, gazes(f), f);
+        let mut p = plans(&world, &cams, &s, gazes(f), f);
+        if jitter {
+            // The accumulator's sub-texel jitter (Halton 2, 3), the same for both eyes.
+            let j = accs[0].jitter(method);
+            assert!(f == 0 || j != [0.0, 0.0]);
+            p = [0usize, 1].map(|e| {
+                let g = cams[e].display.gaze(gazes(f)[e].0, gazes(f)[e].1).unwrap();
+                FramePlan::new(&world, &cams[e], &s, &EyeState::looking_at(g), j)
+                    .unwrap()
+                    .with_noise(FrameNoise::new(f, e as u32))
+            });
+        }
         let before = ctx.traffic();
         let t = frame
             .render(&world, [&p[0], &p[1]], [&cams[0], &cams[1]])
             .unwrap();
         let traffic = ctx.traffic().since(&before);
         shout(&format!(
-            "[fovea-gpu] resident temporal {method} frame {f}: host {:.2} ms, {traffic:?}",
+            "[fovea-gpu] resident temporal {method} (jitter {jitter}) frame {f}: host {:.2} ms, {traffic:?}",
             t.host_ms
         ));
         assert_eq!(traffic.submissions, 1, "one submission per binocular frame");
@@ -167,7 +184,7 @@ fn accumulated_frames_are_the_cpus(ctx: &GpuContext, method: Method) {
             let psnr = luma_psnr(&cpu, &gpu);
             let stats = accs[e].last_stats();
             shout(&format!(
-                "[fovea-gpu] resident temporal {method} frame {f} eye {e}: luma PSNR {psnr:.2} \
+                "[fovea-gpu] resident temporal {method} (jitter {jitter}) frame {f} eye {e}: luma PSNR {psnr:.2} \
                  dB against render_planned with the CPU's accumulator (CPU: {} reused, {} \
                  fresh)",
                 stats.reused, stats.fresh
@@ -189,7 +206,15 @@ fn vafr_accumulated_frames_are_the_cpus() {
     let Some(ctx) = gpu_or_skip("vafr_accumulated_frames_are_the_cpus") else {
         return;
     };
-    accumulated_frames_are_the_cpus(&ctx, Method::Vafr);
+    accumulated_frames_are_the_cpus(&ctx, Method::Vafr, false, 6);
+}
+
+#[test]
+fn vafr_jittered_accumulated_frames_are_the_cpus() {
+    let Some(ctx) = gpu_or_skip("vafr_jittered_accumulated_frames_are_the_cpus") else {
+        return;
+    };
+    accumulated_frames_are_the_cpus(&ctx, Method::Vafr, true, 4);
 }
 
 #[test]
@@ -197,7 +222,7 @@ fn full_resolution_accumulated_frames_are_the_cpus() {
     let Some(ctx) = gpu_or_skip("full_resolution_accumulated_frames_are_the_cpus") else {
         return;
     };
-    accumulated_frames_are_the_cpus(&ctx, Method::Full);
+    accumulated_frames_are_the_cpus(&ctx, Method::Full, false, 6);
 }
 
 #[test]
