@@ -15,11 +15,14 @@
 //! For each, per binocular frame: wall ms, host ms (resident: checking, tables, uniforms and
 //! recording, without the submission), submissions, blocking waits, bytes up and back —
 //! the device's own counters (`GpuContext::traffic`); then the median wall ratio. The plans
-//! (`FramePlan::new`, the mapping at each gaze) are built beforehand and timed apart.
+//! (`FramePlan::new`, the mapping at each gaze) are built beforehand and timed apart. With
+//! `temporal=on` both paths accumulate (the default `TemporalSettings`: the resident frame's
+//! pass, `ResidentFrame::set_temporal`; the staged path's CPU `TemporalAccumulator` per eye).
 //!
 //! ```sh
 //! XDG_RUNTIME_DIR=$(mktemp -d) cargo run --release -p fovea-gpu --example binocular_frame -- \
-//!     [frames=4] [method=vafr] [res=vive-pro-eye|4k|8k|retinal] [lights=1] [staged=on|off]
+//!     [frames=4] [method=vafr] [res=vive-pro-eye|4k|8k|retinal] [lights=1] [staged=on|off] \
+//!     [temporal=off|on]
 //! ```
 
 #[path = "common/binocular_view.rs"]
@@ -38,6 +41,7 @@ use fovea_render::eye::EyeState;
 use fovea_render::pipeline::{render_planned, FrameContext, FrameInputs, StageTimes};
 use fovea_render::plan::FramePlan;
 use fovea_render::shade::FrameNoise;
+use fovea_render::temporal::{TemporalAccumulator, TemporalSettings};
 
 const TONE: ToneSettings = ToneSettings {
     exposure_stops: 0.0,
@@ -76,16 +80,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "off" => false,
         other => return Err(format!("staged={other} (on or off)").into()),
     };
+    let temporal = match args.get(5).map_or("off", String::as_str) {
+        "on" => Some(TemporalSettings::default()),
+        "off" => None,
+        other => return Err(format!("temporal={other} (on or off)").into()),
+    };
 
     let (world, cams, display) = binocular_view(res, lights)?;
     let settings = direct_settings(method);
 
     let ctx = GpuContext::new(&GpuRequest::default())?;
     println!(
-        "{method} at {res} ({}x{}), both eyes, {} light(s), direct shading; on {}",
+        "{method} at {res} ({}x{}), both eyes, {} light(s), direct shading, temporal {}; on {}",
         display.width_px,
         display.height_px,
         world.lights.len(),
+        if temporal.is_some() { "on" } else { "off" },
         ctx.adapter()
     );
 
@@ -117,6 +127,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let p0 = plans_of(0)?;
     let mut resident =
         ResidentFrame::new(&ctx, &world, [&p0[0], &p0[1]], [&cams[0], &cams[1]], TONE)?;
+    resident.set_temporal(temporal)?;
+    let mut accumulators = match temporal {
+        Some(t) => Some([TemporalAccumulator::new(t)?, TemporalAccumulator::new(t)?]),
+        None => None,
+    };
     println!(
         "resident frame built in {:.1} ms (scene, both screen sides, timers)",
         t.elapsed().as_secs_f64() * 1e3
@@ -185,7 +200,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     &world,
                     &cams[e],
                     &plans[e],
-                    FrameInputs::default(),
+                    FrameInputs {
+                        accumulator: accumulators.as_mut().map(|a| &mut a[e]),
+                        prefill: None,
+                    },
                     StageTimes::default(),
                     &|_, _| {},
                 )?;
