@@ -120,10 +120,22 @@ impl DeviceGuides {
     /// Guides for layers of `sizes` (contents undefined until written).
     /// [`GpuError::AdapterTooSmall`] when one of them exceeds one storage binding.
     pub fn new(ctx: &GpuContext, sizes: &[BufferSize]) -> Result<Self> {
+        Self::with_capacity(ctx, sizes, 0)
+    }
+
+    /// [`Self::new`] with room for at least `capacity_texels` texels, so that a later frame's
+    /// layers of another size take the buffers over ([`Self::relayout`]) without allocating —
+    /// the resident frame's guides, sized as its [`DeviceSamples`] (a polar buffer's size
+    /// follows the gaze).
+    pub fn with_capacity(
+        ctx: &GpuContext,
+        sizes: &[BufferSize],
+        capacity_texels: u64,
+    ) -> Result<Self> {
         let (layers, texels) = DeviceSamples::layout(sizes).ok_or_else(|| {
             GpuError::Unsupported(format!("denoiser guides of more than {} texels", u32::MAX))
         })?;
-        let bytes = texels.max(1) * TEXEL_BYTES;
+        let bytes = texels.max(capacity_texels).max(1) * TEXEL_BYTES;
         ctx.check_storage_binding("the denoiser's guides (each of three)", bytes)?;
         let (albedo, normal, noisy) = ctx.scoped("allocating the denoiser's guides", || {
             let make = |label| {
@@ -167,6 +179,24 @@ impl DeviceGuides {
     /// The layers.
     pub fn layers(&self) -> &[SampleLayer] {
         &self.layers
+    }
+
+    /// Texels each buffer holds room for.
+    pub fn capacity(&self) -> u64 {
+        self.albedo.size() / TEXEL_BYTES
+    }
+
+    /// Takes the layers of `sizes` in the same buffers (contents undefined until written) when
+    /// they fit the [`capacity`](Self::capacity); `false`, and nothing changed, otherwise.
+    pub fn relayout(&mut self, sizes: &[BufferSize]) -> bool {
+        match DeviceSamples::layout(sizes) {
+            Some((layers, texels)) if texels <= self.capacity() => {
+                self.layers = layers;
+                self.texels = texels;
+                true
+            }
+            _ => false,
+        }
     }
 
     /// Whether these guides have exactly the layers of `sizes`.
@@ -250,6 +280,12 @@ pub struct DenoiseTimes {
 struct Sized {
     layers: Vec<SampleLayer>,
     texels: u64,
+    /// Texels the working buffers hold room for (at least `texels`).
+    capacity: u64,
+    /// Polar column records the column table holds room for.
+    column_capacity: u64,
+    /// The uniform's bytes as last written (not written again while they stay).
+    uniform_bytes: Vec<u8>,
     /// One [`DenoiseUniform`] per iteration, `uniform_stride` bytes apart.
     uniform: wgpu::Buffer,
     uniform_stride: u64,
@@ -300,6 +336,8 @@ pub struct GpuDenoiser {
     atrous: wgpu::ComputePipeline,
     finish: wgpu::ComputePipeline,
     sized: Option<Sized>,
+    /// The least room the working buffers are made with: (texels, polar columns).
+    reserve: (u64, u64),
 }
 
 impl GpuDenoiser {
@@ -324,6 +362,7 @@ impl GpuDenoiser {
             atrous,
             finish,
             sized: None,
+            reserve: (0, 0),
         })
     }
 
@@ -341,6 +380,14 @@ impl GpuDenoiser {
             && texels < u32::MAX as u64
             && texels.max(1) * TEXEL_BYTES <= self.ctx.max_binding_bytes()
             && dispatch_size(&self.ctx, texels).is_some()
+    }
+
+    /// Makes the working buffers, when they are next (re)made, with room for at least
+    /// `texels` texels and `columns` polar columns, so that later calls whose layers change
+    /// size within that room (a polar buffer's size follows the gaze) allocate nothing and
+    /// bind nothing anew — the resident frame reserves its sample buffers' capacity.
+    pub fn reserve(&mut self, texels: u64, columns: u64) {
+        self.reserve = (texels, columns);
     }
 
     /// The counters buffer of the last recorded call (`[filtered, clamped]`, two `u32`), for a
@@ -362,6 +409,20 @@ impl GpuDenoiser {
         guides: &DeviceGuides,
         grids: &[Grid],
         params: &DenoiseParams,
+    ) -> Result<()> {
+        self.record_timed(encoder, samples, guides, grids, params, None)
+    }
+
+    /// [`Self::record`] with the denoiser's compute pass (all its dispatches) timed where
+    /// `timestamp_writes` says (a [`crate::frame::FrameTimer`]'s slot).
+    pub fn record_timed(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        samples: &DeviceSamples,
+        guides: &DeviceGuides,
+        grids: &[Grid],
+        params: &DenoiseParams,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> Result<()> {
         params
             .validate()
@@ -446,7 +507,10 @@ impl GpuDenoiser {
             bytes[at..at + std::mem::size_of::<DenoiseUniform>()]
                 .copy_from_slice(bytemuck::bytes_of(&u));
         }
-        self.ctx.write_buffer(&s.uniform, 0, &bytes);
+        if bytes != s.uniform_bytes {
+            self.ctx.write_buffer(&s.uniform, 0, &bytes);
+            s.uniform_bytes = bytes;
+        }
 
         // The passes.
         let bound = s
@@ -456,7 +520,7 @@ impl GpuDenoiser {
         encoder.clear_buffer(&s.counters, 0, None);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("denoise"),
-            timestamp_writes: None,
+            timestamp_writes,
         });
         let mut dispatch = |pipeline: &wgpu::ComputePipeline, group: &wgpu::BindGroup| {
             pass.set_pipeline(pipeline);
@@ -619,22 +683,31 @@ impl GpuDenoiser {
     /// Working buffers and the bind groups that name only them, for `layers`; kept while the
     /// layers stay the same.
     fn fit(&mut self, layers: &[SampleLayer], texels: u64) -> Result<()> {
-        if self
-            .sized
-            .as_ref()
-            .is_some_and(|s| s.layers == layers && s.texels == texels)
-        {
-            return Ok(());
-        }
-        self.sized = None;
-        let ctx = &self.ctx;
-        let work = texels.max(1) * TEXEL_BYTES;
-        ctx.check_storage_binding("the denoiser's working buffers", work)?;
-        let columns_len: u64 = layers
+        let columns_needed: u64 = layers
             .iter()
             .map(|l| u64::from(l.width))
             .sum::<u64>()
             .max(1);
+        if let Some(s) = self.sized.as_mut() {
+            if s.layers == layers && s.texels == texels {
+                return Ok(());
+            }
+            if texels <= s.capacity && columns_needed <= s.column_capacity {
+                // Other layers within the room: the same buffers and bind groups; the column
+                // table and the staged path's copies are the old layers'.
+                s.layers = layers.to_vec();
+                s.texels = texels;
+                s.columns_for = None;
+                s.staged = None;
+                return Ok(());
+            }
+        }
+        self.sized = None;
+        let ctx = &self.ctx;
+        let capacity = texels.max(self.reserve.0);
+        let work = capacity.max(1) * TEXEL_BYTES;
+        ctx.check_storage_binding("the denoiser's working buffers", work)?;
+        let columns_len = columns_needed.max(self.reserve.1);
         ctx.check_storage_binding("the denoiser's polar column table", columns_len * 8)?;
         let align = u64::from(ctx.limits().min_uniform_buffer_offset_alignment).max(1);
         let uniform_stride = (std::mem::size_of::<DenoiseUniform>() as u64).div_ceil(align) * align;
@@ -715,6 +788,9 @@ impl GpuDenoiser {
             Sized {
                 layers: layers.to_vec(),
                 texels,
+                capacity,
+                column_capacity: columns_len,
+                uniform_bytes: Vec::new(),
                 uniform,
                 uniform_stride,
                 light,

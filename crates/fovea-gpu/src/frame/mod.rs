@@ -23,7 +23,9 @@ pub mod screen;
 pub mod shade;
 pub mod timing;
 
-pub use binocular::{BinocularTimes, ResidentFrame, ToneSettings, BINOCULAR_PASSES};
+pub use binocular::{
+    BinocularTimes, ResidentFrame, ToneSettings, BINOCULAR_PASSES, DENOISE_PASSES,
+};
 pub use context::{EyeShade, RecordTimes, ResidentSamples};
 pub use reconstruct::{PolarCapacity, ResidentPolar, TableUpload};
 pub use samples::{DeviceSamples, SampleLayer};
