@@ -97,7 +97,8 @@ struct FrameColumn {
 // Per texel: (albedo, roughness), (specular, state).
 @group(0) @binding(26) var<storage, read_write> frame_material: array<vec4<f32>>;
 // The denoiser's guides, per texel of the samples' layers (`DeviceGuides`): albedo (rgb),
-// unit shading normal (xyz; zero: no surface), the colour's Monte Carlo part (rgb); w 0.
+// unit shading normal (xyz; zero: no surface), the colour's Monte Carlo part (rgb) with the
+// temporal variance in its w (−1: none); the other w lanes 0.
 @group(0) @binding(27) var<storage, read_write> frame_guide_albedo: array<vec4<f32>>;
 @group(0) @binding(28) var<storage, read_write> frame_guide_normal: array<vec4<f32>>;
 @group(0) @binding(29) var<storage, read_write> frame_guide_noisy: array<vec4<f32>>;
@@ -173,7 +174,9 @@ fn frame_surface(@builtin(global_invocation_id) id: vec3<u32>) {
         // No surface record until a hit says otherwise; the emission is exact.
         frame_guide_albedo[out] = vec4<f32>(0.0);
         frame_guide_normal[out] = vec4<f32>(0.0);
-        frame_guide_noisy[out] = vec4<f32>(0.0);
+        // w: no temporal variance (the denoiser's spatial estimate; a temporal pass would
+        // write its moments' variance here).
+        frame_guide_noisy[out] = vec4<f32>(0.0, 0.0, 0.0, -1.0);
     }
     if q.w == 0.0 {
         frame_samples[out] = unshaded;
@@ -264,7 +267,7 @@ fn frame_environment(@builtin(global_invocation_id) id: vec3<u32>) {
         c = c + e;
         if frame.guides != 0u {
             // The occluded environment's estimate: the Monte Carlo part.
-            frame_guide_noisy[out] = vec4<f32>(e, 0.0);
+            frame_guide_noisy[out] = vec4<f32>(e, -1.0);
         }
     } else {
         return;

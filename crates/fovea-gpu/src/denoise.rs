@@ -13,8 +13,10 @@
 //! **Buffers.** The frame's sample buffers are a [`DeviceSamples`] (`vec4`: RGB + depth, the
 //! layers one after another, row-major). The guides are a [`DeviceGuides`] of the same
 //! layers: three buffers of one `vec4<f32>` per texel each — albedo, shading normal, the
-//! colour's Monte Carlo part (w lanes 0; a zero normal: no surface record; a NaN Monte Carlo
-//! part: the whole colour is filtered) — so that no binding holds more than 16 bytes per
+//! colour's Monte Carlo part (a zero normal: no surface record; a NaN Monte Carlo part: the
+//! whole colour is filtered; the part's w lane the temporal variance, SVGF's temporal
+//! estimate where the history gives one, as `denoise_with_variance` takes it, NaN or negative
+//! where not; the other w lanes 0) — so that no binding holds more than 16 bytes per
 //! texel, as the sample buffers. The working buffers — normal and depth, the depth gradient and role, two
 //! light-and-variance buffers (16 bytes per texel each), the polar column table, two counters —
 //! and the pipelines and bind groups live in a [`GpuDenoiser`], created once and rebuilt only
@@ -103,9 +105,11 @@ pub struct DenoiseUniform {
 }
 
 /// A frame's denoiser guides on the device, the layers of a [`DeviceSamples`] (same offsets):
-/// three storage buffers of one `vec4<f32>` per texel each (`array<vec4<f32>>`, w lanes 0) —
-/// the albedo (linear RGB), the unit shading normal (zero: no surface record) and the colour's
-/// Monte Carlo part (NaN: unknown, the whole colour is filtered). The resident frame's shade
+/// three storage buffers of one `vec4<f32>` per texel each (`array<vec4<f32>>`) — the albedo
+/// (linear RGB), the unit shading normal (zero: no surface record) and the colour's Monte Carlo
+/// part (NaN: unknown, the whole colour is filtered) with, in its w lane, the temporal variance
+/// of its demodulated luminance (NaN or negative: none, the spatial estimate); the other w
+/// lanes 0. The resident frame's shade
 /// pass writes them; the staged path uploads them ([`Self::upload`]).
 #[derive(Debug)]
 pub struct DeviceGuides {
@@ -171,7 +175,8 @@ impl DeviceGuides {
         &self.normal
     }
 
-    /// The Monte Carlo part buffer (`array<vec4<f32>>`: linear RGB or NaN, w 0).
+    /// The Monte Carlo part buffer (`array<vec4<f32>>`: linear RGB or NaN; w the temporal
+    /// variance, NaN or negative where none).
     pub fn noisy(&self) -> &wgpu::Buffer {
         &self.noisy
     }
@@ -205,7 +210,10 @@ impl DeviceGuides {
     }
 
     /// Writes the CPU's guides (one image each per layer, these layers' sizes): three counted
-    /// uploads. A missing Monte Carlo part (`guides.noisy` empty) is uploaded as NaN.
+    /// uploads. A missing Monte Carlo part (`guides.noisy` empty) is uploaded as NaN; the
+    /// temporal variance (`guides.variance`, where given) goes into the Monte Carlo part's w
+    /// lane, NaN where none is (the denoiser's spatial estimate), as
+    /// `fovea_post::denoise::denoise_with_variance` reads it.
     pub fn upload(&self, ctx: &GpuContext, guides: &DenoiseGuides) -> Result<()> {
         let n = self.layers.len();
         let ok = guides.albedo.len() == n
@@ -219,6 +227,10 @@ impl DeviceGuides {
                         .noisy
                         .get(l)
                         .is_none_or(|m| (m.width(), m.height()) == dims)
+                    && guides
+                        .variance
+                        .get(l)
+                        .is_none_or(|v| (v.width(), v.height()) == dims)
             });
         if !ok {
             return Err(GpuError::Input(format!(
@@ -246,9 +258,19 @@ impl DeviceGuides {
         }
         let albedo = plane(&self.layers, self.texels, |l| Some(guides.albedo[l].data()));
         let normal = plane(&self.layers, self.texels, |l| Some(guides.normal[l].data()));
-        let noisy = plane(&self.layers, self.texels, |l| {
+        let mut noisy = plane(&self.layers, self.texels, |l| {
             guides.noisy.get(l).map(|m| m.data())
         });
+        let mut at = 0usize;
+        for (l, s) in self.layers.iter().enumerate() {
+            let n = s.width as usize * s.height as usize;
+            let lanes = noisy[at..at + n].iter_mut();
+            match guides.variance.get(l) {
+                Some(v) => lanes.zip(v.data()).for_each(|(m, &v)| m[3] = v),
+                None => lanes.for_each(|m| m[3] = f32::NAN),
+            }
+            at += n;
+        }
         ctx.scoped("uploading the denoiser's guides", || {
             ctx.write_buffer(&self.albedo, 0, bytemuck::cast_slice(&albedo));
             ctx.write_buffer(&self.normal, 0, bytemuck::cast_slice(&normal));
