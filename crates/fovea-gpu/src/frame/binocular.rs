@@ -353,13 +353,12 @@ impl ResidentFrame {
                 }
                 // The sample-space denoiser, after shading and temporal accumulation, before
                 // the screen side (issue 38).
-                for e in 0..2 {
-                    let writes = match plans[e].settings.denoise {
+                for (e, plan) in plans.iter().enumerate() {
+                    let writes = match plan.settings.denoise {
                         Some(_) => self.timers.as_mut().and_then(|t| t[3].writes(e)),
                         None => None,
                     };
-                    self.samples
-                        .record_denoise(e, plans[e], &mut encoder, writes)?;
+                    self.samples.record_denoise(e, plan, &mut encoder, writes)?;
                 }
                 for e in 0..2 {
                     let samples = self.samples.samples(e).ok_or_else(|| {
