@@ -19,7 +19,8 @@
 #   * `fovea render --backend gpu` against `--backend cpu`, VaFR, Vive Pro Eye and 8K, with
 #     each frame's stage times and backend JSON;
 #   * binocular_frame (issue 37's resident frame, both eyes in one submission, against the
-#     staged path at the Vive Pro Eye and 4K) at the Vive Pro Eye, 4K, 8K and retinal;
+#     staged path at the Vive Pro Eye and 4K, and beside the same frame with issue 38's
+#     denoiser: its per-pass GPU ms) at the Vive Pro Eye, 4K, 8K and retinal;
 #   * `fovea bench --backend gpu` at the Vive Pro Eye, 4K and 8K, then issue 18's headline:
 #     both eyes (`--eyes both`), VaFR at 8K per eye and retinal, 1 light and 12, on the
 #     classroom when the bundle holds it (`build --with-classroom` copies
@@ -143,8 +144,9 @@ run)
     staged=on
     case "$preset" in 8k | retinal) staged=off ;; esac
     step "resident binocular frame, vafr $preset (staged $staged)" -- \
-      "$bin/binocular_frame" 6 vafr "$preset" 1 "$staged"
-    step "resident binocular frame, full $preset" -- "$bin/binocular_frame" 4 full "$preset" 1 off
+      "$bin/binocular_frame" 6 vafr "$preset" 1 "$staged" both
+    step "resident binocular frame, full $preset" -- \
+      "$bin/binocular_frame" 4 full "$preset" 1 off both
   done
   echo "gpu-bench: $failed step(s) failed; report in $report" | tee -a "$report"
   [ "$failed" = 0 ]

@@ -12,6 +12,11 @@
 //!   reconstruction; `fovea_gpu::executors::GpuExecutors`), then its tone map of each eye, as
 //!   `fovea render --backend gpu` runs them (records and images going back and forth).
 //!
+//! * denoised (with `denoise=both`, the default, or `on`): the same resident frame with the
+//!   sample-space denoiser on (issue 38; its defaults, 3×3 × 4 iterations: the GPU twin
+//!   recorded after each eye's shading, before the screen side), the same gazes — its
+//!   `left denoise` / `right denoise` GPU ms beside the frame's total with and without it.
+//!
 //! For each, per binocular frame: wall ms, host ms (resident: checking, tables, uniforms and
 //! recording, without the submission), submissions, blocking waits, bytes up and back —
 //! the device's own counters (`GpuContext::traffic`); then the median wall ratio. The plans
@@ -22,7 +27,7 @@
 //! ```sh
 //! XDG_RUNTIME_DIR=$(mktemp -d) cargo run --release -p fovea-gpu --example binocular_frame -- \
 //!     [frames=4] [method=vafr] [res=vive-pro-eye|4k|8k|retinal] [lights=1] [staged=on|off] \
-//!     [temporal=off|on]
+//!     [temporal=off|on] [denoise=both|on|off]
 //! ```
 
 #[path = "common/binocular_view.rs"]
@@ -34,8 +39,9 @@ use std::time::Instant;
 
 use fovea_core::mapping::Method;
 use fovea_gpu::executors::GpuExecutors;
-use fovea_gpu::frame::{ResidentFrame, ToneSettings};
+use fovea_gpu::frame::{FrameGpuTimes, ResidentFrame, ToneSettings};
 use fovea_gpu::{GpuContext, GpuRequest, TrafficCounts};
+use fovea_post::denoise::DenoiseParams;
 use fovea_post::tonemap::ToneCurve;
 use fovea_render::eye::EyeState;
 use fovea_render::pipeline::{render_planned, FrameContext, FrameInputs, StageTimes};
@@ -59,6 +65,30 @@ fn line(what: &str, wall_ms: f64, host_ms: Option<f64>, t: &TrafficCounts) {
         t.buffers_created,
         t.bind_groups_created
     );
+}
+
+/// One line of a frame's per-pass GPU ms.
+fn gpu_line(g: &FrameGpuTimes) -> String {
+    let passes: Vec<String> = g
+        .passes
+        .iter()
+        .filter_map(|(n, ms)| ms.map(|ms| format!("{n} {ms:.2}")))
+        .collect();
+    format!(
+        "frame {}: total {:.2} GPU ms; {}",
+        g.frame,
+        g.total_ms(),
+        passes.join(", ")
+    )
+}
+
+/// The GPU ms of the passes named `name` in `g`, summed (`None`: none ran or arrived).
+fn pass_ms(g: &FrameGpuTimes, name: &str) -> Option<f64> {
+    g.passes
+        .iter()
+        .filter(|(n, _)| *n == name)
+        .filter_map(|(_, ms)| *ms)
+        .reduce(|a, b| a + b)
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -85,9 +115,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "off" => None,
         other => return Err(format!("temporal={other} (on or off)").into()),
     };
+    let (plain_on, denoised_on) = match args.get(6).map_or("both", String::as_str) {
+        "both" => (true, true),
+        "on" => (false, true),
+        "off" => (true, false),
+        other => return Err(format!("denoise={other} (both, on or off)").into()),
+    };
 
     let (world, cams, display) = binocular_view(res, lights)?;
     let settings = direct_settings(method);
+    let mut denoise_settings = settings.clone();
+    denoise_settings.denoise = Some(DenoiseParams::default());
 
     let ctx = GpuContext::new(&GpuRequest::default())?;
     println!(
@@ -108,13 +146,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let y = 0.5 * h + 0.2 * h * a.sin();
         display.gaze(x, y)
     };
-    let plans_of = |f: usize| -> Result<Vec<FramePlan>, Box<dyn std::error::Error>> {
+    let plans_with = |f: usize,
+                      settings: &fovea_render::pipeline::FrameSettings|
+     -> Result<Vec<FramePlan>, Box<dyn std::error::Error>> {
         (0..2)
             .map(|e| {
                 Ok(FramePlan::new(
                     &world,
                     &cams[e],
-                    &settings,
+                    settings,
                     &EyeState::looking_at(gaze_at(f, e)?),
                     [0.0, 0.0],
                 )?
@@ -122,6 +162,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             })
             .collect()
     };
+    let plans_of = |f: usize| plans_with(f, &settings);
 
     let t = Instant::now();
     let p0 = plans_of(0)?;
@@ -136,6 +177,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "resident frame built in {:.1} ms (scene, both screen sides, timers)",
         t.elapsed().as_secs_f64() * 1e3
     );
+    // The same frame with the sample-space denoiser on (its own scene, buffers and timers).
+    let mut denoised = if denoised_on {
+        let p0 = plans_with(0, &denoise_settings)?;
+        let mut d =
+            ResidentFrame::new(&ctx, &world, [&p0[0], &p0[1]], [&cams[0], &cams[1]], TONE)?;
+        d.set_temporal(temporal)?;
+        Some(d)
+    } else {
+        None
+    };
     let mut staged = if with_staged {
         // The staged path: the library's GPU executors lent to the CPU pipeline.
         let gx = GpuExecutors::new(&ctx, &world)?;
@@ -152,10 +203,46 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     let (mut walls, mut staged_walls, mut hosts) = (Vec::new(), Vec::new(), Vec::new());
     let mut gpu_lines = Vec::new();
+    let (mut denoised_walls, mut denoised_lines) = (Vec::new(), Vec::new());
+    // GPU ms per frame: the plain frame's total; the denoised frame's total and its denoiser.
+    let (mut plain_gpu, mut denoised_gpu, mut denoise_gpu) = (Vec::new(), Vec::new(), Vec::new());
     for f in 0..frames {
         let t = Instant::now();
         let plans = plans_of(f)?;
         let plan_ms = t.elapsed().as_secs_f64() * 1e3;
+
+        if let Some(d) = &mut denoised {
+            let plans = plans_with(f, &denoise_settings)?;
+            let before = ctx.traffic();
+            let t = Instant::now();
+            let times = d.render(&world, [&plans[0], &plans[1]], [&cams[0], &cams[1]])?;
+            let moved = ctx.traffic().since(&before);
+            ctx.wait_idle("the denoised resident frame")?;
+            let wall = t.elapsed().as_secs_f64() * 1e3;
+            line(
+                &format!("{f} resident, denoised"),
+                wall,
+                Some(times.host_ms),
+                &moved,
+            );
+            if f > 0 {
+                denoised_walls.push(wall);
+            }
+            for g in d.poll_gpu_times()? {
+                if g.frame > 0 {
+                    denoised_gpu.push(g.total_ms());
+                    let l = pass_ms(&g, "left denoise");
+                    let r = pass_ms(&g, "right denoise");
+                    if let (Some(l), Some(r)) = (l, r) {
+                        denoise_gpu.push((l, r));
+                    }
+                }
+                denoised_lines.push(gpu_line(&g));
+            }
+        }
+        if !plain_on {
+            continue;
+        }
 
         let before = ctx.traffic();
         let t = Instant::now();
@@ -178,17 +265,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             hosts.push(times.host_ms);
         }
         for g in resident.poll_gpu_times()? {
-            let passes: Vec<String> = g
-                .passes
-                .iter()
-                .filter_map(|(n, ms)| ms.map(|ms| format!("{n} {ms:.2}")))
-                .collect();
-            gpu_lines.push(format!(
-                "frame {}: total {:.2} GPU ms; {}",
-                g.frame,
-                g.total_ms(),
-                passes.join(", ")
-            ));
+            if g.frame > 0 {
+                plain_gpu.push(g.total_ms());
+            }
+            gpu_lines.push(gpu_line(&g));
         }
 
         if let Some((fc, tone)) = &mut staged {
@@ -225,17 +305,38 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for l in gpu_lines {
         println!("  {l}");
     }
+    if denoised.is_some() {
+        println!("resident with the denoiser, per-pass GPU ms:");
+        for l in denoised_lines {
+            println!("  {l}");
+        }
+        let (l, r): (Vec<f64>, Vec<f64>) = denoise_gpu.iter().copied().unzip();
+        println!(
+            "denoiser (3x3 x4) GPU ms per pass, median over frames 1..{frames}: left {:.2}, right \
+             {:.2}; frame GPU ms without the denoiser {:.2}, with it {:.2}; wall ms without {:.1}, \
+             with {:.1}",
+            median(l),
+            median(r),
+            median(plain_gpu.clone()),
+            median(denoised_gpu.clone()),
+            median(walls.clone()),
+            median(denoised_walls.clone())
+        );
+    }
     if walls.is_empty() {
         println!("one frame: no steady frames to take the median of (ask for 2 or more)");
         return Ok(());
     }
-    let (rw, sw) = (median(walls), median(staged_walls));
+    let (rw, sw) = (median(walls), median(staged_walls.clone()));
+    let staged = match staged_walls.is_empty() {
+        true => "staged not run".to_string(),
+        false => format!("staged {sw:.1} ms wall; staged / resident {:.2}", sw / rw),
+    };
     println!(
         "median over frames 1..{frames}: resident {rw:.1} ms wall ({:.1} fps binocular), host \
-         {:.2} ms; staged {sw:.1} ms wall; staged / resident {:.2}",
+         {:.2} ms; {staged}",
         1e3 / rw,
         median(hosts),
-        sw / rw
     );
     Ok(())
 }

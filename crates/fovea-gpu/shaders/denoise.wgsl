@@ -15,8 +15,9 @@
 //
 // `aux` per texel: x, y the depth gradient per texel step (written by denoise_variance, one
 // component each, while the neighbours read only z), z the role (0 passive, 1 receiver only,
-// 2 source; written by denoise_prepare), w reserved for a per-sample variance input (temporal
-// moments; 0 today).
+// 2 source; written by denoise_prepare), w the per-sample temporal variance given with the
+// guides (the Monte Carlo part's w lane; −1 where none is given: the spatial estimate), as
+// `fovea_post::denoise::denoise_with_variance` takes it.
 
 struct DenoiseParams {
     // Texels of all layers.
@@ -45,7 +46,9 @@ struct DenoiseParams {
 
 // The guides, one vec4 per texel in each of three buffers (each within one storage binding):
 // albedo (linear RGB), unit shading normal (zero: no surface record) and the Monte Carlo part
-// of the colour (NaN: unknown, the whole colour is filtered). The w lanes are unused (0).
+// of the colour (NaN: unknown, the whole colour is filtered). The Monte Carlo part's w lane is
+// the temporal variance of its demodulated luminance (`DenoiseGuides::variance`: NaN or
+// negative where none, the spatial estimate then); the other w lanes are unused (0).
 
 @group(0) @binding(0) var<uniform> params: DenoiseParams;
 @group(0) @binding(1) var<storage, read_write> samples: array<vec4<f32>>;
@@ -240,10 +243,16 @@ fn denoise_prepare(
         }
     }
     geom[k] = vec4<f32>(nv, z);
-    aux[k] = vec4<f32>(0.0, 0.0, f32(role), 0.0);
+    let m = guide_noisy[k];
+    // The temporal variance where given (finite, ≥ 0), else −1: the spatial estimate.
+    var temporal = -1.0;
+    if finite(m.w) && m.w >= 0.0 {
+        temporal = m.w;
+    }
+    aux[k] = vec4<f32>(0.0, 0.0, f32(role), temporal);
     var lt = vec3<f32>(0.0);
     if role == SOURCE {
-        lt = noisy_part(guide_noisy[k].xyz, c) / floored(al);
+        lt = noisy_part(m.xyz, c) / floored(al);
     }
     light_dst[k] = vec4<f32>(lt, 0.0);
 }
@@ -346,12 +355,16 @@ fn denoise_variance(
             atomicAdd(&counters[1], 1u);
         }
     }
-    // Variance of the neighbourhood with the (clamped) centre.
-    let tw = sw + 1.0;
-    let t1 = s1 + yp;
-    let t2 = s2 + yp * yp;
-    let mean = t1 / tw;
-    let variance = max(t2 / tw - mean * mean, 0.0);
+    // The temporal estimate where given, else the variance of the neighbourhood with the
+    // (clamped) centre.
+    var variance = aux[k].w;
+    if variance < 0.0 {
+        let tw = sw + 1.0;
+        let t1 = s1 + yp;
+        let t2 = s2 + yp * yp;
+        let mean = t1 / tw;
+        variance = max(t2 / tw - mean * mean, 0.0);
+    }
     light_dst[k] = vec4<f32>(lp, variance);
 }
 

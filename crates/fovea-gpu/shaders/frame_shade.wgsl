@@ -34,6 +34,14 @@
 // Output per texel: linear RGB and depth along the view axis (`EyeCamera::view_depth`), +∞
 // for a miss (the environment's radiance along the ray) and for a texel the plan does not
 // shade (black), as the CPU's buffers hold them.
+//
+// With `frame.guides` set (the plan denoises, issue 38) the kernels also write the sample-space
+// denoiser's guides (`fovea_gpu::denoise::DeviceGuides`, the layers of the samples), what the
+// CPU's `trace_shade::record_guides` and `shade_chunk` record for one ray per texel:
+// `frame_surface` the albedo and the unit shading normal of a hit (zero normal otherwise: no
+// surface record) and a zero Monte Carlo part; `frame_environment` the environment's occluded
+// estimate as the Monte Carlo part (`shade::monte_carlo_part`: the lights' shadow rays, the
+// emission and the unshadowed ambient term are exact, so they stay out of it).
 
 // A sample layer of the frame (`fovea_gpu::frame::SampleLayer`) and its key's high word.
 struct FrameLayer {
@@ -64,6 +72,11 @@ struct FrameParams {
     ambient: vec4<f32>,
     // The rank of texel (i, j) in its 4×4 tile: rank[j % 4][i % 4].
     rank: array<vec4<u32>, 4>,
+    // 1: write the denoiser's guides (bindings 27–29); 0: leave them alone.
+    guides: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 }
 
 // A polar buffer's column: its ring (radius, rows per turn), its rays' cone, and where its
@@ -83,6 +96,12 @@ struct FrameColumn {
 @group(0) @binding(25) var<storage, read_write> frame_geometry: array<vec4<f32>>;
 // Per texel: (albedo, roughness), (specular, state).
 @group(0) @binding(26) var<storage, read_write> frame_material: array<vec4<f32>>;
+// The denoiser's guides, per texel of the samples' layers (`DeviceGuides`): albedo (rgb),
+// unit shading normal (xyz; zero: no surface), the colour's Monte Carlo part (rgb) with the
+// temporal variance in its w (−1: none); the other w lanes 0.
+@group(0) @binding(27) var<storage, read_write> frame_guide_albedo: array<vec4<f32>>;
+@group(0) @binding(28) var<storage, read_write> frame_guide_normal: array<vec4<f32>>;
+@group(0) @binding(29) var<storage, read_write> frame_guide_noisy: array<vec4<f32>>;
 
 const FRAME_POLAR: u32 = 0u;
 const FRAME_SCREEN: u32 = 1u;
@@ -151,6 +170,14 @@ fn frame_surface(@builtin(global_invocation_id) id: vec3<u32>) {
     let q = frame_point(k % w, k / w);
     let out = frame.layer.offset + k;
     let unshaded = vec4<f32>(0.0, 0.0, 0.0, bitcast<f32>(frame.inf_bits));
+    if frame.guides != 0u {
+        // No surface record until a hit says otherwise; the emission is exact.
+        frame_guide_albedo[out] = vec4<f32>(0.0);
+        frame_guide_normal[out] = vec4<f32>(0.0);
+        // w: no temporal variance (the denoiser's spatial estimate; a temporal pass would
+        // write its moments' variance here).
+        frame_guide_noisy[out] = vec4<f32>(0.0, 0.0, 0.0, -1.0);
+    }
     if q.w == 0.0 {
         frame_samples[out] = unshaded;
         frame_material[2u * k + 1u] = vec4<f32>(0.0, 0.0, 0.0, STATE_UNSHADED);
@@ -162,6 +189,14 @@ fn frame_surface(@builtin(global_invocation_id) id: vec3<u32>) {
         frame_samples[out] = unshaded;
         frame_material[2u * k + 1u] = vec4<f32>(0.0, 0.0, 0.0, STATE_MISS);
         return;
+    }
+    if frame.guides != 0u {
+        // `record_guides` of one ray: its albedo, its normal normalised (`normalize_or_zero`).
+        frame_guide_albedo[out] = vec4<f32>(g.albedo, 0.0);
+        let len2 = dot(g.normal, g.normal);
+        if len2 > 0.0 {
+            frame_guide_normal[out] = vec4<f32>(g.normal * (1.0 / sqrt(len2)), 0.0);
+        }
     }
     frame_samples[out] = vec4<f32>(g.emissive, g.t * dot(ray.dir, camera.forward));
     frame_geometry[2u * k] = vec4<f32>(g.normal, g.t);
@@ -228,7 +263,12 @@ fn frame_environment(@builtin(global_invocation_id) id: vec3<u32>) {
         // The unshadowed ambient term `mean · albedo · (1 − metallic)`.
         c = c + frame.ambient.xyz * frame_material[2u * k].xyz * (1.0 - frame_geometry[2u * k + 1u].w);
     } else if env.samples > 0u {
-        c = c + environment_at(frame_record(k, frame_ray(k))).xyz;
+        let e = environment_at(frame_record(k, frame_ray(k))).xyz;
+        c = c + e;
+        if frame.guides != 0u {
+            // The occluded environment's estimate: the Monte Carlo part.
+            frame_guide_noisy[out] = vec4<f32>(e, -1.0);
+        }
     } else {
         return;
     }

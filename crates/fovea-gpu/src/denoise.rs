@@ -13,8 +13,10 @@
 //! **Buffers.** The frame's sample buffers are a [`DeviceSamples`] (`vec4`: RGB + depth, the
 //! layers one after another, row-major). The guides are a [`DeviceGuides`] of the same
 //! layers: three buffers of one `vec4<f32>` per texel each — albedo, shading normal, the
-//! colour's Monte Carlo part (w lanes 0; a zero normal: no surface record; a NaN Monte Carlo
-//! part: the whole colour is filtered) — so that no binding holds more than 16 bytes per
+//! colour's Monte Carlo part (a zero normal: no surface record; a NaN Monte Carlo part: the
+//! whole colour is filtered; the part's w lane the temporal variance, SVGF's temporal
+//! estimate where the history gives one, as `denoise_with_variance` takes it, NaN or negative
+//! where not; the other w lanes 0) — so that no binding holds more than 16 bytes per
 //! texel, as the sample buffers. The working buffers — normal and depth, the depth gradient and role, two
 //! light-and-variance buffers (16 bytes per texel each), the polar column table, two counters —
 //! and the pipelines and bind groups live in a [`GpuDenoiser`], created once and rebuilt only
@@ -103,9 +105,11 @@ pub struct DenoiseUniform {
 }
 
 /// A frame's denoiser guides on the device, the layers of a [`DeviceSamples`] (same offsets):
-/// three storage buffers of one `vec4<f32>` per texel each (`array<vec4<f32>>`, w lanes 0) —
-/// the albedo (linear RGB), the unit shading normal (zero: no surface record) and the colour's
-/// Monte Carlo part (NaN: unknown, the whole colour is filtered). The resident frame's shade
+/// three storage buffers of one `vec4<f32>` per texel each (`array<vec4<f32>>`) — the albedo
+/// (linear RGB), the unit shading normal (zero: no surface record) and the colour's Monte Carlo
+/// part (NaN: unknown, the whole colour is filtered) with, in its w lane, the temporal variance
+/// of its demodulated luminance (NaN or negative: none, the spatial estimate); the other w
+/// lanes 0. The resident frame's shade
 /// pass writes them; the staged path uploads them ([`Self::upload`]).
 #[derive(Debug)]
 pub struct DeviceGuides {
@@ -120,10 +124,22 @@ impl DeviceGuides {
     /// Guides for layers of `sizes` (contents undefined until written).
     /// [`GpuError::AdapterTooSmall`] when one of them exceeds one storage binding.
     pub fn new(ctx: &GpuContext, sizes: &[BufferSize]) -> Result<Self> {
+        Self::with_capacity(ctx, sizes, 0)
+    }
+
+    /// [`Self::new`] with room for at least `capacity_texels` texels, so that a later frame's
+    /// layers of another size take the buffers over ([`Self::relayout`]) without allocating —
+    /// the resident frame's guides, sized as its [`DeviceSamples`] (a polar buffer's size
+    /// follows the gaze).
+    pub fn with_capacity(
+        ctx: &GpuContext,
+        sizes: &[BufferSize],
+        capacity_texels: u64,
+    ) -> Result<Self> {
         let (layers, texels) = DeviceSamples::layout(sizes).ok_or_else(|| {
             GpuError::Unsupported(format!("denoiser guides of more than {} texels", u32::MAX))
         })?;
-        let bytes = texels.max(1) * TEXEL_BYTES;
+        let bytes = texels.max(capacity_texels).max(1) * TEXEL_BYTES;
         ctx.check_storage_binding("the denoiser's guides (each of three)", bytes)?;
         let (albedo, normal, noisy) = ctx.scoped("allocating the denoiser's guides", || {
             let make = |label| {
@@ -159,7 +175,8 @@ impl DeviceGuides {
         &self.normal
     }
 
-    /// The Monte Carlo part buffer (`array<vec4<f32>>`: linear RGB or NaN, w 0).
+    /// The Monte Carlo part buffer (`array<vec4<f32>>`: linear RGB or NaN; w the temporal
+    /// variance, NaN or negative where none).
     pub fn noisy(&self) -> &wgpu::Buffer {
         &self.noisy
     }
@@ -169,13 +186,34 @@ impl DeviceGuides {
         &self.layers
     }
 
+    /// Texels each buffer holds room for.
+    pub fn capacity(&self) -> u64 {
+        self.albedo.size() / TEXEL_BYTES
+    }
+
+    /// Takes the layers of `sizes` in the same buffers (contents undefined until written) when
+    /// they fit the [`capacity`](Self::capacity); `false`, and nothing changed, otherwise.
+    pub fn relayout(&mut self, sizes: &[BufferSize]) -> bool {
+        match DeviceSamples::layout(sizes) {
+            Some((layers, texels)) if texels <= self.capacity() => {
+                self.layers = layers;
+                self.texels = texels;
+                true
+            }
+            _ => false,
+        }
+    }
+
     /// Whether these guides have exactly the layers of `sizes`.
     pub fn fits(&self, sizes: &[BufferSize]) -> bool {
         same_sizes(&self.layers, sizes)
     }
 
     /// Writes the CPU's guides (one image each per layer, these layers' sizes): three counted
-    /// uploads. A missing Monte Carlo part (`guides.noisy` empty) is uploaded as NaN.
+    /// uploads. A missing Monte Carlo part (`guides.noisy` empty) is uploaded as NaN; the
+    /// temporal variance (`guides.variance`, where given) goes into the Monte Carlo part's w
+    /// lane, NaN where none is (the denoiser's spatial estimate), as
+    /// `fovea_post::denoise::denoise_with_variance` reads it.
     pub fn upload(&self, ctx: &GpuContext, guides: &DenoiseGuides) -> Result<()> {
         let n = self.layers.len();
         let ok = guides.albedo.len() == n
@@ -189,6 +227,10 @@ impl DeviceGuides {
                         .noisy
                         .get(l)
                         .is_none_or(|m| (m.width(), m.height()) == dims)
+                    && guides
+                        .variance
+                        .get(l)
+                        .is_none_or(|v| (v.width(), v.height()) == dims)
             });
         if !ok {
             return Err(GpuError::Input(format!(
@@ -216,9 +258,19 @@ impl DeviceGuides {
         }
         let albedo = plane(&self.layers, self.texels, |l| Some(guides.albedo[l].data()));
         let normal = plane(&self.layers, self.texels, |l| Some(guides.normal[l].data()));
-        let noisy = plane(&self.layers, self.texels, |l| {
+        let mut noisy = plane(&self.layers, self.texels, |l| {
             guides.noisy.get(l).map(|m| m.data())
         });
+        let mut at = 0usize;
+        for (l, s) in self.layers.iter().enumerate() {
+            let n = s.width as usize * s.height as usize;
+            let lanes = noisy[at..at + n].iter_mut();
+            match guides.variance.get(l) {
+                Some(v) => lanes.zip(v.data()).for_each(|(m, &v)| m[3] = v),
+                None => lanes.for_each(|m| m[3] = f32::NAN),
+            }
+            at += n;
+        }
         ctx.scoped("uploading the denoiser's guides", || {
             ctx.write_buffer(&self.albedo, 0, bytemuck::cast_slice(&albedo));
             ctx.write_buffer(&self.normal, 0, bytemuck::cast_slice(&normal));
@@ -250,6 +302,12 @@ pub struct DenoiseTimes {
 struct Sized {
     layers: Vec<SampleLayer>,
     texels: u64,
+    /// Texels the working buffers hold room for (at least `texels`).
+    capacity: u64,
+    /// Polar column records the column table holds room for.
+    column_capacity: u64,
+    /// The uniform's bytes as last written (not written again while they stay).
+    uniform_bytes: Vec<u8>,
     /// One [`DenoiseUniform`] per iteration, `uniform_stride` bytes apart.
     uniform: wgpu::Buffer,
     uniform_stride: u64,
@@ -300,6 +358,8 @@ pub struct GpuDenoiser {
     atrous: wgpu::ComputePipeline,
     finish: wgpu::ComputePipeline,
     sized: Option<Sized>,
+    /// The least room the working buffers are made with: (texels, polar columns).
+    reserve: (u64, u64),
 }
 
 impl GpuDenoiser {
@@ -324,6 +384,7 @@ impl GpuDenoiser {
             atrous,
             finish,
             sized: None,
+            reserve: (0, 0),
         })
     }
 
@@ -341,6 +402,14 @@ impl GpuDenoiser {
             && texels < u32::MAX as u64
             && texels.max(1) * TEXEL_BYTES <= self.ctx.max_binding_bytes()
             && dispatch_size(&self.ctx, texels).is_some()
+    }
+
+    /// Makes the working buffers, when they are next (re)made, with room for at least
+    /// `texels` texels and `columns` polar columns, so that later calls whose layers change
+    /// size within that room (a polar buffer's size follows the gaze) allocate nothing and
+    /// bind nothing anew — the resident frame reserves its sample buffers' capacity.
+    pub fn reserve(&mut self, texels: u64, columns: u64) {
+        self.reserve = (texels, columns);
     }
 
     /// The counters buffer of the last recorded call (`[filtered, clamped]`, two `u32`), for a
@@ -362,6 +431,20 @@ impl GpuDenoiser {
         guides: &DeviceGuides,
         grids: &[Grid],
         params: &DenoiseParams,
+    ) -> Result<()> {
+        self.record_timed(encoder, samples, guides, grids, params, None)
+    }
+
+    /// [`Self::record`] with the denoiser's compute pass (all its dispatches) timed where
+    /// `timestamp_writes` says (a [`crate::frame::FrameTimer`]'s slot).
+    pub fn record_timed(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        samples: &DeviceSamples,
+        guides: &DeviceGuides,
+        grids: &[Grid],
+        params: &DenoiseParams,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> Result<()> {
         params
             .validate()
@@ -446,7 +529,10 @@ impl GpuDenoiser {
             bytes[at..at + std::mem::size_of::<DenoiseUniform>()]
                 .copy_from_slice(bytemuck::bytes_of(&u));
         }
-        self.ctx.write_buffer(&s.uniform, 0, &bytes);
+        if bytes != s.uniform_bytes {
+            self.ctx.write_buffer(&s.uniform, 0, &bytes);
+            s.uniform_bytes = bytes;
+        }
 
         // The passes.
         let bound = s
@@ -456,7 +542,7 @@ impl GpuDenoiser {
         encoder.clear_buffer(&s.counters, 0, None);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("denoise"),
-            timestamp_writes: None,
+            timestamp_writes,
         });
         let mut dispatch = |pipeline: &wgpu::ComputePipeline, group: &wgpu::BindGroup| {
             pass.set_pipeline(pipeline);
@@ -619,22 +705,31 @@ impl GpuDenoiser {
     /// Working buffers and the bind groups that name only them, for `layers`; kept while the
     /// layers stay the same.
     fn fit(&mut self, layers: &[SampleLayer], texels: u64) -> Result<()> {
-        if self
-            .sized
-            .as_ref()
-            .is_some_and(|s| s.layers == layers && s.texels == texels)
-        {
-            return Ok(());
-        }
-        self.sized = None;
-        let ctx = &self.ctx;
-        let work = texels.max(1) * TEXEL_BYTES;
-        ctx.check_storage_binding("the denoiser's working buffers", work)?;
-        let columns_len: u64 = layers
+        let columns_needed: u64 = layers
             .iter()
             .map(|l| u64::from(l.width))
             .sum::<u64>()
             .max(1);
+        if let Some(s) = self.sized.as_mut() {
+            if s.layers == layers && s.texels == texels {
+                return Ok(());
+            }
+            if texels <= s.capacity && columns_needed <= s.column_capacity {
+                // Other layers within the room: the same buffers and bind groups; the column
+                // table and the staged path's copies are the old layers'.
+                s.layers = layers.to_vec();
+                s.texels = texels;
+                s.columns_for = None;
+                s.staged = None;
+                return Ok(());
+            }
+        }
+        self.sized = None;
+        let ctx = &self.ctx;
+        let capacity = texels.max(self.reserve.0);
+        let work = capacity.max(1) * TEXEL_BYTES;
+        ctx.check_storage_binding("the denoiser's working buffers", work)?;
+        let columns_len = columns_needed.max(self.reserve.1);
         ctx.check_storage_binding("the denoiser's polar column table", columns_len * 8)?;
         let align = u64::from(ctx.limits().min_uniform_buffer_offset_alignment).max(1);
         let uniform_stride = (std::mem::size_of::<DenoiseUniform>() as u64).div_ceil(align) * align;
@@ -715,6 +810,9 @@ impl GpuDenoiser {
             Sized {
                 layers: layers.to_vec(),
                 texels,
+                capacity,
+                column_capacity: columns_len,
+                uniform_bytes: Vec::new(),
                 uniform,
                 uniform_stride,
                 light,

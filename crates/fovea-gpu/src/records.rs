@@ -190,7 +190,7 @@ fn records() -> Vec<Record> {
         }),
         record!(frame::shade::FrameUniform => "FrameParams" in [fs] {
             texels, kind, inf_bits, unshadowed, layer, offset, pixel_spread, row_invocations,
-            ambient, rank,
+            ambient, rank, guides,
         }),
         record!(frame::shade::FrameColumnGpu => "FrameColumn" in [fs] {
             r_px, period, spread, runs,

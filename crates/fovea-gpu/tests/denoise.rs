@@ -79,12 +79,13 @@ fn cpu_denoise(
         .zip(grids)
         .enumerate()
     {
-        stats += fovea_post::denoise::denoise(
+        stats += fovea_post::denoise::denoise_with_variance(
             c,
             d,
             &guides.albedo[l],
             &guides.normal[l],
             guides.noisy.get(l),
+            guides.variance.get(l),
             grid,
             params,
             &mut scratch,
@@ -422,6 +423,47 @@ fn gpu_matches_cpu_across_the_polar_seams_at_every_step() {
     for (a, b) in samples.color[0].data().iter().zip(before.color[0].data()) {
         assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits));
     }
+}
+
+#[test]
+fn gpu_reads_the_temporal_variance_as_the_cpu() {
+    let Some(gpu) = common::gpu_or_skip("denoise temporal variance") else {
+        return;
+    };
+    // A temporal variance per texel, as `SampleHistory` gives it: none (NaN) on every fifth
+    // texel (the spatial estimate), zero on every seventh (a converged history: the filter
+    // stops at every luminance difference), a negative one (none) on one, else large (the
+    // filter runs across the noise).
+    let (samples, mut guides, grids, params) = synthetic_polar(11);
+    let (w, h) = (samples.color[0].width(), samples.color[0].height());
+    let mut variance = Image::new(w, h, 0.0f32).unwrap();
+    for j in 0..h {
+        for i in 0..w {
+            let k = j * w + i;
+            *variance.get_mut(i, j) = match (k % 5, k % 7) {
+                (0, _) => f32::NAN,
+                (_, 0) => 0.0,
+                _ => 0.5 + 0.01 * (k % 13) as f32,
+            };
+        }
+    }
+    *variance.get_mut(2, 3) = -1.0;
+    let spatial = guides.clone();
+    guides.variance = vec![variance];
+    let inputs = (samples, guides, grids, params);
+    compare(&gpu, &inputs, &params, "synthetic polar, temporal variance");
+    // Not vacuous: the given variance moves the CPU's frame away from the spatial one's.
+    let (samples, guides, grids, _) = &inputs;
+    let (mut with, mut without) = (samples.clone(), samples.clone());
+    cpu_denoise(&mut with, guides, grids, &params);
+    cpu_denoise(&mut without, &spatial, grids, &params);
+    let mask = surface_mask(samples, guides, grids);
+    let (apart, _) = psnr(&colours(&with), &colours(&without), |k| mask[k]);
+    common::shout(&format!(
+        "[denoise] the temporal variance moved the CPU's frame to {apart:.1} dB of the spatial \
+         estimate's"
+    ));
+    assert!(apart < 40.0, "the variance changed little: {apart:.1} dB");
 }
 
 #[test]

@@ -8,17 +8,19 @@
 //!
 //! The order inside the encoder: left shade, right shade, with temporal accumulation on
 //! ([`ResidentFrame::set_temporal`]) each eye's accumulation pass and the copy of its result
-//! over the samples ([`super::temporal`]), then the left eye's screen passes, then the right
-//! eye's (the screen side reads the samples the passes before wrote; wgpu orders the passes of
-//! one encoder).
+//! over the samples ([`super::temporal`]), then — when the plans denoise — the left and the
+//! right eye's sample-space denoiser (issue 38: the GPU twin of `fovea_post::denoise` over the
+//! samples, guided by the albedo, normal and Monte Carlo part the shade kernels wrote;
+//! [`ResidentSamples::record_denoise`]), then the left eye's screen passes, then the right
+//! eye's (each pass reads what the passes before it wrote; wgpu orders the passes of one
+//! encoder).
 //!
 //! What it cannot serve is refused with [`GpuError::Unsupported`] before anything is written
 //! or recorded ([`ResidentFrame::supports`]): everything the sample side refuses
 //! ([`super::supports`]: indirect light, several rays per texel, culling, several layers), what
-//! the screen side refuses ([`ScreenContext::supports`]: Guenter, the insets, Weier), the
-//! denoiser (the sample side does not write its guides — albedo, shading normal, the colour's
-//! Monte Carlo part — so the GPU twin has nothing to read), peripheral contrast, DOF filters
-//! other than the gather, and sample-space AA at full resolution.
+//! the screen side refuses ([`ScreenContext::supports`]: Guenter, the insets, Weier),
+//! peripheral contrast, DOF filters other than the gather, and sample-space AA at full
+//! resolution.
 
 use std::time::Instant;
 
@@ -68,6 +70,10 @@ pub const BINOCULAR_PASSES: [[&str; 7]; 2] = [
     ],
 ];
 
+/// The denoiser's passes as [`ResidentFrame::poll_gpu_times`] names them, after
+/// [`BINOCULAR_PASSES`]' (absent, `None`, in frames whose plans do not denoise).
+pub const DENOISE_PASSES: [&str; 2] = ["left denoise", "right denoise"];
+
 /// Frames each timer's ring holds in flight.
 const TIMER_RING: usize = 4;
 
@@ -109,9 +115,9 @@ pub struct ResidentFrame {
     samples: ResidentSamples,
     screens: [Option<EyeScreen>; 2],
     tone: ToneSettings,
-    /// The sample side's timer (one pass per eye) and each eye's screen timer; `None` on a
-    /// device without timestamp queries.
-    timers: Option<[FrameTimer; 3]>,
+    /// The sample side's timer (one pass per eye), each eye's screen timer and the
+    /// denoiser's (one pass per eye); `None` on a device without timestamp queries.
+    timers: Option<[FrameTimer; 4]>,
     /// Frames whose timers have partly arrived: (frame, timers arrived, passes).
     pending: Vec<(u64, u8, PassTimes)>,
     frames: u64,
@@ -135,11 +141,8 @@ fn screen_config(plan: &FramePlan, camera: &EyeCamera, tone: ToneSettings) -> Re
              visual-polar and full; use the staged --backend gpu or --backend cpu)"
         )));
     }
-    if plan.settings.denoise.is_some() {
-        return unsupported(
-            "the denoiser (the sample side does not write its guides: albedo, normal, the \
-             Monte Carlo part; use --denoise off or the staged path)",
-        );
+    if let Some(d) = &plan.settings.denoise {
+        d.validate().map_err(|e| GpuError::Input(e.to_string()))?;
     }
     if plan.settings.contrast.is_some() {
         return unsupported("peripheral contrast enhancement");
@@ -255,8 +258,9 @@ impl ResidentFrame {
             FrameTimer::new(ctx, &["left shade", "right shade"], TIMER_RING)?,
             FrameTimer::new(ctx, &SCREEN_PASSES, TIMER_RING)?,
             FrameTimer::new(ctx, &SCREEN_PASSES, TIMER_RING)?,
+            FrameTimer::new(ctx, &DENOISE_PASSES, TIMER_RING)?,
         ) {
-            (Some(a), Some(b), Some(c)) => Some([a, b, c]),
+            (Some(a), Some(b), Some(c), Some(d)) => Some([a, b, c, d]),
             _ => None,
         };
         let mut frame = Self {
@@ -398,6 +402,15 @@ impl ResidentFrame {
                         t.record(e, &mut encoder, None)?;
                     }
                 }
+                // The sample-space denoiser, after shading and temporal accumulation, before
+                // the screen side (issue 38).
+                for (e, plan) in plans.iter().enumerate() {
+                    let writes = match plan.settings.denoise {
+                        Some(_) => self.timers.as_mut().and_then(|t| t[3].writes(e)),
+                        None => None,
+                    };
+                    self.samples.record_denoise(e, plan, &mut encoder, writes)?;
+                }
                 for e in 0..2 {
                     let samples = self.samples.samples(e).ok_or_else(|| {
                         GpuError::Input(format!("eye {e} of the resident frame has no samples"))
@@ -455,7 +468,8 @@ impl ResidentFrame {
     }
 
     /// The frames whose every pass's GPU time has arrived since the last call, oldest first,
-    /// the passes named as [`BINOCULAR_PASSES`] (left eye, then right). Never blocks.
+    /// the passes named as [`BINOCULAR_PASSES`] (left eye, then right), then
+    /// [`DENOISE_PASSES`]. Never blocks.
     pub fn poll_gpu_times(&mut self) -> Result<Vec<FrameGpuTimes>> {
         let Some(timers) = &mut self.timers else {
             return Ok(Vec::new());
@@ -467,7 +481,9 @@ impl ResidentFrame {
                     None => {
                         let passes = BINOCULAR_PASSES
                             .iter()
-                            .flat_map(|eye| eye.iter().map(|&n| (n, None)))
+                            .flatten()
+                            .chain(&DENOISE_PASSES)
+                            .map(|&n| (n, None))
                             .collect();
                         self.pending.push((t.frame, 0, passes));
                         self.pending.len() - 1
@@ -478,6 +494,10 @@ impl ResidentFrame {
                 for (p, (_, ms)) in t.passes.iter().enumerate() {
                     let slot = match k {
                         0 => 7 * p,
+                        3 => 14 + p,
+                        // The screen's `present` (its seventh pass) is not one the frame names:
+                        // it would land on the next eye's `shade`.
+                        _ if p + 1 >= BINOCULAR_PASSES[0].len() => continue,
                         eye => 7 * (eye - 1) + 1 + p,
                     };
                     if let Some(e) = entry.2.get_mut(slot) {
@@ -488,7 +508,7 @@ impl ResidentFrame {
         }
         let mut done: Vec<FrameGpuTimes> = Vec::new();
         self.pending.retain(|(frame, arrived, passes)| {
-            if *arrived == 0b111 {
+            if *arrived == 0b1111 {
                 done.push(FrameGpuTimes {
                     frame: *frame,
                     passes: passes.clone(),

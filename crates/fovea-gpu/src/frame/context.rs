@@ -38,10 +38,12 @@ use super::shade::{
     supports, FrameColumnGpu, FrameLayerGpu, FrameUniform, RayLayout, ShadeScene,
     GBUFFER_TEXEL_BYTES, KIND_POLAR, KIND_SCREEN,
 };
+use crate::denoise::{DeviceGuides, GpuDenoiser};
 use crate::environment_light::EnvUniform;
 use crate::error::{GpuError, Result};
 use crate::ray_generation::RayGenCamera;
 use crate::shaders::WORKGROUP_SIZE;
+use fovea_post::grid::Grid;
 
 /// The most workgroups a dispatch takes along one dimension (WebGPU's default limit).
 const MAX_GROUPS: u32 = 65_535;
@@ -62,6 +64,10 @@ pub struct EyeShade {
     runs_capacity: usize,
     /// The G-buffer between the kernels: geometry and material records.
     gbuffer: [wgpu::Buffer; 2],
+    /// The denoiser's guides the kernels write, with the samples' layers and capacity, when
+    /// the plan denoises (issue 38); else three 16-byte stand-ins fill the bindings.
+    guides: Option<DeviceGuides>,
+    _no_guides: Option<[wgpu::Buffer; 3]>,
     bind_group: wgpu::BindGroup,
     groups: [u32; 2],
 }
@@ -277,6 +283,10 @@ impl EyeShade {
         ctx.check_storage_binding("the frame's G-buffer (geometry)", gbuffer_bytes)?;
         ctx.check_storage_binding("the frame's G-buffer (material)", gbuffer_bytes)?;
         let samples = DeviceSamples::with_capacity(ctx, &sizes, capacity)?;
+        let guides = match plan.settings.denoise {
+            Some(_) => Some(DeviceGuides::with_capacity(ctx, &sizes, capacity)?),
+            None => None,
+        };
         let scene_buffers = scene.tracer.scene.as_ref().ok_or_else(|| {
             GpuError::Unsupported("a scene without triangles in the resident frame".into())
         })?;
@@ -305,6 +315,19 @@ impl EyeShade {
             let runs_buf = buffer(scene, "frame runs", run_bytes, storage);
             let gbuffer = ["frame G-buffer geometry", "frame G-buffer material"]
                 .map(|label| buffer(scene, label, gbuffer_bytes as usize, storage));
+            let no_guides = guides.is_none().then(|| {
+                [
+                    "frame no albedo guide",
+                    "frame no normal guide",
+                    "frame no noisy part",
+                ]
+                .map(|label| buffer(scene, label, 16, storage))
+            });
+            let guide_buffers: [&wgpu::Buffer; 3] = match (&guides, &no_guides) {
+                (Some(g), _) => [g.albedo(), g.normal(), g.noisy()],
+                (None, Some(n)) => [&n[0], &n[1], &n[2]],
+                (None, None) => unreachable!("stand-ins are made without guides"),
+            };
             let s = &scene.surfaces.buffers;
             let entries: Vec<(u32, &wgpu::Buffer)> = vec![
                 (0, &scene.trace_params),
@@ -328,6 +351,9 @@ impl EyeShade {
                 (24, samples.buffer()),
                 (25, &gbuffer[0]),
                 (26, &gbuffer[1]),
+                (27, guide_buffers[0]),
+                (28, guide_buffers[1]),
+                (29, guide_buffers[2]),
             ];
             let bind_group =
                 crate::transfer::bind_group(ctx, "resident frame", &scene.pipelines[0], &entries);
@@ -338,10 +364,11 @@ impl EyeShade {
                 columns_buf,
                 runs_buf,
                 gbuffer,
+                no_guides,
                 bind_group,
             )
         })?;
-        let (camera, env, frame, columns_buf, runs_buf, gbuffer, bind_group) = built;
+        let (camera, env, frame, columns_buf, runs_buf, gbuffer, no_guides, bind_group) = built;
         Ok(Self {
             layout,
             sizes,
@@ -355,6 +382,8 @@ impl EyeShade {
             runs: runs_buf,
             runs_capacity: runs,
             gbuffer,
+            guides,
+            _no_guides: no_guides,
             bind_group,
             groups,
         })
@@ -365,6 +394,7 @@ impl EyeShade {
     fn take(&mut self, plan: &FramePlan, layout: RayLayout, tables: &Tables) -> bool {
         let texels: u64 = plan.buffers.iter().map(|s| s.pixels()).sum();
         let fits = self.layout == layout
+            && self.guides.is_some() == plan.settings.denoise.is_some()
             && texels <= self.texel_capacity
             && tables.columns.len() <= self.columns_capacity
             && tables.runs.len() <= self.runs_capacity;
@@ -377,6 +407,11 @@ impl EyeShade {
             };
             if !self.samples.relayout(&plan.buffers) {
                 return false;
+            }
+            if let Some(g) = &mut self.guides {
+                if !g.relayout(&plan.buffers) {
+                    return false;
+                }
             }
             self.sizes = plan.buffers.clone();
             self.groups = groups;
@@ -441,6 +476,8 @@ impl EyeShade {
             row_invocations: self.groups[0] * WORKGROUP_SIZE,
             ambient: [mean.x, mean.y, mean.z, 0.0],
             rank,
+            guides: u32::from(self.guides.is_some()),
+            pad: [0; 3],
         };
         ctx.write_buffer(&self.camera, 0, bytemuck::bytes_of(&cam));
         ctx.write_buffer(&self.env, 0, bytemuck::bytes_of(&env));
@@ -493,6 +530,17 @@ impl EyeShade {
     pub(crate) fn tables(&self) -> (&wgpu::Buffer, &wgpu::Buffer) {
         (&self.columns, &self.runs)
     }
+
+    /// The denoiser's guides the kernels write (the samples' layers), when the eye's plan
+    /// denoises.
+    pub fn guides(&self) -> Option<&DeviceGuides> {
+        self.guides.as_ref()
+    }
+
+    /// Room the buffers hold: texels, and polar column records (one past the last included).
+    pub fn capacity(&self) -> (u64, usize) {
+        (self.texel_capacity, self.columns_capacity)
+    }
 }
 
 /// Where the host's time of one [`ResidentSamples::render_eyes`] went.
@@ -513,6 +561,10 @@ pub struct RecordTimes {
 pub struct ResidentSamples {
     scene: ShadeScene,
     eyes: [Option<EyeShade>; 2],
+    /// Each eye's sample-space denoiser (its working buffers sized as the eye's samples),
+    /// made with the eye's first denoised plan and kept (one per eye: the parameters are a
+    /// uniform written per call).
+    denoisers: [Option<GpuDenoiser>; 2],
     /// The tables' wall ms since the last [`Self::render_eyes`].
     tables_ms: f64,
 }
@@ -523,6 +575,7 @@ impl ResidentSamples {
         Ok(Self {
             scene: ShadeScene::new(ctx, world)?,
             eyes: [None, None],
+            denoisers: [None, None],
             tables_ms: 0.0,
         })
     }
@@ -609,8 +662,62 @@ impl ResidentSamples {
         }
         if let Some(e) = &self.eyes[eye] {
             e.write(&self.scene, world, camera, plan, &tables);
+            if plan.settings.denoise.is_some() {
+                let (texels, columns) = e.capacity();
+                let denoiser = match &mut self.denoisers[eye] {
+                    Some(d) => d,
+                    slot => slot.insert(GpuDenoiser::new(&self.scene.ctx)?),
+                };
+                denoiser.reserve(texels, columns as u64);
+            }
         }
         Ok(())
+    }
+
+    /// Records eye `eye`'s sample-space denoiser (issue 38; `fovea_gpu::denoise`, the GPU twin
+    /// of `fovea_post::denoise`) into `encoder`, its one compute pass timed where
+    /// `timestamp_writes` says: over the eye's samples in place, guided by the albedo, normal
+    /// and Monte Carlo part its kernels wrote, with `plan`'s parameters (the plan the eye was
+    /// prepared with). Record it after the eye's shading (and any temporal accumulation),
+    /// before the screen side. `Ok(false)`, nothing recorded, when `plan` does not denoise.
+    pub fn record_denoise(
+        &mut self,
+        eye: usize,
+        plan: &FramePlan,
+        encoder: &mut wgpu::CommandEncoder,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) -> Result<bool> {
+        let Some(params) = plan.settings.denoise else {
+            return Ok(false);
+        };
+        let not_ready = || GpuError::Input(format!("eye {eye} was not prepared to denoise"));
+        let e = self
+            .eyes
+            .get(eye)
+            .and_then(Option::as_ref)
+            .ok_or_else(not_ready)?;
+        let guides = e.guides().ok_or_else(not_ready)?;
+        let denoiser = self
+            .denoisers
+            .get_mut(eye)
+            .and_then(Option::as_mut)
+            .ok_or_else(not_ready)?;
+        let polar = plan.mapping().polar_layout();
+        let grids: Vec<Grid> = e
+            .samples()
+            .layers()
+            .iter()
+            .map(|l| Grid::of_layer(polar.as_ref(), l.width, l.height))
+            .collect();
+        denoiser.record_timed(
+            encoder,
+            e.samples(),
+            guides,
+            &grids,
+            &params,
+            timestamp_writes,
+        )?;
+        Ok(true)
     }
 
     /// Records eye `eye`'s pass into `encoder` (after [`Self::prepare_eye`]).

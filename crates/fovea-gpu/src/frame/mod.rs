@@ -26,7 +26,9 @@ pub mod shade;
 pub mod temporal;
 pub mod timing;
 
-pub use binocular::{BinocularTimes, ResidentFrame, ToneSettings, BINOCULAR_PASSES};
+pub use binocular::{
+    BinocularTimes, ResidentFrame, ToneSettings, BINOCULAR_PASSES, DENOISE_PASSES,
+};
 pub use context::{EyeShade, RecordTimes, ResidentSamples};
 pub use reconstruct::{PolarCapacity, ResidentPolar, TableUpload};
 pub use samples::{DeviceSamples, SampleLayer};

@@ -69,9 +69,9 @@ pub const SHADER: ShaderSource = ShaderSource {
 pub const ENTRY_POINTS: [&str; 3] = ["frame_surface", "frame_direct", "frame_environment"];
 
 /// Storage buffers the kernels' layout binds in one stage: the BVH's three, the surfaces'
-/// five, the lights, the environment map's two, the columns, the runs, the samples and the
-/// G-buffer's two.
-pub const STORAGE_BUFFERS: u32 = 16;
+/// five, the lights, the environment map's two, the columns, the runs, the samples, the
+/// G-buffer's two and the denoiser's three guides.
+pub const STORAGE_BUFFERS: u32 = 19;
 
 /// Bytes per texel of each of the two G-buffer records the kernels keep on the device
 /// (`frame_geometry`, `frame_material`: two `vec4<f32>` each).
@@ -120,6 +120,10 @@ pub struct FrameUniform {
     pub ambient: [f32; 4],
     /// `rank[j % 4][i % 4]`: a texel's rank in its 4×4 tile.
     pub rank: [[u32; 4]; 4],
+    /// 1: the kernels write the denoiser's guides (bindings 27–29); 0: they do not.
+    pub guides: u32,
+    /// Padding.
+    pub pad: [u32; 3],
 }
 
 /// `FrameColumn` of `frame_shade.wgsl`: a polar column's ring, cone and first run.
@@ -232,7 +236,7 @@ fn light_is_finite(l: &GpuLight) -> bool {
 /// The kernel's bindings in group 0: `(binding, uniform, read-only)` (uniform blocks, then
 /// storage buffers), declared rather than derived from what the entry point reads, so the
 /// layout does not change with the code.
-pub const BINDINGS: [(u32, bool, bool); 21] = [
+pub const BINDINGS: [(u32, bool, bool); 24] = [
     (0, true, true),    // TraceParams
     (1, false, true),   // BVH nodes
     (2, false, true),   // triangles
@@ -254,6 +258,9 @@ pub const BINDINGS: [(u32, bool, bool); 21] = [
     (24, false, false), // the sample buffers
     (25, false, false), // the G-buffer's geometry
     (26, false, false), // the G-buffer's material
+    (27, false, false), // the denoiser's albedo guide
+    (28, false, false), // the denoiser's normal guide
+    (29, false, false), // the denoiser's Monte Carlo part
 ];
 
 /// The kernels' pipelines with their declared layout ([`BINDINGS`]), in the order of
