@@ -639,33 +639,30 @@ impl App {
             });
             lines.push(f.backend.clone());
         }
-        let Some(s) = f.stats.first() else {
-            if !self.status.is_empty() {
-                lines.push(self.status.clone());
-            }
-            return lines;
-        };
-        let stages: Vec<String> = Stage::ALL
-            .iter()
-            .filter(|&&k| s.stages_ms.get(k) > 0.0)
-            .map(|&k| format!("{} {:.1}", k.name(), s.stages_ms.get(k)))
-            .collect();
-        lines.push(format!(
-            "{} {}×{} | frame {:.0} ms | {}",
-            s.method,
-            f.width,
-            f.height,
-            f.wall_ms,
-            stages.join(", ")
-        ));
-        let rays: u64 = f.stats.iter().map(|s| s.rays).sum();
-        let samples: u64 = f.stats.iter().map(|s| s.samples).sum();
-        lines.push(format!(
-            "{samples} samples, {rays} rays ({} primary, {} shadow) | {}",
-            f.stats.iter().map(|s| s.rays_primary).sum::<u64>(),
-            f.stats.iter().map(|s| s.rays_shadow).sum::<u64>(),
-            f.backend
-        ));
+        // The staged and CPU paths' per-stage figures (a resident frame has its own above).
+        if let Some(s) = f.stats.first() {
+            let stages: Vec<String> = Stage::ALL
+                .iter()
+                .filter(|&&k| s.stages_ms.get(k) > 0.0)
+                .map(|&k| format!("{} {:.1}", k.name(), s.stages_ms.get(k)))
+                .collect();
+            lines.push(format!(
+                "{} {}×{} | frame {:.0} ms | {}",
+                s.method,
+                f.width,
+                f.height,
+                f.wall_ms,
+                stages.join(", ")
+            ));
+            let rays: u64 = f.stats.iter().map(|s| s.rays).sum();
+            let samples: u64 = f.stats.iter().map(|s| s.samples).sum();
+            lines.push(format!(
+                "{samples} samples, {rays} rays ({} primary, {} shadow) | {}",
+                f.stats.iter().map(|s| s.rays_primary).sum::<u64>(),
+                f.stats.iter().map(|s| s.rays_shadow).sum::<u64>(),
+                f.backend
+            ));
+        }
         let focus = match f.eye.focus {
             Some(FocusDistance::Metres(m)) => format!("focus {m:.2} m"),
             Some(FocusDistance::Infinity) => "focus ∞".into(),
