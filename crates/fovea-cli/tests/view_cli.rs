@@ -368,3 +368,131 @@ fn gpu_view_runs_both_eyes_on_the_gpu() {
     println!("GPU viewer's screenshot (both eyes) against the CPU's: luma PSNR {psnr:.2} dB");
     assert!(psnr >= 40.0, "{psnr} dB");
 }
+
+/// `fovea view --backend gpu --eyes both` presents from the render device (issue 37, item
+/// 6): with a replayed moving gaze the frames render as the resident GPU frame — both eyes'
+/// every pass in one submission — and the window is drawn with that same device, from the
+/// frame's own textures. Counted over the frames by `fovea_gpu`'s instrumentation: one
+/// submission a frame, no blocking wait, nothing read back but the timestamps (16 B a pass
+/// a timed frame) until the screenshot asks for the image (one readback per eye). The
+/// HUD's lines carry fps, GPU ms per pass, host ms and bytes; the screenshot is `fovea
+/// render --eyes both --stereo dup` of the same view and gaze (luma PSNR ≥ 40 dB). Needs a Vulkan device
+/// (lavapipe will do): without one it says why and passes, unless `FOVEA_REQUIRE_GPU=1`.
+#[test]
+fn resident_view_presents_from_the_render_device() {
+    if !display_or_skip("resident_view_presents_from_the_render_device") {
+        return;
+    }
+    const FRAMES: u64 = 6;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let csv = d.join("gaze.csv");
+    // Frame i at i/90 s: the gaze moves 24–40 px a frame, then holds for the last two (the
+    // screenshot's gaze is then the render's, whatever the tracker's filter).
+    let gaze = [
+        (100, 60),
+        (140, 80),
+        (180, 70),
+        (150, 110),
+        (210, 70),
+        (210, 70),
+    ];
+    let mut text = String::from("t,x,y\n");
+    for (i, (x, y)) in gaze.iter().enumerate() {
+        text += &format!("{},{x},{y}\n", i as f64 / 90.0);
+    }
+    std::fs::write(&csv, text).unwrap();
+    let shot = d.join("resident.png");
+    let out = fovea()
+        .args(["view", "--res", "320x180", "--lights", "2"])
+        .args(["--method", "vafr", "--eyes", "both", "--denoise", "off"])
+        .args(["--backend", "gpu", "--fps", "90", "--frames"])
+        .arg(FRAMES.to_string())
+        .arg("--gaze-csv")
+        .arg(&csv)
+        .arg("--screenshot")
+        .arg(&shot)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    if !out.status.success() {
+        if err.contains("no GPU adapter")
+            && std::env::var("FOVEA_REQUIRE_GPU").as_deref() != Ok("1")
+        {
+            eprintln!("skipping resident_view_presents_from_the_render_device: {err}");
+            return;
+        }
+        panic!("{err}");
+    }
+    assert!(
+        !err.contains("note: the resident GPU frame does not"),
+        "{err}"
+    );
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(shot.with_extension("json")).unwrap()).unwrap();
+    println!(
+        "{}",
+        serde_json::to_string_pretty(&stats["resident"]).unwrap()
+    );
+    println!("HUD: {}", stats["hud"]);
+    // One device: the window was drawn with the frames' own.
+    assert_eq!(stats["window_on_frames_device"], true, "{stats}");
+    let r = &stats["resident"];
+    let totals = &r["totals"];
+    let t = &totals["traffic"];
+    assert_eq!(totals["frames"], FRAMES, "{r}");
+    assert_eq!(t["submissions"], FRAMES, "{r}");
+    assert_eq!(t["blocking_waits"], 0, "{r}");
+    // The timestamps only: 16 passes (each eye's shade and 7 screen passes), 16 B each.
+    let timestamps = FRAMES * 16 * 16;
+    let back = t["bytes_read_back"].as_u64().unwrap();
+    assert!(
+        back <= timestamps,
+        "{back} B read back over {FRAMES} frames: {r}"
+    );
+    // The screenshot's image, one readback per eye, and no other.
+    assert_eq!(totals["images_read"], 2, "{r}");
+    assert_eq!(totals["image_bytes"], 2 * 320 * 180 * 3, "{r}");
+    // The last frame is a steady one: nothing created, one submission.
+    let last = &r["traffic"];
+    assert_eq!(last["submissions"], 1, "{r}");
+    assert_eq!(last["buffers_created"], 0, "{r}");
+    assert_eq!(last["bind_groups_created"], 0, "{r}");
+    assert!(r["host_ms"].as_f64().unwrap() > 0.0, "{r}");
+    let passes: Vec<&str> = r["gpu_ms"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|p| p[0].as_str())
+        .collect();
+    assert!(
+        passes.contains(&"left shade") && passes.contains(&"right tonemap"),
+        "GPU times per pass: {r}"
+    );
+    let hud = stats["hud"].to_string();
+    for what in ["fps", "host", "GPU ms (frame", "left shade", "up ", "back "] {
+        assert!(hud.contains(what), "the HUD lacks {what:?}: {hud}");
+    }
+    let offline = d.join("render.png");
+    run_ok(
+        fovea()
+            .args(["render", "--res", "320x180", "--lights", "2", "-q"])
+            .args([
+                "--backend",
+                "cpu",
+                "--quality",
+                "realtime",
+                "--denoise",
+                "off",
+            ])
+            // Both eyes rendered (the viewer's way), not the left eye reprojected.
+            .args(["--method", "vafr", "--eyes", "both", "--stereo", "dup"])
+            .args(["--gaze", "210,70", "--out"])
+            .arg(&offline),
+    );
+    let psnr = luma_psnr(&rgb(&shot), &rgb(&offline));
+    println!(
+        "resident viewer's screenshot (both eyes) against fovea render: luma PSNR {psnr:.2} dB"
+    );
+    assert!(psnr >= 40.0, "{psnr} dB");
+}

@@ -155,6 +155,10 @@ struct Health {
 }
 
 struct Inner {
+    /// The instance and adapter the device was opened from: a presenter on the same device
+    /// makes its window surface with them ([`GpuContext::instance`]).
+    instance: wgpu::Instance,
+    adapter: wgpu::Adapter,
     device: wgpu::Device,
     queue: wgpu::Queue,
     summary: AdapterSummary,
@@ -264,6 +268,8 @@ impl GpuContext {
         }
         Ok(Self {
             inner: Arc::new(Inner {
+                instance,
+                adapter,
                 device,
                 queue,
                 summary,
@@ -287,6 +293,34 @@ impl GpuContext {
     /// The adapter the device runs on.
     pub fn adapter(&self) -> &AdapterSummary {
         &self.inner.summary
+    }
+
+    /// The wgpu instance the device was opened from: a window surface for a presenter that
+    /// draws with this very device is made with it (`Instance::create_surface`), so that the
+    /// frames and the window share one device (issue 37, item 6).
+    pub fn instance(&self) -> &wgpu::Instance {
+        &self.inner.instance
+    }
+
+    /// Whether this device's adapter can present to `surface` (made with [`Self::instance`]).
+    pub fn can_present_to(&self, surface: &wgpu::Surface<'_>) -> bool {
+        self.inner.adapter.is_surface_supported(surface)
+    }
+
+    /// `surface`'s formats, present modes and alpha modes on this device's adapter.
+    pub fn surface_capabilities(&self, surface: &wgpu::Surface<'_>) -> wgpu::SurfaceCapabilities {
+        surface.get_capabilities(&self.inner.adapter)
+    }
+
+    /// `surface`'s default configuration on this device's adapter at `width` × `height`
+    /// pixels; `None` when the adapter cannot present to it.
+    pub fn surface_config(
+        &self,
+        surface: &wgpu::Surface<'_>,
+        width: u32,
+        height: u32,
+    ) -> Option<wgpu::SurfaceConfiguration> {
+        surface.get_default_config(&self.inner.adapter, width, height)
     }
 
     /// The device's limits (the adapter's own).

@@ -64,6 +64,13 @@ struct App {
     egui_ctx: egui::Context,
     egui_state: Option<egui_winit::State>,
     texture: Option<egui::TextureHandle>,
+    /// The frames' GPU device, when they render on one (the window is drawn with it).
+    frames_device: Option<fovea_gpu::GpuContext>,
+    /// The resident frame's textures as egui textures, one per eye shown.
+    native: Vec<(wgpu::Texture, egui::TextureId)>,
+    /// A screenshot asked for while the frame shown had no bytes on the CPU: written when
+    /// the frame read back for it arrives (`None` inside: the next `shot_NNNN.png`).
+    pending_shot: Option<Option<PathBuf>>,
 
     worker: RenderWorker,
     latest: Option<ViewFrame>,
@@ -132,6 +139,9 @@ pub fn run(cfg: ViewerConfig) -> Result<Summary> {
     if let Some(second) = cfg.second_eye {
         renderer.set_second_eye(second);
     }
+    if let Some(ctx) = &cfg.resident {
+        renderer.set_resident(ctx.clone(), cfg.quiet);
+    }
     let headless = cfg.frames.is_some();
     let worker = RenderWorker::start(renderer, cfg.cpu_path && !headless);
     let mut app = App {
@@ -152,6 +162,9 @@ pub fn run(cfg: ViewerConfig) -> Result<Summary> {
         egui_ctx: egui::Context::default(),
         egui_state: None,
         texture: None,
+        frames_device: cfg.resident,
+        native: Vec::new(),
+        pending_shot: None,
         worker,
         latest: None,
         frame_rect: egui::Rect::NOTHING,
@@ -246,7 +259,8 @@ impl App {
                 )
                 .map_err(|e| ViewerError::Window(format!("cannot open a window: {e}")))?,
         );
-        let presenter = Presenter::new(event_loop, &window, self.quiet)?;
+        let presenter =
+            Presenter::new(event_loop, &window, self.frames_device.as_ref(), self.quiet)?;
         let max_side = match &presenter {
             Presenter::Gpu(g) => Some(g.max_texture_side()),
             Presenter::Soft(_) => None,
@@ -308,6 +322,7 @@ impl App {
     fn submit(&mut self) -> Result<()> {
         let display = self.current_display()?;
         let (w, h) = (display.width_px as f64, display.height_px as f64);
+        let draws_textures = self.draws_textures();
         if let Some(script) = &mut self.script {
             if script.waiting.is_some() || script.next >= script.frames {
                 return Ok(());
@@ -327,6 +342,9 @@ impl App {
             if let Some(p) = &self.camera_path {
                 self.pose = Pose::along(p, t, &display)?;
             }
+            let last = i + 1 == script.frames;
+            let read_back =
+                self.frames_out.is_some() || !draws_textures || (last && self.screenshot.is_some());
             let req = FrameRequest {
                 id: i,
                 view: self.view.clone(),
@@ -334,6 +352,7 @@ impl App {
                 pose: self.pose,
                 gaze,
                 dt_s: 1.0 / self.fps,
+                read_back,
             };
             script.waiting = Some(i);
             if let Some(r) = &mut self.replay {
@@ -401,25 +420,62 @@ impl App {
             pose: self.pose,
             gaze,
             dt_s: dt,
+            // A screenshot waiting for its bytes: this request may have replaced its own.
+            read_back: self.frames_out.is_some()
+                || !self.draws_textures()
+                || self.pending_shot.is_some(),
         });
         self.last_submitted = Some(key);
         Ok(())
     }
 
+    /// Whether the window draws the resident frame's textures as they are (drawn with the
+    /// frames' device): then a frame's bytes are read back only when asked for.
+    fn draws_textures(&self) -> bool {
+        self.presenter
+            .as_ref()
+            .is_some_and(Presenter::shares_frames_device)
+    }
+
     /// A frame came back from the worker.
     fn receive(&mut self, frame: ViewFrame) -> Result<()> {
-        let img = egui::ColorImage::from_rgba_unmultiplied(
-            [frame.width as usize, frame.height as usize],
-            &frame.rgba,
-        );
-        match &mut self.texture {
-            Some(t) => t.set(img, egui::TextureOptions::LINEAR),
-            None => {
-                self.texture = Some(self.egui_ctx.load_texture(
-                    "frame",
-                    img,
-                    egui::TextureOptions::LINEAR,
-                ))
+        let native = match (&frame.resident, self.presenter.as_mut()) {
+            (Some(r), Some(Presenter::Gpu(g))) if g.shares_frames_device() => Some((r, g)),
+            _ => None,
+        };
+        if let Some((r, g)) = native {
+            // The resident frame's own textures: registered once, rebound when the frame
+            // made new ones (another display or method); nothing is copied.
+            for (_, id) in self.native.drain(r.textures.len().min(self.native.len())..) {
+                g.free_frame_texture(id);
+            }
+            for (k, t) in r.textures.iter().enumerate() {
+                match self.native.get_mut(k) {
+                    Some((held, _)) if held == t => {}
+                    Some((held, id)) => {
+                        *id = g.frame_texture(t, Some(*id));
+                        *held = t.clone();
+                    }
+                    None => {
+                        let id = g.frame_texture(t, None);
+                        self.native.push((t.clone(), id));
+                    }
+                }
+            }
+        } else if !frame.rgba.is_empty() {
+            let img = egui::ColorImage::from_rgba_unmultiplied(
+                [frame.width as usize, frame.height as usize],
+                &frame.rgba,
+            );
+            match &mut self.texture {
+                Some(t) => t.set(img, egui::TextureOptions::LINEAR),
+                None => {
+                    self.texture = Some(self.egui_ctx.load_texture(
+                        "frame",
+                        img,
+                        egui::TextureOptions::LINEAR,
+                    ))
+                }
             }
         }
         self.shown += 1;
@@ -451,8 +507,14 @@ impl App {
                 }
             }
         }
+        let has_bytes = !frame.rgba.is_empty();
         self.latest = Some(frame);
         self.dirty = true;
+        if has_bytes {
+            if let Some(path) = self.pending_shot.take() {
+                self.screenshot(path)?;
+            }
+        }
         Ok(())
     }
 
@@ -462,6 +524,18 @@ impl App {
             self.status = "no frame yet to save".into();
             return Ok(());
         };
+        if frame.rgba.is_empty() {
+            // A resident frame lives on the device: the same view again, read back (a
+            // counted readback, the only one).
+            let mut req = frame.request.clone();
+            self.next_id += 1;
+            req.id = self.next_id;
+            req.dt_s = 0.0;
+            req.read_back = true;
+            self.pending_shot = Some(path);
+            self.worker.submit(req);
+            return Ok(());
+        }
         let path = match path {
             Some(p) => p,
             None => {
@@ -496,6 +570,9 @@ impl App {
             "exposure_stops": r.view.exposure_stops,
             "backend": frame.backend,
             "lockstep": frame.lockstep,
+            "resident": frame.resident.as_ref().map(|r| &r.stats),
+            "window_on_frames_device": self.draws_textures(),
+            "hud": self.hud(),
             "wall_ms": frame.wall_ms,
             "lod": frame.lod,
             "frames": frame.stats,
@@ -533,28 +610,59 @@ impl App {
             lines.push("rendering the first frame…".into());
             return lines;
         };
-        let s = &f.stats[0];
-        let stages: Vec<String> = Stage::ALL
-            .iter()
-            .filter(|&&k| s.stages_ms.get(k) > 0.0)
-            .map(|&k| format!("{} {:.1}", k.name(), s.stages_ms.get(k)))
-            .collect();
-        lines.push(format!(
-            "{} {}×{} | frame {:.0} ms | {}",
-            s.method,
-            f.width,
-            f.height,
-            f.wall_ms,
-            stages.join(", ")
-        ));
-        let rays: u64 = f.stats.iter().map(|s| s.rays).sum();
-        let samples: u64 = f.stats.iter().map(|s| s.samples).sum();
-        lines.push(format!(
-            "{samples} samples, {rays} rays ({} primary, {} shadow) | {}",
-            f.stats.iter().map(|s| s.rays_primary).sum::<u64>(),
-            f.stats.iter().map(|s| s.rays_shadow).sum::<u64>(),
-            f.backend
-        ));
+        if let Some(r) = &f.resident {
+            let s = &r.stats;
+            lines.push(format!(
+                "{} {}×{} | host {:.2} ms, submit {:.2} ms | up {} B, back {} B, {} submission(s), {} wait(s) a frame",
+                f.request.view.effective_method().name(),
+                f.width,
+                f.height,
+                s.host_ms,
+                s.submit_ms,
+                s.traffic.bytes_uploaded,
+                s.traffic.bytes_read_back,
+                s.traffic.submissions,
+                s.traffic.blocking_waits,
+            ));
+            let gpu: Vec<String> = s
+                .gpu_ms
+                .iter()
+                .map(|(n, ms)| format!("{n} {ms:.2}"))
+                .collect();
+            lines.push(match s.gpu_frame {
+                Some(g) => format!(
+                    "GPU ms (frame {g}, {} late): {}",
+                    s.frame.saturating_sub(g),
+                    gpu.join(", ")
+                ),
+                None => "GPU ms: not arrived yet (read frames late, never waited for)".into(),
+            });
+            lines.push(f.backend.clone());
+        }
+        // The staged and CPU paths' per-stage figures (a resident frame has its own above).
+        if let Some(s) = f.stats.first() {
+            let stages: Vec<String> = Stage::ALL
+                .iter()
+                .filter(|&&k| s.stages_ms.get(k) > 0.0)
+                .map(|&k| format!("{} {:.1}", k.name(), s.stages_ms.get(k)))
+                .collect();
+            lines.push(format!(
+                "{} {}×{} | frame {:.0} ms | {}",
+                s.method,
+                f.width,
+                f.height,
+                f.wall_ms,
+                stages.join(", ")
+            ));
+            let rays: u64 = f.stats.iter().map(|s| s.rays).sum();
+            let samples: u64 = f.stats.iter().map(|s| s.samples).sum();
+            lines.push(format!(
+                "{samples} samples, {rays} rays ({} primary, {} shadow) | {}",
+                f.stats.iter().map(|s| s.rays_primary).sum::<u64>(),
+                f.stats.iter().map(|s| s.rays_shadow).sum::<u64>(),
+                f.backend
+            ));
+        }
         let focus = match f.eye.focus {
             Some(FocusDistance::Metres(m)) => format!("focus {m:.2} m"),
             Some(FocusDistance::Infinity) => "focus ∞".into(),
@@ -619,8 +727,16 @@ impl App {
         let mut actions = Vec::new();
         let mut view = self.view.clone();
         let hud = self.hud();
-        let texture = self.texture.as_ref();
         let latest = self.latest.as_ref();
+        // The frame's images: the resident frame's textures, one per eye shown, or the
+        // frame's bytes uploaded as one egui texture.
+        let images: Vec<egui::TextureId> = match latest {
+            Some(f) if f.resident.is_some() && self.native.len() == f.eyes() => {
+                self.native.iter().map(|(_, id)| *id).collect()
+            }
+            Some(f) if !f.rgba.is_empty() => self.texture.iter().map(|t| t.id()).collect(),
+            _ => Vec::new(),
+        };
         let mut frame_rect = self.frame_rect;
         // Without a device for egui (the software presenter) the pass still reads the keys
         // and the pointer; only the frame is drawn.
@@ -642,21 +758,28 @@ impl App {
             });
             egui::CentralPanel::no_frame().show(ui, |ui| {
                 let avail = ui.available_rect_before_wrap();
-                let (Some(f), Some(tex)) = (latest, texture) else {
+                let Some(f) = latest.filter(|_| !images.is_empty()) else {
                     ui.centered_and_justified(|ui| ui.label("rendering…"));
                     return;
                 };
                 let rect = fit(avail, f.width, f.height);
                 frame_rect = rect;
                 let painter = ui.painter_at(avail);
-                painter.image(
-                    tex.id(),
-                    rect,
-                    egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0)),
-                    egui::Color32::WHITE,
-                );
+                let part = rect.width() / images.len() as f32;
+                for (k, id) in images.iter().enumerate() {
+                    let r = egui::Rect::from_min_size(
+                        rect.min + egui::vec2(k as f32 * part, 0.0),
+                        egui::vec2(part, rect.height()),
+                    );
+                    painter.image(
+                        *id,
+                        r,
+                        egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0)),
+                        egui::Color32::WHITE,
+                    );
+                }
                 // The gaze (display pixels) and the rings (frame pixels), in each eye's half.
-                let n = f.stats.len().max(1);
+                let n = f.eyes();
                 let eye_w = rect.width() / n as f32;
                 let per_frame_px = eye_w / (f.width as f32 / n as f32);
                 let per_display_px = eye_w / f.request.display.width_px as f32;

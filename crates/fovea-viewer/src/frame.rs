@@ -4,6 +4,13 @@
 //! shows ([`ViewFrame`]). [`RenderWorker`] runs it on its own thread, newest request first, so
 //! the window stays responsive while a CPU frame takes its time, and refines a reduced-scale
 //! frame to full scale when the view is still.
+//!
+//! With a GPU context ([`FrameRenderer::set_resident`]) the views the resident frame serves
+//! (`fovea_gpu::frame::ResidentFrame`: both eyes' every pass in one submission, nothing read
+//! back, issue 37) render on it and end in one texture per eye on that device, which the
+//! window draws directly ([`ViewFrame::resident`]); the 8-bit bytes are read back only when
+//! an image is asked for ([`FrameRequest::read_back`]: screenshots, `--frames-out`). The
+//! views it does not serve fall back to the staged path above, with a one-line notice.
 
 use std::sync::mpsc::{self, Receiver, Sender};
 use std::sync::{Arc, Condvar, Mutex};
@@ -15,6 +22,9 @@ use fovea_core::display::{DisplayProfile, Gaze};
 use fovea_core::gaze::GazeSample;
 use fovea_core::units::{CyclesPerDegree, Degrees};
 use fovea_core::Image;
+use fovea_gpu::frame::{ResidentFrame, ToneSettings};
+use fovea_gpu::traffic::TrafficCounts;
+use fovea_gpu::GpuContext;
 use fovea_post::tonemap::{to_srgb8, ToneCurve, ToneMapExecutor};
 use fovea_render::camera::EyeCamera;
 use fovea_render::eye::{EyeState, EyeTracker};
@@ -25,6 +35,7 @@ use fovea_render::pipeline::{
 };
 use fovea_render::plan::FramePlan;
 use fovea_render::scene::Light;
+use fovea_render::shade::FrameNoise;
 use fovea_render::temporal::{TemporalAccumulator, TemporalSettings};
 use fovea_render::world::World;
 
@@ -93,6 +104,95 @@ pub struct FrameRequest {
     /// Seconds since the previous frame's gaze (the accommodation filter's step); 0 renders
     /// the previous eye state again (a refinement).
     pub dt_s: f64,
+    /// Whether the frame's 8-bit bytes are wanted on the CPU ([`ViewFrame::rgba`]). A
+    /// resident GPU frame reads them back only then (a screenshot, `--frames-out`, a window
+    /// drawn by another device); the other paths always make them.
+    pub read_back: bool,
+}
+
+/// What the resident GPU frame did for one binocular frame (the HUD's and the screenshot's
+/// figures; the traffic counted by `fovea_gpu`'s instrumentation).
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct ResidentStats {
+    /// The frame's index in the resident frame (counted from 0).
+    pub frame: u64,
+    /// The render thread's time preparing and recording the frame, without the submit, ms.
+    pub host_ms: f64,
+    /// The `queue.submit`, ms.
+    pub submit_ms: f64,
+    /// This frame's traffic (the render call alone, not an image read back for a
+    /// screenshot).
+    pub traffic: Traffic,
+    /// Each pass's GPU ms of the newest frame whose timestamps had arrived (frames late,
+    /// never waited for), and that frame's index; empty until the first arrives or on a
+    /// device without timestamps.
+    pub gpu_ms: Vec<(String, f64)>,
+    /// The frame the GPU times are of.
+    pub gpu_frame: Option<u64>,
+    /// Since the resident frame was made: frames rendered and their traffic summed.
+    pub totals: ResidentTotals,
+}
+
+/// What crossed the bus and what the host waited for, as counted by `fovea_gpu`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct Traffic {
+    /// Bytes written to the device.
+    pub bytes_uploaded: u64,
+    /// Bytes read back (the timestamps' few bytes unless an image was asked for).
+    pub bytes_read_back: u64,
+    /// Queue submissions.
+    pub submissions: u64,
+    /// Blocking waits on the device.
+    pub blocking_waits: u64,
+    /// Buffers created.
+    pub buffers_created: u64,
+    /// Bind groups created.
+    pub bind_groups_created: u64,
+}
+
+impl Traffic {
+    fn of(t: &TrafficCounts) -> Self {
+        Self {
+            bytes_uploaded: t.bytes_uploaded,
+            bytes_read_back: t.bytes_read_back,
+            submissions: t.submissions,
+            blocking_waits: t.blocking_waits,
+            buffers_created: t.buffers_created,
+            bind_groups_created: t.bind_groups_created,
+        }
+    }
+
+    fn add(&mut self, o: &Self) {
+        self.bytes_uploaded += o.bytes_uploaded;
+        self.bytes_read_back += o.bytes_read_back;
+        self.submissions += o.submissions;
+        self.blocking_waits += o.blocking_waits;
+        self.buffers_created += o.buffers_created;
+        self.bind_groups_created += o.bind_groups_created;
+    }
+}
+
+/// The resident frame's running totals.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct ResidentTotals {
+    /// Frames rendered by the resident frame.
+    pub frames: u64,
+    /// Their render calls' traffic, summed (images read back not included).
+    pub traffic: Traffic,
+    /// Images read back (one per eye for each frame asked for as bytes).
+    pub images_read: u64,
+    /// Their bytes.
+    pub image_bytes: u64,
+}
+
+/// A frame the resident GPU frame rendered: its textures on the render device, which the
+/// window draws directly, and its figures.
+#[derive(Clone, Debug)]
+pub struct ResidentView {
+    /// Each shown eye's tone-mapped frame (`Rgba8Unorm`, sRGB codes, alpha 255), left first.
+    pub textures: Vec<wgpu::Texture>,
+    /// The frame's figures.
+    pub stats: ResidentStats,
 }
 
 /// A rendered frame, ready to show.
@@ -126,6 +226,20 @@ pub struct ViewFrame {
     pub backend: String,
     /// Whether both eyes rendered at the same time, their device work in shared submissions.
     pub lockstep: bool,
+    /// Rendered by the resident GPU frame: its textures and figures (`rgba` is empty unless
+    /// the request asked for the bytes); `None` on the other paths.
+    pub resident: Option<ResidentView>,
+}
+
+impl ViewFrame {
+    /// Eyes side by side in the frame (1 or 2).
+    pub fn eyes(&self) -> usize {
+        if self.request.view.eyes == EyesChoice::Both {
+            2
+        } else {
+            1
+        }
+    }
 }
 
 /// The right eye's executors of a viewer whose eyes render at the same time, on the device of
@@ -155,6 +269,34 @@ pub struct FrameRenderer {
     last_eye: Option<EyeState>,
     accumulator: Option<(TemporalAccumulator, String)>,
     lod: Option<LodScene>,
+    /// The resident GPU frame's device and state, when the frames render on a GPU.
+    resident: Option<Resident>,
+}
+
+/// The resident GPU frame of a viewer, made with the first view it serves.
+struct Resident {
+    ctx: GpuContext,
+    /// The frame and the lights it was made for (a change of lights uploads the scene again).
+    frame: Option<(ResidentFrame, LightsChoice)>,
+    totals: ResidentTotals,
+    gpu: Option<fovea_gpu::frame::FrameGpuTimes>,
+    /// The last fallback said (each new reason is said once).
+    said: Option<String>,
+    quiet: bool,
+}
+
+/// Why the resident frame does not render `view` (checked before the plans; the plans'
+/// own refusals come from `ResidentFrame::supports`).
+fn resident_refusal(view: &ViewSettings) -> Option<&'static str> {
+    if view.lod {
+        Some("level of detail (L) changes the scene per gaze")
+    } else if view.overlays.density || view.overlays.coc {
+        Some("the density and CoC overlays (Y, C) read the frame on the CPU")
+    } else if view.eyes == EyesChoice::One && view.temporal {
+        Some("temporal accumulation (T) is not on the device yet")
+    } else {
+        None
+    }
 }
 
 impl FrameRenderer {
@@ -182,7 +324,23 @@ impl FrameRenderer {
             last_eye: None,
             accumulator: None,
             lod: None,
+            resident: None,
         })
+    }
+
+    /// Renders the views the resident GPU frame serves on `ctx` (the device of the
+    /// executors, and of the window when it can present): both eyes' every pass in one
+    /// submission, the frame left on the device as a texture per eye. The other views keep
+    /// the path above; each new reason is said in one `note:` line (unless `quiet`).
+    pub fn set_resident(&mut self, ctx: GpuContext, quiet: bool) {
+        self.resident = Some(Resident {
+            ctx,
+            frame: None,
+            totals: ResidentTotals::default(),
+            gpu: None,
+            said: None,
+            quiet,
+        });
     }
 
     /// Renders both eyes at the same time from now on, the right eye on `second`'s
@@ -256,6 +414,26 @@ impl FrameRenderer {
         };
         let world = lod_world.as_ref().unwrap_or(&self.world);
 
+        if let Some(resident) = &mut self.resident {
+            let attempt = ResidentAttempt {
+                req,
+                view,
+                settings: &settings,
+                display: &display,
+                camera: &camera,
+                eye: &eye,
+                ipd_m: self.ipd_m,
+            };
+            if let Some(frame) = resident.render(world, attempt)? {
+                return Ok(ViewFrame {
+                    scale,
+                    lod: lod_stats,
+                    wall_ms: t0.elapsed_ms().0,
+                    ..frame
+                });
+            }
+        }
+
         let mut frames = Vec::new();
         match view.eyes {
             EyesChoice::One => {
@@ -276,7 +454,7 @@ impl FrameRenderer {
                 // Each accumulated frame draws its own random numbers (issue 38).
                 let noise = self.accumulator.as_ref().map_or(0, |(a, _)| a.frame());
                 let plan = FramePlan::new(world, &camera, &settings, &eye, jitter)?
-                    .with_noise(fovea_render::shade::FrameNoise::new(noise, 0));
+                    .with_noise(FrameNoise::new(noise, 0));
                 let inputs = FrameInputs {
                     accumulator: self.accumulator.as_mut().map(|(a, _)| a),
                     prefill: None,
@@ -309,11 +487,13 @@ impl FrameRenderer {
                     let one = |ctx: &mut FrameContext,
                                cam: &EyeCamera,
                                gaze: Gaze,
+                               index: u32,
                                times: StageTimes|
                      -> fovea_render::Result<()> {
                         let mut e = eye;
                         e.gaze = gaze;
-                        let plan = FramePlan::new(world, cam, settings, &e, [0.0, 0.0])?;
+                        let plan = FramePlan::new(world, cam, settings, &e, [0.0, 0.0])?
+                            .with_noise(FrameNoise::new(0, index));
                         render_planned(
                             ctx,
                             world,
@@ -327,14 +507,17 @@ impl FrameRenderer {
                     };
                     in_lockstep(
                         &**lockstep,
-                        || one(left, &lc, lg, times),
-                        || one(right, &rc, rg, StageTimes::default()),
+                        || one(left, &lc, lg, 0, times),
+                        || one(right, &rc, rg, 1, StageTimes::default()),
                     )?;
                 } else {
                     for (k, (cam, gaze)) in pair.into_iter().enumerate() {
                         let mut e = eye;
                         e.gaze = gaze;
-                        let plan = FramePlan::new(world, &cam, &settings, &e, [0.0, 0.0])?;
+                        // Each eye draws its own random numbers, as `fovea render --eyes
+                        // both` (`fovea_render::stereo`).
+                        let plan = FramePlan::new(world, &cam, &settings, &e, [0.0, 0.0])?
+                            .with_noise(FrameNoise::new(0, k as u32));
                         // The executors go to this eye's context and come back, error or not.
                         if k > 0 {
                             let executors = self.ctx[0].take_executors();
@@ -416,6 +599,7 @@ impl FrameRenderer {
             wall_ms: t0.elapsed_ms().0,
             backend,
             lockstep: eyes == 2 && self.lockstep.is_some(),
+            resident: None,
         })
     }
 
@@ -439,6 +623,168 @@ impl FrameRenderer {
             .as_ref()
             .map_or(fovea_core::optics::EyeModel::default(), |d| d.eye);
         Ok(lod.world_for(&self.world, camera, &eye_model, eye)?)
+    }
+}
+
+/// What one view asks of the resident frame.
+struct ResidentAttempt<'a> {
+    req: &'a FrameRequest,
+    view: &'a ViewSettings,
+    settings: &'a FrameSettings,
+    display: &'a DisplayProfile,
+    camera: &'a EyeCamera,
+    eye: &'a EyeState,
+    ipd_m: f32,
+}
+
+impl Resident {
+    /// Says once why a view falls back.
+    fn fall_back(&mut self, why: String) {
+        if self.said.as_deref() != Some(why.as_str()) {
+            if !self.quiet {
+                eprintln!(
+                    "note: the resident GPU frame does not render this view ({why}); \
+                     rendering it with the staged GPU path, each frame read back"
+                );
+            }
+            self.said = Some(why);
+        }
+    }
+
+    /// The frame of `a` on the device, or `None` when the resident frame does not serve it
+    /// (said once; the caller renders it the staged way).
+    fn render(&mut self, world: &World, a: ResidentAttempt<'_>) -> Result<Option<ViewFrame>> {
+        if let Some(why) = resident_refusal(a.view) {
+            self.fall_back(why.to_string());
+            return Ok(None);
+        }
+        let both = a.view.eyes == EyesChoice::Both;
+        // Each eye's camera and eye state: both eyes at the fixated point (as the staged
+        // path and `fovea render --eyes both`), or the one eye twice (the resident frame is
+        // binocular; the right copy is not shown).
+        let eyes: [(EyeCamera, EyeState); 2] = if both {
+            let rig = fovea_render::camera::HmdRig::new(
+                a.camera.position,
+                a.camera.forward,
+                a.camera.up,
+                a.ipd_m,
+            )?;
+            let (_, [(lc, lg), (rc, rg)]) =
+                fovea_render::stereo::fixating_eyes(world, &rig, a.display, &a.eye.gaze)?;
+            let (mut le, mut re) = (*a.eye, *a.eye);
+            le.gaze = lg;
+            re.gaze = rg;
+            [(lc, le), (rc, re)]
+        } else {
+            [(a.camera.clone(), *a.eye), (a.camera.clone(), *a.eye)]
+        };
+        let mut plans = Vec::with_capacity(2);
+        for (k, (cam, e)) in eyes.iter().enumerate() {
+            // Each eye its own random numbers (as `fovea render --eyes both` and the staged
+            // path); one eye shown: the staged path's frame 0 without an accumulator.
+            let index = if both { k as u32 } else { 0 };
+            let plan = FramePlan::new(world, cam, a.settings, e, [0.0, 0.0])?
+                .with_noise(FrameNoise::new(0, index));
+            if let Err(e) = ResidentFrame::supports(&plan, cam) {
+                self.fall_back(e.to_string());
+                return Ok(None);
+            }
+            plans.push(plan);
+        }
+        let plans = [&plans[0], &plans[1]];
+        let cams = [&eyes[0].0, &eyes[1].0];
+        let tone = ToneSettings {
+            exposure_stops: a.view.exposure_stops,
+            curve: ToneCurve::Reinhard,
+        };
+        let gpu_err =
+            |e: fovea_gpu::GpuError| ViewerError::Render(format!("resident GPU frame: {e}"));
+        if self.frame.as_ref().is_none_or(|(_, l)| *l != a.view.lights) {
+            self.frame = None;
+            let mut f = ResidentFrame::new(&self.ctx, world, plans, cams, tone).map_err(gpu_err)?;
+            f.set_presenting(true);
+            self.frame = Some((f, a.view.lights));
+            self.totals = ResidentTotals::default();
+            self.gpu = None;
+        }
+        let Some((frame, _)) = &mut self.frame else {
+            return Ok(None);
+        };
+        frame.set_tone(tone).map_err(gpu_err)?;
+        let before = self.ctx.traffic();
+        let times = frame.render(world, plans, cams).map_err(gpu_err)?;
+        if let Some(t) = frame.poll_gpu_times().map_err(gpu_err)?.pop() {
+            self.gpu = Some(t);
+        }
+        let traffic = Traffic::of(&self.ctx.traffic().since(&before));
+        self.totals.frames += 1;
+        self.totals.traffic.add(&traffic);
+        self.said = None;
+        let shown = if both { 2 } else { 1 };
+        let (w, h) = (a.display.width_px, a.display.height_px);
+        let width = w * shown as u32;
+        let mut rgba = Vec::new();
+        if a.req.read_back {
+            rgba = vec![255u8; (width * h * 4) as usize];
+            for k in 0..shown {
+                let rgb = frame.image(k).map_err(gpu_err)?;
+                self.totals.images_read += 1;
+                self.totals.image_bytes += rgb.len() as u64;
+                for y in 0..h as usize {
+                    for x in 0..w as usize {
+                        let src = (y * w as usize + x) * 3;
+                        let dst = (y * width as usize + k * w as usize + x) * 4;
+                        rgba[dst..dst + 3].copy_from_slice(&rgb[src..src + 3]);
+                    }
+                }
+            }
+        }
+        let textures = (0..shown)
+            .map(|k| {
+                frame.texture(k).cloned().ok_or_else(|| {
+                    ViewerError::Render(format!("the resident frame has no texture for eye {k}"))
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let stats = ResidentStats {
+            frame: times.frame,
+            host_ms: times.host_ms,
+            submit_ms: times.submit_ms,
+            traffic,
+            gpu_ms: self.gpu.as_ref().map_or_else(Vec::new, |g| {
+                g.passes
+                    .iter()
+                    .filter_map(|(n, ms)| ms.map(|ms| (n.to_string(), ms)))
+                    .collect()
+            }),
+            gpu_frame: self.gpu.as_ref().map(|g| g.frame),
+            totals: self.totals,
+        };
+        let rings = if a.view.overlays.rings {
+            rings(a.camera, &a.eye.gaze)
+        } else {
+            Vec::new()
+        };
+        Ok(Some(ViewFrame {
+            id: a.req.id,
+            width,
+            height: h,
+            rgba,
+            stats: Vec::new(),
+            request: a.req.clone(),
+            camera: a.camera.clone(),
+            eye: *a.eye,
+            scale: 1.0,
+            rings,
+            lod: None,
+            wall_ms: 0.0,
+            backend: format!(
+                "resident GPU frame ({}, both eyes in one submission)",
+                plans[0].method()
+            ),
+            lockstep: both,
+            resident: Some(ResidentView { textures, stats }),
+        }))
     }
 }
 

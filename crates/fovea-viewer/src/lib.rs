@@ -32,7 +32,7 @@ use fovea_render::world::World;
 pub use controls::{ViewMethod, ViewSettings};
 pub use display_server::{connect_display_server, DisplayHold};
 pub use error::{Result, ViewerError};
-pub use frame::{Pose, SecondEyeExecutors};
+pub use frame::{Pose, ResidentStats, ResidentTotals, SecondEyeExecutors, Traffic};
 
 /// Where the gaze comes from.
 pub enum GazeSource {
@@ -86,6 +86,10 @@ pub struct ViewerConfig {
     /// and the device's meeting point for both eyes' submissions
     /// (`fovea_render::pipeline::lockstep`); `None`: the eyes render in turn on `executors`.
     pub second_eye: Option<SecondEyeExecutors>,
+    /// The GPU device the executors run on, when there is one: the views the resident frame
+    /// serves (`fovea_gpu::frame::ResidentFrame`) render on it, and the window is drawn with
+    /// it, the frames as textures (issue 37, item 6). `None`: the CPU path.
+    pub resident: Option<fovea_gpu::GpuContext>,
     /// Which backend renders, in words (the HUD shows it).
     pub backend: String,
     /// Whether the frames are rendered on the CPU (then a still view is refined from the

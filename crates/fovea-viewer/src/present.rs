@@ -1,12 +1,20 @@
 //! Drawing the window: egui (panel, HUD, the frame as a texture) on a wgpu device, or, where no
 //! device can draw it (no Vulkan driver at all), the frame alone copied into the window by the
 //! CPU (softbuffer), the HUD in the title bar and the keys still working.
+//!
+//! Given the frames' GPU context, the window is drawn with that very device (its instance
+//! makes the window's surface): the resident frame's textures are registered with egui as
+//! native textures and drawn without a copy — one device, nothing read back (issue 37, item
+//! 6). Where that device cannot present to the window, the window gets a device of its own
+//! and the frames come to it as bytes (a `note:` says so).
 
 use std::num::NonZeroU32;
 use std::sync::Arc;
 
 use winit::event_loop::ActiveEventLoop;
 use winit::window::Window;
+
+use fovea_gpu::GpuContext;
 
 use crate::error::{Result, ViewerError};
 use crate::frame::ViewFrame;
@@ -22,7 +30,25 @@ pub enum Presenter {
 impl Presenter {
     /// A wgpu device for the window, or, when there is none, the CPU presenter (with a
     /// `note:` saying why, unless `quiet`).
-    pub fn new(event_loop: &ActiveEventLoop, window: &Arc<Window>, quiet: bool) -> Result<Self> {
+    pub fn new(
+        event_loop: &ActiveEventLoop,
+        window: &Arc<Window>,
+        frames_device: Option<&GpuContext>,
+        quiet: bool,
+    ) -> Result<Self> {
+        if let Some(ctx) = frames_device {
+            match GpuPresenter::on(ctx, window) {
+                Ok(g) => return Ok(Presenter::Gpu(Box::new(g))),
+                Err(why) => {
+                    if !quiet {
+                        eprintln!(
+                            "note: {why}: the window gets a device of its own and each frame \
+                             is read back to it"
+                        );
+                    }
+                }
+            }
+        }
         match GpuPresenter::new(event_loop, window) {
             Ok(g) => Ok(Presenter::Gpu(Box::new(g))),
             Err(why) => {
@@ -48,6 +74,12 @@ impl Presenter {
         }
     }
 
+    /// Whether the window is drawn with the frames' own device (their textures drawn as they
+    /// are, nothing read back).
+    pub fn shares_frames_device(&self) -> bool {
+        matches!(self, Presenter::Gpu(g) if g.shared)
+    }
+
     /// Whether egui's panel and HUD are drawn.
     pub fn draws_egui(&self) -> bool {
         matches!(self, Presenter::Gpu(_))
@@ -71,6 +103,8 @@ pub struct GpuPresenter {
     config: wgpu::SurfaceConfiguration,
     renderer: egui_wgpu::Renderer,
     adapter: String,
+    /// Drawn with the frames' device ([`GpuPresenter::on`]).
+    shared: bool,
 }
 
 impl GpuPresenter {
@@ -127,7 +161,81 @@ impl GpuPresenter {
             config,
             renderer,
             adapter: name,
+            shared: false,
         })
+    }
+
+    /// The window drawn with the frames' device `ctx`: the surface made by its instance,
+    /// configured on its adapter; the error says why that adapter cannot present to it.
+    fn on(ctx: &GpuContext, window: &Arc<Window>) -> std::result::Result<Self, String> {
+        let name = ctx.adapter().to_string();
+        let surface = ctx
+            .instance()
+            .create_surface(window.clone())
+            .map_err(|e| format!("the frames' device {name} cannot draw into the window ({e})"))?;
+        if !ctx.can_present_to(&surface) {
+            return Err(format!(
+                "the frames' device {name} cannot present to the window"
+            ));
+        }
+        let caps = ctx.surface_capabilities(&surface);
+        let format = egui_wgpu::preferred_framebuffer_format(&caps.formats)
+            .map_err(|e| format!("{name} has no surface format for egui ({e})"))?;
+        let px = window.inner_size();
+        let config = wgpu::SurfaceConfiguration {
+            format,
+            view_formats: vec![format],
+            ..ctx
+                .surface_config(&surface, px.width.max(1), px.height.max(1))
+                .ok_or_else(|| format!("{name} cannot present to this window"))?
+        };
+        let device = ctx.device().clone();
+        surface.configure(&device, &config);
+        let renderer = egui_wgpu::Renderer::new(&device, format, Default::default());
+        Ok(Self {
+            surface,
+            device,
+            queue: ctx.queue().clone(),
+            config,
+            renderer,
+            adapter: format!("{name}, the frames' own device"),
+            shared: true,
+        })
+    }
+
+    /// Whether the window is drawn with the frames' own device.
+    pub fn shares_frames_device(&self) -> bool {
+        self.shared
+    }
+
+    /// Forgets a texture [`Self::frame_texture`] registered.
+    pub fn free_frame_texture(&mut self, id: egui::TextureId) {
+        self.renderer.free_texture(&id);
+    }
+
+    /// `texture` (on this presenter's device: the resident frame's) as an egui texture:
+    /// registered the first time, its binding replaced when `id` names an earlier one.
+    pub fn frame_texture(
+        &mut self,
+        texture: &wgpu::Texture,
+        id: Option<egui::TextureId>,
+    ) -> egui::TextureId {
+        let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
+        match id {
+            Some(id) => {
+                self.renderer.update_egui_texture_from_wgpu_texture(
+                    &self.device,
+                    &view,
+                    wgpu::FilterMode::Linear,
+                    id,
+                );
+                id
+            }
+            None => {
+                self.renderer
+                    .register_native_texture(&self.device, &view, wgpu::FilterMode::Linear)
+            }
+        }
     }
 
     /// Draws egui's output.
@@ -233,7 +341,7 @@ impl SoftPresenter {
         buf.fill(0);
         let (ww, wh) = (size.width as usize, size.height as usize);
         let mut rect = egui::Rect::NOTHING;
-        if let Some(f) = frame {
+        if let Some(f) = frame.filter(|f| !f.rgba.is_empty()) {
             let r = fit(
                 egui::Rect::from_min_size(egui::Pos2::ZERO, egui::vec2(ww as f32, wh as f32)),
                 f.width,
@@ -254,7 +362,7 @@ impl SoftPresenter {
                 }
             }
             // The gaze: a small cross, in each eye's half.
-            let eyes = f.stats.len().max(1);
+            let eyes = f.eyes();
             let g = &f.request.gaze;
             let k = r.width() / eyes as f32 / f.request.display.width_px as f32;
             for e in 0..eyes {

@@ -35,6 +35,7 @@ fn request(view: ViewSettings, display: &DisplayProfile, pose: Pose) -> FrameReq
         pose,
         gaze: GazeSample::new(0.0, 120.0, 70.0),
         dt_s: 1.0 / 90.0,
+        read_back: true,
     }
 }
 

@@ -49,7 +49,7 @@ use crate::sample_aa::SampleFilter;
 
 /// Every pass of a binocular frame as [`ResidentFrame::poll_gpu_times`] names them: per eye
 /// the sample side's pass, then the screen side's ([`SCREEN_PASSES`]).
-pub const BINOCULAR_PASSES: [[&str; 7]; 2] = [
+pub const BINOCULAR_PASSES: [[&str; EYE_PASSES]; 2] = [
     [
         "left shade",
         "left aa",
@@ -58,6 +58,7 @@ pub const BINOCULAR_PASSES: [[&str; 7]; 2] = [
         "left split",
         "left dof",
         "left tonemap",
+        "left present",
     ],
     [
         "right shade",
@@ -67,8 +68,12 @@ pub const BINOCULAR_PASSES: [[&str; 7]; 2] = [
         "right split",
         "right dof",
         "right tonemap",
+        "right present",
     ],
 ];
+
+/// Passes per eye in [`BINOCULAR_PASSES`]: the sample side's, then the screen side's.
+const EYE_PASSES: usize = 1 + SCREEN_PASSES.len();
 
 /// The denoiser's passes as [`ResidentFrame::poll_gpu_times`] names them, after
 /// [`BINOCULAR_PASSES`]' (absent, `None`, in frames whose plans do not denoise).
@@ -115,6 +120,9 @@ pub struct ResidentFrame {
     samples: ResidentSamples,
     screens: [Option<EyeScreen>; 2],
     tone: ToneSettings,
+    /// Whether each eye's screen side also fills its presenter texture
+    /// ([`Self::set_presenting`]).
+    presenting: bool,
     /// The sample side's timer (one pass per eye), each eye's screen timer and the
     /// denoiser's (one pass per eye); `None` on a device without timestamp queries.
     timers: Option<[FrameTimer; 4]>,
@@ -179,7 +187,7 @@ fn screen_config(plan: &FramePlan, camera: &EyeCamera, tone: ToneSettings) -> Re
         dof,
         exposure_stops: tone.exposure_stops,
         curve: tone.curve,
-        // No presenter reads it yet (`fovea view` presents through its own device).
+        // Set by `ResidentFrame::set_presenting` (`fovea view` draws the texture).
         texture: false,
     })
 }
@@ -268,6 +276,7 @@ impl ResidentFrame {
             samples,
             screens: [None, None],
             tone,
+            presenting: false,
             timers,
             pending: Vec::new(),
             frames: 0,
@@ -281,7 +290,10 @@ impl ResidentFrame {
 
     /// Keeps eye `eye`'s screen side when it serves `plan`, else builds one for it.
     fn ensure_screen(&mut self, eye: usize, plan: &FramePlan, camera: &EyeCamera) -> Result<()> {
-        let config = screen_config(plan, camera, self.tone)?;
+        let config = ScreenConfig {
+            texture: self.presenting,
+            ..screen_config(plan, camera, self.tone)?
+        };
         let keep = self.screens[eye].as_ref().is_some_and(|s| {
             s.screen
                 .matches(&plan.display, plan.method(), &config, s.limits)
@@ -324,6 +336,41 @@ impl ResidentFrame {
     /// The temporal accumulation's settings, when on.
     pub fn temporal(&self) -> Option<&fovea_render::temporal::TemporalSettings> {
         self.temporal.as_ref().map(|t| t.settings())
+    }
+
+    /// From the next frame on, each eye's screen side also fills an `Rgba8Unorm` texture on
+    /// the frame's device with the tone-mapped frame ([`ScreenConfig::texture`]; one more pass
+    /// per eye, `present`), which a presenter on the same device draws without a readback
+    /// (issue 37, item 6: `fovea view`). Changing it rebuilds both screen sides at the next
+    /// [`Self::render`].
+    pub fn set_presenting(&mut self, on: bool) {
+        self.presenting = on;
+    }
+
+    /// The tone map from the next frame on (the viewer's exposure keys); a change rebuilds
+    /// both screen sides at the next [`Self::render`], the scene stays.
+    pub fn set_tone(&mut self, tone: ToneSettings) -> Result<()> {
+        if !tone.exposure_stops.is_finite() {
+            return Err(GpuError::Input(format!(
+                "exposure {} stops (a finite number of stops)",
+                tone.exposure_stops
+            )));
+        }
+        self.tone = tone;
+        Ok(())
+    }
+
+    /// Eye `eye`'s presenter texture (0 left, 1 right): the last submitted frame's
+    /// tone-mapped sRGB codes, alpha 255, `Rgba8Unorm`; `None` unless
+    /// [`Self::set_presenting`] was on for the last [`Self::render`]. The same texture from
+    /// frame to frame while the eye's screen side is kept.
+    pub fn texture(&self, eye: usize) -> Option<&wgpu::Texture> {
+        self.screen(eye)?.texture()
+    }
+
+    /// The device the frame renders on.
+    pub fn context(&self) -> &GpuContext {
+        &self.ctx
     }
 
     /// The sample side (its scene, each eye's buffers).
@@ -493,12 +540,9 @@ impl ResidentFrame {
                 entry.1 |= 1 << k;
                 for (p, (_, ms)) in t.passes.iter().enumerate() {
                     let slot = match k {
-                        0 => 7 * p,
-                        3 => 14 + p,
-                        // The screen's `present` (its seventh pass) is not one the frame names:
-                        // it would land on the next eye's `shade`.
-                        _ if p + 1 >= BINOCULAR_PASSES[0].len() => continue,
-                        eye => 7 * (eye - 1) + 1 + p,
+                        0 => EYE_PASSES * p,
+                        3 => 2 * EYE_PASSES + p,
+                        eye => EYE_PASSES * (eye - 1) + 1 + p,
                     };
                     if let Some(e) = entry.2.get_mut(slot) {
                         e.1 = *ms;
