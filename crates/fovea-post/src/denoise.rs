@@ -689,6 +689,97 @@ struct Lanes {
     ay: [f32; LANES],
 }
 
+/// The 3×3 kernel's taps besides the centre, `(xi, yi)` = offset + 1, in the kernel's order.
+const TAPS_3X3: [(usize, usize); LANES] = [
+    (0, 0),
+    (0, 1),
+    (0, 2),
+    (1, 0),
+    (1, 2),
+    (2, 0),
+    (2, 1),
+    (2, 2),
+];
+/// |Δx| of [`TAPS_3X3`] in kernel steps.
+const AX_3X3: [f32; LANES] = [1.0, 1.0, 1.0, 0.0, 0.0, 1.0, 1.0, 1.0];
+/// |Δy| of [`TAPS_3X3`] in kernel steps.
+const AY_3X3: [f32; LANES] = [1.0, 0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 1.0];
+
+/// Eight taps' lanes: the guides and light of texels `q`, with their kernel weights `h` and
+/// offsets `ax`, `ay`. With `AVX2` (only inside a function compiled for it) each four-float
+/// record is loaded whole and the eight are transposed in registers; otherwise each lane
+/// array is built whole from its eight loads (no scalar stores read back as a vector: that
+/// stalls on store forwarding). The values are the same either way.
+#[inline(always)]
+fn gather<const AVX2: bool>(
+    geom: &[[f32; 4]],
+    src: &[[f32; 4]],
+    q: &[usize; LANES],
+    h: [f32; LANES],
+    ax: [f32; LANES],
+    ay: [f32; LANES],
+) -> Lanes {
+    #[cfg(target_arch = "x86_64")]
+    if AVX2 {
+        // SAFETY: `gather::<true>` is called only from `atrous_row_avx2`, on a CPU with AVX2.
+        let ([nx, ny, nz, z], [r, g, b, var]) =
+            unsafe { (transpose8_avx2(geom, q), transpose8_avx2(src, q)) };
+        return Lanes {
+            nx,
+            ny,
+            nz,
+            z,
+            r,
+            g,
+            b,
+            var,
+            h,
+            ax,
+            ay,
+        };
+    }
+    let gq: [[f32; 4]; LANES] = std::array::from_fn(|t| geom[q[t]]);
+    let sq: [[f32; 4]; LANES] = std::array::from_fn(|t| src[q[t]]);
+    Lanes {
+        nx: std::array::from_fn(|t| gq[t][0]),
+        ny: std::array::from_fn(|t| gq[t][1]),
+        nz: std::array::from_fn(|t| gq[t][2]),
+        z: std::array::from_fn(|t| gq[t][3]),
+        r: std::array::from_fn(|t| sq[t][0]),
+        g: std::array::from_fn(|t| sq[t][1]),
+        b: std::array::from_fn(|t| sq[t][2]),
+        var: std::array::from_fn(|t| sq[t][3]),
+        h,
+        ax,
+        ay,
+    }
+}
+
+/// Records `rows[q[0..8]]` transposed: element `c` of the result is component `c` of the
+/// eight records (two 128-bit loads per 256-bit register, then the 4×4 transposes of each
+/// half).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn transpose8_avx2(rows: &[[f32; 4]], q: &[usize; LANES]) -> [[f32; LANES]; 4] {
+    use std::arch::x86_64::*;
+    let ld = |t: usize| _mm_loadu_ps(rows[q[t]].as_ptr());
+    let pair =
+        |lo: usize, hi: usize| _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(ld(lo)), ld(hi));
+    let (r04, r15, r26, r37) = (pair(0, 4), pair(1, 5), pair(2, 6), pair(3, 7));
+    // Per half: [a.x b.x a.y b.y], [a.z b.z a.w b.w] of records (0, 1) and (2, 3).
+    let t0 = _mm256_unpacklo_ps(r04, r15);
+    let t1 = _mm256_unpackhi_ps(r04, r15);
+    let t2 = _mm256_unpacklo_ps(r26, r37);
+    let t3 = _mm256_unpackhi_ps(r26, r37);
+    let mut out = [[0.0f32; LANES]; 4];
+    _mm256_storeu_ps(out[0].as_mut_ptr(), _mm256_shuffle_ps::<0x44>(t0, t2));
+    _mm256_storeu_ps(out[1].as_mut_ptr(), _mm256_shuffle_ps::<0xEE>(t0, t2));
+    _mm256_storeu_ps(out[2].as_mut_ptr(), _mm256_shuffle_ps::<0x44>(t1, t3));
+    _mm256_storeu_ps(out[3].as_mut_ptr(), _mm256_shuffle_ps::<0xEE>(t1, t3));
+    out
+}
+
 /// The centre texel's terms of the edge-stopping weight.
 struct Centre {
     gp: [f32; 4],
@@ -765,7 +856,7 @@ fn atrous_pass(
             unsafe { atrous_row_avx2(&pass, j as u32, out) };
             return;
         }
-        atrous_row(&pass, j as u32, out);
+        atrous_row::<false>(&pass, j as u32, out);
     });
 }
 
@@ -774,12 +865,12 @@ fn atrous_pass(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 unsafe fn atrous_row_avx2(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
-    atrous_row(pass, j, out)
+    atrous_row::<true>(pass, j, out)
 }
 
 /// Row `j` of one à-trous iteration.
 #[inline(always)]
-fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
+fn atrous_row<const AVX2: bool>(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
     let Pass {
         grid,
         geom,
@@ -858,31 +949,71 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
             0.0
         };
 
-        // The taps that land on another source: index, kernel weight and |Δx|, |Δy| in
-        // kernel steps. Unused lanes read the centre with weight 0.
-        let mut tq = [k; MAX_TAPS];
-        let mut th = [0.0f32; MAX_TAPS];
-        let mut tx = [0.0f32; MAX_TAPS];
-        let mut ty = [0.0f32; MAX_TAPS];
-        let mut nt = 0usize;
-        let mut push = |q: usize, xi: usize, yi: usize| {
-            if role[q] == SOURCE && q != k {
-                tq[nt] = q;
-                th[nt] = h[xi] * h[yi];
-                tx[nt] = xi.abs_diff(half) as f32;
-                ty[nt] = yi.abs_diff(half) as f32;
-                nt += 1;
-            }
+        let (mut sw, mut sl, mut sv) = (0.0f32, [0.0f32; 3], 0.0f32);
+        if role[k] == SOURCE {
+            let wgt = h[half] * h[half];
+            sw = wgt;
+            sl = lp.map(|v| v * wgt);
+            sv = wgt * wgt * src[k][3];
+        }
+        let centre = Centre {
+            gp,
+            g,
+            yp,
+            inv_sl,
+            eps_z,
+            step: step as f32,
+            sigma_z,
+            sigma_n,
         };
-        if reuse_3x3 {
-            for (xi, col) in near.iter().enumerate() {
-                for (yi, &cell) in col.iter().enumerate() {
-                    if let (Some(q), false) = (cell, xi == 1 && yi == 1) {
-                        push(q, xi, yi);
+        // Lane sums (w, w·r, w·g, w·b, w²·var), reduced after the last block.
+        let mut acc = [[0.0f32; LANES]; 5];
+        if h.len() == 3 {
+            // The 3×3 kernel's eight taps, one lane each in the kernel's order, without
+            // branches: a tap that does not land on another source reads the centre with
+            // kernel weight 0, which adds exact zeros, so the sums equal the packed lanes'
+            // below bit for bit.
+            let mut tq = [k; LANES];
+            let mut th = [0.0f32; LANES];
+            let mut cells = [[None::<usize>; 3]; 3];
+            if reuse_3x3 {
+                cells = near;
+            } else {
+                for (di, col) in (-step..=step).step_by(step as usize).zip(cells.iter_mut()) {
+                    let Some((c, row, rows)) = column_at(grid, i as u32, j, turn, di) else {
+                        continue;
+                    };
+                    for (dj, cell) in (-step..=step).step_by(step as usize).zip(col.iter_mut()) {
+                        *cell = row_of(grid, row, rows, dj).map(|r| r as usize * wu + c as usize);
                     }
                 }
             }
+            for (t, &(xi, yi)) in TAPS_3X3.iter().enumerate() {
+                if let Some(q) = cells[xi][yi] {
+                    let ok = role[q] == SOURCE && q != k;
+                    tq[t] = if ok { q } else { k };
+                    th[t] = if ok { H3[xi] * H3[yi] } else { 0.0 };
+                }
+            }
+            let lanes = gather::<AVX2>(geom, src, &tq, th, AX_3X3, AY_3X3);
+            centre.weigh(&lanes, &mut acc);
         } else {
+            // The taps that land on another source: index, kernel weight and |Δx|, |Δy| in
+            // kernel steps. Unused lanes read the centre with weight 0.
+            let mut tq = [k; MAX_TAPS];
+            let mut th = [0.0f32; MAX_TAPS];
+            let mut tx = [0.0f32; MAX_TAPS];
+            let mut ty = [0.0f32; MAX_TAPS];
+            let mut nt = 0usize;
+            let mut push = |q: usize, xi: usize, yi: usize| {
+                if role[q] == SOURCE && q != k {
+                    tq[nt] = q;
+                    th[nt] = h[xi] * h[yi];
+                    tx[nt] = xi.abs_diff(half) as f32;
+                    ty[nt] = yi.abs_diff(half) as f32;
+                    nt += 1;
+                }
+            };
             for xi in 0..h.len() {
                 let di = (xi as i32 - half as i32) * step;
                 let Some((c, row, rows)) = column_at(grid, i as u32, j, turn, di) else {
@@ -898,56 +1029,25 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
                     }
                 }
             }
-        }
-
-        let (mut sw, mut sl, mut sv) = (0.0f32, [0.0f32; 3], 0.0f32);
-        if role[k] == SOURCE {
-            let wgt = h[half] * h[half];
-            sw = wgt;
-            sl = lp.map(|v| v * wgt);
-            sv = wgt * wgt * src[k][3];
-        }
-        // Lane sums (w, w·r, w·g, w·b, w²·var), reduced after the last block.
-        let mut acc = [[0.0f32; LANES]; 5];
-        let centre = Centre {
-            gp,
-            g,
-            yp,
-            inv_sl,
-            eps_z,
-            step: step as f32,
-            sigma_z,
-            sigma_n,
-        };
-        for block in 0..nt.div_ceil(LANES) {
-            let o = block * LANES;
-            // Each lane array built whole from its 8 loads (no scalar stores read back as a
-            // vector: that stalls on store forwarding).
-            let q: [usize; LANES] = std::array::from_fn(|t| tq[o + t]);
-            let gq: [[f32; 4]; LANES] = q.map(|q| geom[q]);
-            let sq: [[f32; 4]; LANES] = q.map(|q| src[q]);
-            let lanes = Lanes {
-                nx: std::array::from_fn(|t| gq[t][0]),
-                ny: std::array::from_fn(|t| gq[t][1]),
-                nz: std::array::from_fn(|t| gq[t][2]),
-                z: std::array::from_fn(|t| gq[t][3]),
-                r: std::array::from_fn(|t| sq[t][0]),
-                g: std::array::from_fn(|t| sq[t][1]),
-                b: std::array::from_fn(|t| sq[t][2]),
-                var: std::array::from_fn(|t| sq[t][3]),
-                h: std::array::from_fn(|t| th[o + t]),
-                ax: std::array::from_fn(|t| tx[o + t]),
-                ay: std::array::from_fn(|t| ty[o + t]),
-            };
-            centre.weigh(&lanes, &mut acc);
-        }
-        if nt > 0 {
-            sw += acc[0].iter().sum::<f32>();
-            for ch in 0..3 {
-                sl[ch] += acc[1 + ch].iter().sum::<f32>();
+            for block in 0..nt.div_ceil(LANES) {
+                let o = block * LANES;
+                let q: [usize; LANES] = std::array::from_fn(|t| tq[o + t]);
+                let lanes = gather::<AVX2>(
+                    geom,
+                    src,
+                    &q,
+                    std::array::from_fn(|t| th[o + t]),
+                    std::array::from_fn(|t| tx[o + t]),
+                    std::array::from_fn(|t| ty[o + t]),
+                );
+                centre.weigh(&lanes, &mut acc);
             }
-            sv += acc[4].iter().sum::<f32>();
         }
+        sw += acc[0].iter().sum::<f32>();
+        for ch in 0..3 {
+            sl[ch] += acc[1 + ch].iter().sum::<f32>();
+        }
+        sv += acc[4].iter().sum::<f32>();
         out[i] = if sw > 0.0 {
             [sl[0] / sw, sl[1] / sw, sl[2] / sw, sv / (sw * sw)]
         } else {
