@@ -706,12 +706,13 @@ const AX_3X3: [f32; LANES] = [1.0, 1.0, 1.0, 0.0, 0.0, 1.0, 1.0, 1.0];
 const AY_3X3: [f32; LANES] = [1.0, 0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 1.0];
 
 /// Eight taps' lanes: the guides and light of texels `q`, with their kernel weights `h` and
-/// offsets `ax`, `ay`. With `AVX2` (only inside a function compiled for it) each four-float
-/// record is loaded whole and the eight are transposed in registers; otherwise each lane
-/// array is built whole from its eight loads (no scalar stores read back as a vector: that
-/// stalls on store forwarding). The values are the same either way.
+/// offsets `ax`, `ay`. On x86-64 each four-float record is loaded whole and the records are
+/// transposed in registers (SSE, which every x86-64 has; the AVX2 build encodes the same
+/// operations in VEX); elsewhere each lane array is built whole from its eight loads (no
+/// scalar stores read back as a vector: that stalls on store forwarding). The values are the
+/// same either way.
 #[inline(always)]
-fn gather<const AVX2: bool>(
+fn gather(
     geom: &[[f32; 4]],
     src: &[[f32; 4]],
     q: &[usize; LANES],
@@ -720,11 +721,9 @@ fn gather<const AVX2: bool>(
     ay: [f32; LANES],
 ) -> Lanes {
     #[cfg(target_arch = "x86_64")]
-    if AVX2 {
-        // SAFETY: `gather::<true>` is called only from `atrous_row_avx2`, on a CPU with AVX2.
-        let ([nx, ny, nz, z], [r, g, b, var]) =
-            unsafe { (transpose8_avx2(geom, q), transpose8_avx2(src, q)) };
-        return Lanes {
+    {
+        let ([nx, ny, nz, z], [r, g, b, var]) = (transpose8(geom, q), transpose8(src, q));
+        Lanes {
             nx,
             ny,
             nz,
@@ -736,47 +735,52 @@ fn gather<const AVX2: bool>(
             h,
             ax,
             ay,
-        };
+        }
     }
-    let gq: [[f32; 4]; LANES] = std::array::from_fn(|t| geom[q[t]]);
-    let sq: [[f32; 4]; LANES] = std::array::from_fn(|t| src[q[t]]);
-    Lanes {
-        nx: std::array::from_fn(|t| gq[t][0]),
-        ny: std::array::from_fn(|t| gq[t][1]),
-        nz: std::array::from_fn(|t| gq[t][2]),
-        z: std::array::from_fn(|t| gq[t][3]),
-        r: std::array::from_fn(|t| sq[t][0]),
-        g: std::array::from_fn(|t| sq[t][1]),
-        b: std::array::from_fn(|t| sq[t][2]),
-        var: std::array::from_fn(|t| sq[t][3]),
-        h,
-        ax,
-        ay,
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let gq: [[f32; 4]; LANES] = std::array::from_fn(|t| geom[q[t]]);
+        let sq: [[f32; 4]; LANES] = std::array::from_fn(|t| src[q[t]]);
+        Lanes {
+            nx: std::array::from_fn(|t| gq[t][0]),
+            ny: std::array::from_fn(|t| gq[t][1]),
+            nz: std::array::from_fn(|t| gq[t][2]),
+            z: std::array::from_fn(|t| gq[t][3]),
+            r: std::array::from_fn(|t| sq[t][0]),
+            g: std::array::from_fn(|t| sq[t][1]),
+            b: std::array::from_fn(|t| sq[t][2]),
+            var: std::array::from_fn(|t| sq[t][3]),
+            h,
+            ax,
+            ay,
+        }
     }
 }
 
 /// Records `rows[q[0..8]]` transposed: element `c` of the result is component `c` of the
-/// eight records (two 128-bit loads per 256-bit register, then the 4×4 transposes of each
-/// half).
+/// eight records (two 4×4 transposes of whole-record loads).
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline]
-unsafe fn transpose8_avx2(rows: &[[f32; 4]], q: &[usize; LANES]) -> [[f32; LANES]; 4] {
+#[inline(always)]
+fn transpose8(rows: &[[f32; 4]], q: &[usize; LANES]) -> [[f32; LANES]; 4] {
     use std::arch::x86_64::*;
-    let ld = |t: usize| _mm_loadu_ps(rows[q[t]].as_ptr());
-    let pair =
-        |lo: usize, hi: usize| _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(ld(lo)), ld(hi));
-    let (r04, r15, r26, r37) = (pair(0, 4), pair(1, 5), pair(2, 6), pair(3, 7));
-    // Per half: [a.x b.x a.y b.y], [a.z b.z a.w b.w] of records (0, 1) and (2, 3).
-    let t0 = _mm256_unpacklo_ps(r04, r15);
-    let t1 = _mm256_unpackhi_ps(r04, r15);
-    let t2 = _mm256_unpacklo_ps(r26, r37);
-    let t3 = _mm256_unpackhi_ps(r26, r37);
     let mut out = [[0.0f32; LANES]; 4];
-    _mm256_storeu_ps(out[0].as_mut_ptr(), _mm256_shuffle_ps::<0x44>(t0, t2));
-    _mm256_storeu_ps(out[1].as_mut_ptr(), _mm256_shuffle_ps::<0xEE>(t0, t2));
-    _mm256_storeu_ps(out[2].as_mut_ptr(), _mm256_shuffle_ps::<0x44>(t1, t3));
-    _mm256_storeu_ps(out[3].as_mut_ptr(), _mm256_shuffle_ps::<0xEE>(t1, t3));
+    for half in 0..2 {
+        let o = 4 * half;
+        let (a, b, c, d) = (rows[q[o]], rows[q[o + 1]], rows[q[o + 2]], rows[q[o + 3]]);
+        // SAFETY: SSE is part of x86-64; every pointer is a bounds-checked record of four
+        // floats or a lane array with four floats from `o` on.
+        unsafe {
+            let (a, b) = (_mm_loadu_ps(a.as_ptr()), _mm_loadu_ps(b.as_ptr()));
+            let (c, d) = (_mm_loadu_ps(c.as_ptr()), _mm_loadu_ps(d.as_ptr()));
+            // [a.x b.x a.y b.y], [a.z b.z a.w b.w], and the same of c, d.
+            let (t0, t1) = (_mm_unpacklo_ps(a, b), _mm_unpackhi_ps(a, b));
+            let (t2, t3) = (_mm_unpacklo_ps(c, d), _mm_unpackhi_ps(c, d));
+            _mm_storeu_ps(out[0][o..].as_mut_ptr(), _mm_movelh_ps(t0, t2));
+            _mm_storeu_ps(out[1][o..].as_mut_ptr(), _mm_movehl_ps(t2, t0));
+            _mm_storeu_ps(out[2][o..].as_mut_ptr(), _mm_movelh_ps(t1, t3));
+            _mm_storeu_ps(out[3][o..].as_mut_ptr(), _mm_movehl_ps(t3, t1));
+        }
+    }
     out
 }
 
@@ -856,7 +860,7 @@ fn atrous_pass(
             unsafe { atrous_row_avx2(&pass, j as u32, out) };
             return;
         }
-        atrous_row::<false>(&pass, j as u32, out);
+        atrous_row(&pass, j as u32, out);
     });
 }
 
@@ -865,12 +869,12 @@ fn atrous_pass(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 unsafe fn atrous_row_avx2(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
-    atrous_row::<true>(pass, j, out)
+    atrous_row(pass, j, out)
 }
 
 /// Row `j` of one à-trous iteration.
 #[inline(always)]
-fn atrous_row<const AVX2: bool>(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
+fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
     let Pass {
         grid,
         geom,
@@ -995,7 +999,7 @@ fn atrous_row<const AVX2: bool>(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
                     th[t] = if ok { H3[xi] * H3[yi] } else { 0.0 };
                 }
             }
-            let lanes = gather::<AVX2>(geom, src, &tq, th, AX_3X3, AY_3X3);
+            let lanes = gather(geom, src, &tq, th, AX_3X3, AY_3X3);
             centre.weigh(&lanes, &mut acc);
         } else {
             // The taps that land on another source: index, kernel weight and |Δx|, |Δy| in
@@ -1032,7 +1036,7 @@ fn atrous_row<const AVX2: bool>(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
             for block in 0..nt.div_ceil(LANES) {
                 let o = block * LANES;
                 let q: [usize; LANES] = std::array::from_fn(|t| tq[o + t]);
-                let lanes = gather::<AVX2>(
+                let lanes = gather(
                     geom,
                     src,
                     &q,
