@@ -384,13 +384,6 @@ fn noisy_part(noisy: Option<&Image<Rgb>>, k: usize, c: Rgb) -> Rgb {
     }
 }
 
-/// Exponent of the depth weight: `|z_p − z_q| / (σ_z |∇z_p·(p − q)| + ε_z)`, with
-/// `ε_z = 10⁻³ z_p` (a flat, face-on surface has no gradient).
-#[inline]
-fn depth_arg(zp: f32, zq: f32, g: [f32; 2], dx: f32, dy: f32, sigma: f32) -> f32 {
-    (zp - zq).abs() / (sigma * (g[0] * dx.abs() + g[1] * dy.abs()) + 1e-3 * zp.abs() + 1e-9)
-}
-
 /// Denoises `color` (one sample buffer, laid out on `grid`: image x = column, y = row) in
 /// place, guided by `depth` (view depth, ∞ for misses), `albedo` and `normal` (zero: no
 /// surface record), all of `color`'s size. With `noisy` (same size) only each texel's Monte
@@ -501,80 +494,86 @@ pub fn denoise_with_variance(
             }
         });
 
-    // 2. Depth gradient, spatial variance and firefly clamp.
+    // 2. Depth gradient, spatial variance and firefly clamp; with them, per row, the texels
+    // filtered and whether any receiver or any Monte Carlo light is there (the idle test).
     let (geom, role) = (&*geom, &*role);
     let sigma_z = params.sigma_depth;
     // dot^σ_n > ½ ⇔ 1 − dot < ln 2 / σ_n (to first order): "the same surface".
     let same_normal = std::f32::consts::LN_2 / params.normal_power as f32;
     let light0 = &*a;
-    let clamped: u64 = grad
+    let (clamped, filtered, busy) = grad
         .par_chunks_mut(wu)
         .zip(b.par_chunks_mut(wu))
         .enumerate()
         .map(|(j, (gr, out))| {
             let j = j as u32;
-            let mut clamped = 0;
+            let (mut clamped, mut filtered, mut busy) = (0u64, 0u64, false);
             for i in 0..wu {
                 let k = j as usize * wu + i;
                 out[i] = light0[k];
                 if role[k] == PASSIVE {
                     continue;
                 }
+                filtered += 1;
+                let l0 = light0[k];
+                busy |= role[k] == RECEIVER || l0[0] != 0.0 || l0[1] != 0.0 || l0[2] != 0.0;
                 let gp = geom[k];
                 let zp = gp[3];
                 let turn = turn_of(grid, i as u32, j);
-                // The 3×3 neighbourhood: (index, di, dj) of the surface samples.
-                let mut nb = [(0usize, 0i32, 0i32, 0u8); 8];
-                let mut count = 0;
-                for di in -1i32..=1 {
+                // The 3×3 neighbourhood's surface samples, [di + 1][dj + 1] (the centre and
+                // passive texels: none).
+                let mut near = [[None::<usize>; 3]; 3];
+                for (di, col) in (-1i32..=1).zip(near.iter_mut()) {
                     let Some((c, row, rows)) = column_at(grid, i as u32, j, turn, di) else {
                         continue;
                     };
-                    for dj in -1i32..=1 {
+                    for (dj, cell) in (-1i32..=1).zip(col.iter_mut()) {
                         if di == 0 && dj == 0 {
                             continue;
                         }
-                        let Some(r) = row_of(grid, row, rows, dj) else {
-                            continue;
-                        };
-                        let q = r as usize * wu + c as usize;
-                        if role[q] != PASSIVE && q != k {
-                            nb[count] = (q, di, dj, role[q]);
-                            count += 1;
-                        }
+                        *cell = row_of(grid, row, rows, dj)
+                            .map(|r| r as usize * wu + c as usize)
+                            .filter(|&q| role[q] != PASSIVE && q != k);
                     }
                 }
-                let nb = &nb[..count];
-                // Smaller one-sided depth difference per axis.
-                let slope = |axis: usize| {
-                    nb.iter()
-                        .filter(|&&(_, di, dj, _)| if axis == 0 { dj == 0 } else { di == 0 })
-                        .map(|&(q, ..)| (geom[q][3] - zp).abs())
-                        .fold(f32::INFINITY, f32::min)
-                };
+                // Smaller one-sided depth difference per axis (x: the row's neighbours,
+                // y: the column's).
+                let dz =
+                    |cell: Option<usize>| cell.map_or(f32::INFINITY, |q| (geom[q][3] - zp).abs());
                 let fin = |s: f32| if s.is_finite() { s } else { 0.0 };
-                let g = [fin(slope(0)), fin(slope(1))];
+                let g = [
+                    fin(dz(near[0][1]).min(dz(near[2][1]))),
+                    fin(dz(near[1][0]).min(dz(near[1][2]))),
+                ];
                 gr[i] = g;
                 if role[k] != SOURCE {
                     continue;
                 }
-                // Luminance moments of the neighbours on the same surface.
+                // Luminance moments of the neighbours on the same surface: normal weight above
+                // ½ and depth within the gradient's prediction, `|z_p − z_q| ≤ σ_z |∇z·(p −
+                // q)| + ε_z` (the depth weight's exponent at most 1, compared without
+                // dividing).
                 let (mut sw, mut s1, mut s2) = (0.0f32, 0.0f32, 0.0f32);
-                for &(q, di, dj, rq) in nb {
-                    let gq = geom[q];
-                    let dot = gp[0] * gq[0] + gp[1] * gq[1] + gp[2] * gq[2];
-                    if rq != SOURCE
-                        || 1.0 - dot > same_normal
-                        || depth_arg(zp, gq[3], g, di as f32, dj as f32, sigma_z) > 1.0
-                    {
-                        continue;
+                for (di, col) in near.iter().enumerate() {
+                    for (dj, &cell) in col.iter().enumerate() {
+                        let Some(q) = cell else {
+                            continue;
+                        };
+                        let gq = geom[q];
+                        let dot = gp[0] * gq[0] + gp[1] * gq[1] + gp[2] * gq[2];
+                        let (ax, ay) = (di.abs_diff(1) as f32, dj.abs_diff(1) as f32);
+                        let den = sigma_z * (g[0] * ax + g[1] * ay) + 1e-3 * zp.abs() + 1e-9;
+                        if role[q] != SOURCE || 1.0 - dot > same_normal || (zp - gq[3]).abs() > den
+                        {
+                            continue;
+                        }
+                        let lq = luma([light0[q][0], light0[q][1], light0[q][2]]);
+                        sw += 1.0;
+                        s1 += lq;
+                        s2 += lq * lq;
                     }
-                    let lq = luma([light0[q][0], light0[q][1], light0[q][2]]);
-                    sw += 1.0;
-                    s1 += lq;
-                    s2 += lq * lq;
                 }
-                let mut lp = [light0[k][0], light0[k][1], light0[k][2]];
+                let mut lp = [l0[0], l0[1], l0[2]];
                 let mut yp = luma(lp);
                 if let (Some(kk), true) = (params.firefly_k, sw >= 2.0) {
                     let mean = s1 / sw;
@@ -599,18 +598,13 @@ pub fn denoise_with_variance(
                 };
                 out[i] = [lp[0], lp[1], lp[2], var];
             }
-            clamped
+            (clamped, filtered, busy)
         })
-        .sum();
-    let filtered = role.par_iter().filter(|&&r| r != PASSIVE).count() as u64;
+        .reduce(|| (0, 0, false), |x, y| (x.0 + y.0, x.1 + y.1, x.2 || y.2));
     let stats = DenoiseStats { filtered, clamped };
     // No Monte Carlo light anywhere and nothing to refill (noise-free shading): filtering
     // zeros gives zeros and the exact part comes back as it was, so skip the passes.
-    let idle = role.par_iter().all(|&r| r != RECEIVER)
-        && light0
-            .par_iter()
-            .all(|l| l[0] == 0.0 && l[1] == 0.0 && l[2] == 0.0);
-    if idle {
+    if !busy {
         return Ok(stats);
     }
 
