@@ -557,7 +557,7 @@ fn print_run(r: &BenchRun, labels: bool) {
     };
     let gpu = format!("{gpu}{}", traffic_summary(&r.device_traffic));
     println!(
-        "{:>5}x{:<5} {:>6} rays {:>13} | trace {:>8.0}{} shade {:>8.0}{} denoise {:>6.0}{} ({:.0}% cpu; frame without it {:.0} ms) aa {:>6.0}{} reconstruct {:>6.0}{}{gpu} | wall {:>8.0} ms, cpu {:>8.0} ms ({:.0}% of {} cores){} | {:.2} fps | speedup {:>6.2}x wall, {:>6.2}x cpu",
+        "{:>5}x{:<5} {:>6} rays {:>13} | trace {:>8.0}{} shade {:>8.0}{} denoise {:>6.0}{} (cpu {:.0} ms, {:.0}% of the frame's cpu; frame without it {:.0} ms, cpu {:.0} ms) aa {:>6.0}{} reconstruct {:>6.0}{}{gpu} | wall {:>8.0} ms, cpu {:>8.0} ms ({:.0}% of {} cores){} | {:.2} fps | speedup {:>6.2}x wall, {:>6.2}x cpu",
         s.width,
         s.height,
         s.method,
@@ -571,8 +571,10 @@ fn print_run(r: &BenchRun, labels: bool) {
         )),
         st(Stage::Denoise),
         on(&s.denoise_backend),
+        s.stages_cpu_ms.get(Stage::Denoise),
         100.0 * s.stages_cpu_ms.get(Stage::Denoise) / s.total_cpu_ms.max(1e-9),
         s.total_ms - st(Stage::Denoise),
+        s.total_cpu_ms - s.stages_cpu_ms.get(Stage::Denoise),
         st(Stage::Aa),
         on(&s.aa_backend),
         st(Stage::Reconstruct),

@@ -384,13 +384,6 @@ fn noisy_part(noisy: Option<&Image<Rgb>>, k: usize, c: Rgb) -> Rgb {
     }
 }
 
-/// Exponent of the depth weight: `|z_p − z_q| / (σ_z |∇z_p·(p − q)| + ε_z)`, with
-/// `ε_z = 10⁻³ z_p` (a flat, face-on surface has no gradient).
-#[inline]
-fn depth_arg(zp: f32, zq: f32, g: [f32; 2], dx: f32, dy: f32, sigma: f32) -> f32 {
-    (zp - zq).abs() / (sigma * (g[0] * dx.abs() + g[1] * dy.abs()) + 1e-3 * zp.abs() + 1e-9)
-}
-
 /// Denoises `color` (one sample buffer, laid out on `grid`: image x = column, y = row) in
 /// place, guided by `depth` (view depth, ∞ for misses), `albedo` and `normal` (zero: no
 /// surface record), all of `color`'s size. With `noisy` (same size) only each texel's Monte
@@ -501,80 +494,86 @@ pub fn denoise_with_variance(
             }
         });
 
-    // 2. Depth gradient, spatial variance and firefly clamp.
+    // 2. Depth gradient, spatial variance and firefly clamp; with them, per row, the texels
+    // filtered and whether any receiver or any Monte Carlo light is there (the idle test).
     let (geom, role) = (&*geom, &*role);
     let sigma_z = params.sigma_depth;
     // dot^σ_n > ½ ⇔ 1 − dot < ln 2 / σ_n (to first order): "the same surface".
     let same_normal = std::f32::consts::LN_2 / params.normal_power as f32;
     let light0 = &*a;
-    let clamped: u64 = grad
+    let (clamped, filtered, busy) = grad
         .par_chunks_mut(wu)
         .zip(b.par_chunks_mut(wu))
         .enumerate()
         .map(|(j, (gr, out))| {
             let j = j as u32;
-            let mut clamped = 0;
+            let (mut clamped, mut filtered, mut busy) = (0u64, 0u64, false);
             for i in 0..wu {
                 let k = j as usize * wu + i;
                 out[i] = light0[k];
                 if role[k] == PASSIVE {
                     continue;
                 }
+                filtered += 1;
+                let l0 = light0[k];
+                busy |= role[k] == RECEIVER || l0[0] != 0.0 || l0[1] != 0.0 || l0[2] != 0.0;
                 let gp = geom[k];
                 let zp = gp[3];
                 let turn = turn_of(grid, i as u32, j);
-                // The 3×3 neighbourhood: (index, di, dj) of the surface samples.
-                let mut nb = [(0usize, 0i32, 0i32, 0u8); 8];
-                let mut count = 0;
-                for di in -1i32..=1 {
+                // The 3×3 neighbourhood's surface samples, [di + 1][dj + 1] (the centre and
+                // passive texels: none).
+                let mut near = [[None::<usize>; 3]; 3];
+                for (di, col) in (-1i32..=1).zip(near.iter_mut()) {
                     let Some((c, row, rows)) = column_at(grid, i as u32, j, turn, di) else {
                         continue;
                     };
-                    for dj in -1i32..=1 {
+                    for (dj, cell) in (-1i32..=1).zip(col.iter_mut()) {
                         if di == 0 && dj == 0 {
                             continue;
                         }
-                        let Some(r) = row_of(grid, row, rows, dj) else {
-                            continue;
-                        };
-                        let q = r as usize * wu + c as usize;
-                        if role[q] != PASSIVE && q != k {
-                            nb[count] = (q, di, dj, role[q]);
-                            count += 1;
-                        }
+                        *cell = row_of(grid, row, rows, dj)
+                            .map(|r| r as usize * wu + c as usize)
+                            .filter(|&q| role[q] != PASSIVE && q != k);
                     }
                 }
-                let nb = &nb[..count];
-                // Smaller one-sided depth difference per axis.
-                let slope = |axis: usize| {
-                    nb.iter()
-                        .filter(|&&(_, di, dj, _)| if axis == 0 { dj == 0 } else { di == 0 })
-                        .map(|&(q, ..)| (geom[q][3] - zp).abs())
-                        .fold(f32::INFINITY, f32::min)
-                };
+                // Smaller one-sided depth difference per axis (x: the row's neighbours,
+                // y: the column's).
+                let dz =
+                    |cell: Option<usize>| cell.map_or(f32::INFINITY, |q| (geom[q][3] - zp).abs());
                 let fin = |s: f32| if s.is_finite() { s } else { 0.0 };
-                let g = [fin(slope(0)), fin(slope(1))];
+                let g = [
+                    fin(dz(near[0][1]).min(dz(near[2][1]))),
+                    fin(dz(near[1][0]).min(dz(near[1][2]))),
+                ];
                 gr[i] = g;
                 if role[k] != SOURCE {
                     continue;
                 }
-                // Luminance moments of the neighbours on the same surface.
+                // Luminance moments of the neighbours on the same surface: normal weight above
+                // ½ and depth within the gradient's prediction, `|z_p − z_q| ≤ σ_z |∇z·(p −
+                // q)| + ε_z` (the depth weight's exponent at most 1, compared without
+                // dividing).
                 let (mut sw, mut s1, mut s2) = (0.0f32, 0.0f32, 0.0f32);
-                for &(q, di, dj, rq) in nb {
-                    let gq = geom[q];
-                    let dot = gp[0] * gq[0] + gp[1] * gq[1] + gp[2] * gq[2];
-                    if rq != SOURCE
-                        || 1.0 - dot > same_normal
-                        || depth_arg(zp, gq[3], g, di as f32, dj as f32, sigma_z) > 1.0
-                    {
-                        continue;
+                for (di, col) in near.iter().enumerate() {
+                    for (dj, &cell) in col.iter().enumerate() {
+                        let Some(q) = cell else {
+                            continue;
+                        };
+                        let gq = geom[q];
+                        let dot = gp[0] * gq[0] + gp[1] * gq[1] + gp[2] * gq[2];
+                        let (ax, ay) = (di.abs_diff(1) as f32, dj.abs_diff(1) as f32);
+                        let den = sigma_z * (g[0] * ax + g[1] * ay) + 1e-3 * zp.abs() + 1e-9;
+                        if role[q] != SOURCE || 1.0 - dot > same_normal || (zp - gq[3]).abs() > den
+                        {
+                            continue;
+                        }
+                        let lq = luma([light0[q][0], light0[q][1], light0[q][2]]);
+                        sw += 1.0;
+                        s1 += lq;
+                        s2 += lq * lq;
                     }
-                    let lq = luma([light0[q][0], light0[q][1], light0[q][2]]);
-                    sw += 1.0;
-                    s1 += lq;
-                    s2 += lq * lq;
                 }
-                let mut lp = [light0[k][0], light0[k][1], light0[k][2]];
+                let mut lp = [l0[0], l0[1], l0[2]];
                 let mut yp = luma(lp);
                 if let (Some(kk), true) = (params.firefly_k, sw >= 2.0) {
                     let mean = s1 / sw;
@@ -599,18 +598,13 @@ pub fn denoise_with_variance(
                 };
                 out[i] = [lp[0], lp[1], lp[2], var];
             }
-            clamped
+            (clamped, filtered, busy)
         })
-        .sum();
-    let filtered = role.par_iter().filter(|&&r| r != PASSIVE).count() as u64;
+        .reduce(|| (0, 0, false), |x, y| (x.0 + y.0, x.1 + y.1, x.2 || y.2));
     let stats = DenoiseStats { filtered, clamped };
     // No Monte Carlo light anywhere and nothing to refill (noise-free shading): filtering
     // zeros gives zeros and the exact part comes back as it was, so skip the passes.
-    let idle = role.par_iter().all(|&r| r != RECEIVER)
-        && light0
-            .par_iter()
-            .all(|l| l[0] == 0.0 && l[1] == 0.0 && l[2] == 0.0);
-    if idle {
+    if !busy {
         return Ok(stats);
     }
 
@@ -687,6 +681,111 @@ struct Lanes {
     /// |Δx|, |Δy| in kernel steps.
     ax: [f32; LANES],
     ay: [f32; LANES],
+}
+
+/// The 3×3 kernel's taps besides the centre, `(xi, yi)` = offset + 1, in the kernel's order.
+const TAPS_3X3: [(usize, usize); LANES] = [
+    (0, 0),
+    (0, 1),
+    (0, 2),
+    (1, 0),
+    (1, 2),
+    (2, 0),
+    (2, 1),
+    (2, 2),
+];
+/// |Δx| of [`TAPS_3X3`] in kernel steps.
+const AX_3X3: [f32; LANES] = [1.0, 1.0, 1.0, 0.0, 0.0, 1.0, 1.0, 1.0];
+/// |Δy| of [`TAPS_3X3`] in kernel steps.
+const AY_3X3: [f32; LANES] = [1.0, 0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 1.0];
+
+/// Eight taps' lanes: the guides and light of texels `q`, with their kernel weights `h` and
+/// offsets `ax`, `ay`. On x86-64 each four-float record is loaded whole and the records are
+/// transposed in registers (SSE, which every x86-64 has; the AVX2 build encodes the same
+/// operations in VEX); elsewhere each lane array is built whole from its eight loads (no
+/// scalar stores read back as a vector: that stalls on store forwarding). The values are the
+/// same either way.
+#[inline(always)]
+fn gather(
+    geom: &[[f32; 4]],
+    src: &[[f32; 4]],
+    q: &[usize; LANES],
+    h: [f32; LANES],
+    ax: [f32; LANES],
+    ay: [f32; LANES],
+) -> Lanes {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let ([nx, ny, nz, z], [r, g, b, var]) = (transpose8(geom, q), transpose8(src, q));
+        Lanes {
+            nx,
+            ny,
+            nz,
+            z,
+            r,
+            g,
+            b,
+            var,
+            h,
+            ax,
+            ay,
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let gq: [[f32; 4]; LANES] = std::array::from_fn(|t| geom[q[t]]);
+        let sq: [[f32; 4]; LANES] = std::array::from_fn(|t| src[q[t]]);
+        Lanes {
+            nx: std::array::from_fn(|t| gq[t][0]),
+            ny: std::array::from_fn(|t| gq[t][1]),
+            nz: std::array::from_fn(|t| gq[t][2]),
+            z: std::array::from_fn(|t| gq[t][3]),
+            r: std::array::from_fn(|t| sq[t][0]),
+            g: std::array::from_fn(|t| sq[t][1]),
+            b: std::array::from_fn(|t| sq[t][2]),
+            var: std::array::from_fn(|t| sq[t][3]),
+            h,
+            ax,
+            ay,
+        }
+    }
+}
+
+/// Records `rows[q[0..8]]` transposed: element `c` of the result is component `c` of the
+/// eight records (two 4×4 transposes of whole-record loads).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn transpose8(rows: &[[f32; 4]], q: &[usize; LANES]) -> [[f32; LANES]; 4] {
+    use std::arch::x86_64::*;
+    let mut out = [[0.0f32; LANES]; 4];
+    for half in 0..2 {
+        let o = 4 * half;
+        let (a, b, c, d) = (rows[q[o]], rows[q[o + 1]], rows[q[o + 2]], rows[q[o + 3]]);
+        // SAFETY: SSE is part of x86-64; every pointer is a bounds-checked record of four
+        // floats or a lane array with four floats from `o` on.
+        unsafe {
+            let (a, b) = (_mm_loadu_ps(a.as_ptr()), _mm_loadu_ps(b.as_ptr()));
+            let (c, d) = (_mm_loadu_ps(c.as_ptr()), _mm_loadu_ps(d.as_ptr()));
+            // [a.x b.x a.y b.y], [a.z b.z a.w b.w], and the same of c, d.
+            let (t0, t1) = (_mm_unpacklo_ps(a, b), _mm_unpackhi_ps(a, b));
+            let (t2, t3) = (_mm_unpacklo_ps(c, d), _mm_unpackhi_ps(c, d));
+            _mm_storeu_ps(out[0][o..].as_mut_ptr(), _mm_movelh_ps(t0, t2));
+            _mm_storeu_ps(out[1][o..].as_mut_ptr(), _mm_movehl_ps(t2, t0));
+            _mm_storeu_ps(out[2][o..].as_mut_ptr(), _mm_movelh_ps(t1, t3));
+            _mm_storeu_ps(out[3][o..].as_mut_ptr(), _mm_movehl_ps(t3, t1));
+        }
+    }
+    out
+}
+
+/// The sum of eight lanes as a tree, `((a₀ + a₄) + (a₂ + a₆)) + ((a₁ + a₅) + (a₃ + a₇))`: three
+/// dependent additions instead of seven, in the order a vector reduction takes (halves, then
+/// quarters, then pairs).
+#[inline(always)]
+fn sum8(a: &[f32; LANES]) -> f32 {
+    let h: [f32; 4] = std::array::from_fn(|t| a[t] + a[t + 4]);
+    let q = [h[0] + h[2], h[1] + h[3]];
+    q[0] + q[1]
 }
 
 /// The centre texel's terms of the edge-stopping weight.
@@ -858,31 +957,71 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
             0.0
         };
 
-        // The taps that land on another source: index, kernel weight and |Δx|, |Δy| in
-        // kernel steps. Unused lanes read the centre with weight 0.
-        let mut tq = [k; MAX_TAPS];
-        let mut th = [0.0f32; MAX_TAPS];
-        let mut tx = [0.0f32; MAX_TAPS];
-        let mut ty = [0.0f32; MAX_TAPS];
-        let mut nt = 0usize;
-        let mut push = |q: usize, xi: usize, yi: usize| {
-            if role[q] == SOURCE && q != k {
-                tq[nt] = q;
-                th[nt] = h[xi] * h[yi];
-                tx[nt] = xi.abs_diff(half) as f32;
-                ty[nt] = yi.abs_diff(half) as f32;
-                nt += 1;
-            }
+        let (mut sw, mut sl, mut sv) = (0.0f32, [0.0f32; 3], 0.0f32);
+        if role[k] == SOURCE {
+            let wgt = h[half] * h[half];
+            sw = wgt;
+            sl = lp.map(|v| v * wgt);
+            sv = wgt * wgt * src[k][3];
+        }
+        let centre = Centre {
+            gp,
+            g,
+            yp,
+            inv_sl,
+            eps_z,
+            step: step as f32,
+            sigma_z,
+            sigma_n,
         };
-        if reuse_3x3 {
-            for (xi, col) in near.iter().enumerate() {
-                for (yi, &cell) in col.iter().enumerate() {
-                    if let (Some(q), false) = (cell, xi == 1 && yi == 1) {
-                        push(q, xi, yi);
+        // Lane sums (w, w·r, w·g, w·b, w²·var), reduced after the last block.
+        let mut acc = [[0.0f32; LANES]; 5];
+        if h.len() == 3 {
+            // The 3×3 kernel's eight taps, one lane each in the kernel's order, without
+            // branches: a tap that does not land on another source reads the centre with
+            // kernel weight 0, which adds exact zeros, so the sums equal the packed lanes'
+            // below bit for bit.
+            let mut tq = [k; LANES];
+            let mut th = [0.0f32; LANES];
+            let mut cells = [[None::<usize>; 3]; 3];
+            if reuse_3x3 {
+                cells = near;
+            } else {
+                for (di, col) in (-step..=step).step_by(step as usize).zip(cells.iter_mut()) {
+                    let Some((c, row, rows)) = column_at(grid, i as u32, j, turn, di) else {
+                        continue;
+                    };
+                    for (dj, cell) in (-step..=step).step_by(step as usize).zip(col.iter_mut()) {
+                        *cell = row_of(grid, row, rows, dj).map(|r| r as usize * wu + c as usize);
                     }
                 }
             }
+            for (t, &(xi, yi)) in TAPS_3X3.iter().enumerate() {
+                if let Some(q) = cells[xi][yi] {
+                    let ok = role[q] == SOURCE && q != k;
+                    tq[t] = if ok { q } else { k };
+                    th[t] = if ok { H3[xi] * H3[yi] } else { 0.0 };
+                }
+            }
+            let lanes = gather(geom, src, &tq, th, AX_3X3, AY_3X3);
+            centre.weigh(&lanes, &mut acc);
         } else {
+            // The taps that land on another source: index, kernel weight and |Δx|, |Δy| in
+            // kernel steps. Unused lanes read the centre with weight 0.
+            let mut tq = [k; MAX_TAPS];
+            let mut th = [0.0f32; MAX_TAPS];
+            let mut tx = [0.0f32; MAX_TAPS];
+            let mut ty = [0.0f32; MAX_TAPS];
+            let mut nt = 0usize;
+            let mut push = |q: usize, xi: usize, yi: usize| {
+                if role[q] == SOURCE && q != k {
+                    tq[nt] = q;
+                    th[nt] = h[xi] * h[yi];
+                    tx[nt] = xi.abs_diff(half) as f32;
+                    ty[nt] = yi.abs_diff(half) as f32;
+                    nt += 1;
+                }
+            };
             for xi in 0..h.len() {
                 let di = (xi as i32 - half as i32) * step;
                 let Some((c, row, rows)) = column_at(grid, i as u32, j, turn, di) else {
@@ -898,56 +1037,25 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
                     }
                 }
             }
-        }
-
-        let (mut sw, mut sl, mut sv) = (0.0f32, [0.0f32; 3], 0.0f32);
-        if role[k] == SOURCE {
-            let wgt = h[half] * h[half];
-            sw = wgt;
-            sl = lp.map(|v| v * wgt);
-            sv = wgt * wgt * src[k][3];
-        }
-        // Lane sums (w, w·r, w·g, w·b, w²·var), reduced after the last block.
-        let mut acc = [[0.0f32; LANES]; 5];
-        let centre = Centre {
-            gp,
-            g,
-            yp,
-            inv_sl,
-            eps_z,
-            step: step as f32,
-            sigma_z,
-            sigma_n,
-        };
-        for block in 0..nt.div_ceil(LANES) {
-            let o = block * LANES;
-            // Each lane array built whole from its 8 loads (no scalar stores read back as a
-            // vector: that stalls on store forwarding).
-            let q: [usize; LANES] = std::array::from_fn(|t| tq[o + t]);
-            let gq: [[f32; 4]; LANES] = q.map(|q| geom[q]);
-            let sq: [[f32; 4]; LANES] = q.map(|q| src[q]);
-            let lanes = Lanes {
-                nx: std::array::from_fn(|t| gq[t][0]),
-                ny: std::array::from_fn(|t| gq[t][1]),
-                nz: std::array::from_fn(|t| gq[t][2]),
-                z: std::array::from_fn(|t| gq[t][3]),
-                r: std::array::from_fn(|t| sq[t][0]),
-                g: std::array::from_fn(|t| sq[t][1]),
-                b: std::array::from_fn(|t| sq[t][2]),
-                var: std::array::from_fn(|t| sq[t][3]),
-                h: std::array::from_fn(|t| th[o + t]),
-                ax: std::array::from_fn(|t| tx[o + t]),
-                ay: std::array::from_fn(|t| ty[o + t]),
-            };
-            centre.weigh(&lanes, &mut acc);
-        }
-        if nt > 0 {
-            sw += acc[0].iter().sum::<f32>();
-            for ch in 0..3 {
-                sl[ch] += acc[1 + ch].iter().sum::<f32>();
+            for block in 0..nt.div_ceil(LANES) {
+                let o = block * LANES;
+                let q: [usize; LANES] = std::array::from_fn(|t| tq[o + t]);
+                let lanes = gather(
+                    geom,
+                    src,
+                    &q,
+                    std::array::from_fn(|t| th[o + t]),
+                    std::array::from_fn(|t| tx[o + t]),
+                    std::array::from_fn(|t| ty[o + t]),
+                );
+                centre.weigh(&lanes, &mut acc);
             }
-            sv += acc[4].iter().sum::<f32>();
         }
+        sw += sum8(&acc[0]);
+        for ch in 0..3 {
+            sl[ch] += sum8(&acc[1 + ch]);
+        }
+        sv += sum8(&acc[4]);
         out[i] = if sw > 0.0 {
             [sl[0] / sw, sl[1] / sw, sl[2] / sw, sv / (sw * sw)]
         } else {
