@@ -15,11 +15,18 @@
 //! For each, per binocular frame: wall ms, host ms (resident: checking, tables, uniforms and
 //! recording, without the submission), submissions, blocking waits, bytes up and back —
 //! the device's own counters (`GpuContext::traffic`); then the median wall ratio. The plans
-//! (`FramePlan::new`, the mapping at each gaze) are built beforehand and timed apart.
+//! (`FramePlan::cached`, both eyes' mappings at their gazes, one `PlanCache`) are built
+//! beforehand and timed apart; the median of plans + host is the render thread's whole
+//! preparation of a frame (issue 37's host bar).
+//!
+//! `rings` picks VaFR's rings (`VafrRings`): `eq3-any-gaze` (default; the layout the resident
+//! frame builds its tables from once, only the pole and the shaded runs following the gaze),
+//! `exact` (the CPU path's default: rings and buffer follow the gaze) or `eq3`.
 //!
 //! ```sh
 //! XDG_RUNTIME_DIR=$(mktemp -d) cargo run --release -p fovea-gpu --example binocular_frame -- \
-//!     [frames=4] [method=vafr] [res=vive-pro-eye|4k|8k|retinal] [lights=1] [staged=on|off]
+//!     [frames=4] [method=vafr] [res=vive-pro-eye|4k|8k|retinal] [lights=1] [staged=on|off] \
+//!     [rings=eq3-any-gaze|exact|eq3]
 //! ```
 
 #[path = "common/binocular_view.rs"]
@@ -29,14 +36,14 @@ use binocular_view::{binocular_view, direct_settings};
 
 use std::time::Instant;
 
-use fovea_core::mapping::Method;
+use fovea_core::mapping::{Method, VafrRings};
 use fovea_gpu::executors::GpuExecutors;
 use fovea_gpu::frame::{ResidentFrame, ToneSettings};
 use fovea_gpu::{GpuContext, GpuRequest, TrafficCounts};
 use fovea_post::tonemap::ToneCurve;
 use fovea_render::eye::EyeState;
 use fovea_render::pipeline::{render_planned, FrameContext, FrameInputs, StageTimes};
-use fovea_render::plan::FramePlan;
+use fovea_render::plan::{FramePlan, PlanCache};
 use fovea_render::shade::FrameNoise;
 
 const TONE: ToneSettings = ToneSettings {
@@ -77,15 +84,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         other => return Err(format!("staged={other} (on or off)").into()),
     };
 
+    let rings = match args.get(5).map_or("eq3-any-gaze", String::as_str) {
+        "eq3-any-gaze" => VafrRings::Eq3AnyGaze,
+        "exact" => VafrRings::Exact,
+        "eq3" => VafrRings::Eq3,
+        other => return Err(format!("rings={other} (eq3-any-gaze, exact or eq3)").into()),
+    };
+
     let (world, cams, display) = binocular_view(res, lights)?;
-    let settings = direct_settings(method);
+    let mut settings = direct_settings(method);
+    settings.mapping.vafr.rings = rings;
 
     let ctx = GpuContext::new(&GpuRequest::default())?;
     println!(
-        "{method} at {res} ({}x{}), both eyes, {} light(s), direct shading; on {}",
+        "{method} at {res} ({}x{}), both eyes, {} light(s), direct shading, VaFR rings {}; on {}",
         display.width_px,
         display.height_px,
         world.lights.len(),
+        rings.name(),
         ctx.adapter()
     );
 
@@ -98,15 +114,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let y = 0.5 * h + 0.2 * h * a.sin();
         display.gaze(x, y)
     };
-    let plans_of = |f: usize| -> Result<Vec<FramePlan>, Box<dyn std::error::Error>> {
+    let mut cache = PlanCache::new();
+    let mut plans_of = |f: usize| -> Result<Vec<FramePlan>, Box<dyn std::error::Error>> {
         (0..2)
             .map(|e| {
-                Ok(FramePlan::new(
+                Ok(FramePlan::cached(
                     &world,
                     &cams[e],
                     &settings,
                     &EyeState::looking_at(gaze_at(f, e)?),
                     [0.0, 0.0],
+                    &mut cache,
                 )?
                 .with_noise(FrameNoise::new(f as u64, e as u32)))
             })
@@ -136,6 +154,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     let (mut walls, mut staged_walls, mut hosts) = (Vec::new(), Vec::new(), Vec::new());
+    let mut prepares = Vec::new();
     let mut gpu_lines = Vec::new();
     for f in 0..frames {
         let t = Instant::now();
@@ -161,6 +180,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         if f > 0 {
             walls.push(wall);
             hosts.push(times.host_ms);
+            prepares.push(plan_ms + times.host_ms);
         }
         for g in resident.poll_gpu_times()? {
             let passes: Vec<String> = g
@@ -214,9 +234,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (rw, sw) = (median(walls), median(staged_walls));
     println!(
         "median over frames 1..{frames}: resident {rw:.1} ms wall ({:.1} fps binocular), host \
-         {:.2} ms; staged {sw:.1} ms wall; staged / resident {:.2}",
+         {:.2} ms (plans + host {:.2} ms); staged {sw:.1} ms wall; staged / resident {:.2}",
         1e3 / rw,
         median(hosts),
+        median(prepares),
         sw / rw
     );
     Ok(())
