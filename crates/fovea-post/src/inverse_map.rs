@@ -354,7 +354,8 @@ pub fn polar_lut_len(r_max_px: f64) -> usize {
 /// [`polar_lut`] with `n` entries (`r = k · LUT_STEP_PX` for `k < n`), whatever the screen:
 /// entry for entry the same numbers, so a table built once for the largest radius any gaze
 /// reads serves a mapping whose `u(r)` does not depend on the gaze
-/// (`FoveationMapping::layout_is_gaze_free`).
+/// (`FoveationMapping::layout_is_gaze_free`; at another pole the same to the rounding of a
+/// point's radius from it).
 pub fn polar_lut_to(mapping: &dyn FoveationMapping, centre: ScreenPoint, n: usize) -> Vec<f32> {
     let c = centre;
     (0..n)
