@@ -902,6 +902,30 @@ mod tests {
     }
 
     #[test]
+    fn any_gaze_forward_and_inverse_are_eq3s_and_inverse() {
+        // Every screen point maps where Eq. 3 (with its own coverage) maps it, and back.
+        let d = DisplayProfile::preset("vive-pro-eye").unwrap();
+        for (gx, gy) in [
+            (101.0, 100.0),
+            (1100.0, 1200.0),
+            (-30.0, 800.0),
+            (720.0, 800.0),
+        ] {
+            let g = d.gaze(gx, gy).unwrap();
+            let v = Vafr::new(&d, g, any_gaze()).unwrap();
+            let q3 = Vafr::new(&d, g, VafrParams::eq3()).unwrap();
+            for k in 0..500 {
+                let p =
+                    ScreenPoint::new((k * 37 % 1440) as f64 + 0.3, (k * 91 % 1600) as f64 + 0.7);
+                let s = v.forward(p).expect("every screen point is covered");
+                assert_eq!(Some(s), q3.forward(p), "({gx},{gy}) {p:?}");
+                let q = v.inverse(s).unwrap();
+                assert!(q.distance(p) < 1e-6, "({gx},{gy}) {p:?} -> {s:?} -> {q:?}");
+            }
+        }
+    }
+
+    #[test]
     fn any_gaze_runs_are_listed_as_is_shaded_answers() {
         let d = DisplayProfile::preset("vive-pro-eye").unwrap();
         for (gx, gy) in [(0.0, 0.0), (720.0, 800.0), (1300.0, 200.0)] {
