@@ -144,9 +144,9 @@ run)
     staged=on
     case "$preset" in 8k | retinal) staged=off ;; esac
     step "resident binocular frame, vafr $preset (staged $staged)" -- \
-      "$bin/binocular_frame" 6 vafr "$preset" 1 "$staged" both
+      "$bin/binocular_frame" 6 vafr "$preset" 1 "$staged" eq3-any-gaze on both
     step "resident binocular frame, full $preset" -- \
-      "$bin/binocular_frame" 4 full "$preset" 1 off both
+      "$bin/binocular_frame" 4 full "$preset" 1 off eq3-any-gaze on both
   done
   echo "gpu-bench: $failed step(s) failed; report in $report" | tee -a "$report"
   [ "$failed" = 0 ]

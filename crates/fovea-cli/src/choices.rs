@@ -363,6 +363,10 @@ pub enum VafrRingsChoice {
     Exact,
     /// The paper's Eq. 3 (the gaze as the optical axis).
     Eq3,
+    /// Eq. 3's rings in one buffer for every gaze, off-screen texels unshaded (the resident
+    /// GPU frame builds its tables once for it).
+    #[value(name = "eq3-any-gaze")]
+    Eq3AnyGaze,
 }
 
 impl From<VafrRingsChoice> for fovea_core::mapping::VafrRings {
@@ -370,6 +374,7 @@ impl From<VafrRingsChoice> for fovea_core::mapping::VafrRings {
         match v {
             VafrRingsChoice::Eq3 => Self::Eq3,
             VafrRingsChoice::Exact => Self::Exact,
+            VafrRingsChoice::Eq3AnyGaze => Self::Eq3AnyGaze,
         }
     }
 }

@@ -213,7 +213,10 @@ pub struct MethodOptions {
     /// How VaFR sizes its rings: exact (default: each ring at the true eccentricity of the
     /// screen points it crosses, texels off the screen unshaded; acuity-consistent at every
     /// gaze) or eq3 (the paper's Eq. 3, the gaze taken as the optical axis: the same buffer at
-    /// every gaze, up to 4x too coarse far from a corner gaze; equal to exact at the centre).
+    /// every gaze, up to 4x too coarse far from a corner gaze; equal to exact at the centre)
+    /// or eq3-any-gaze (Eq. 3's rings in one buffer reaching the screen's diagonal, texels off
+    /// the screen unshaded: the same layout at every gaze, which the resident GPU frame builds
+    /// its tables from once).
     #[arg(long, value_enum, ignore_case = true)]
     pub vafr_rings: Option<VafrRingsChoice>,
     /// Visual-polar inverse CDF: exact (Lambert W) or paper-fit (Liu Eq. 3).

@@ -20,14 +20,21 @@
 //! For each, per binocular frame: wall ms, host ms (resident: checking, tables, uniforms and
 //! recording, without the submission), submissions, blocking waits, bytes up and back —
 //! the device's own counters (`GpuContext::traffic`); then the median wall ratio. The plans
-//! (`FramePlan::new`, the mapping at each gaze) are built beforehand and timed apart. With
+//! (`FramePlan::cached`, both eyes' mappings at their gazes, one `PlanCache`) are built
+//! beforehand and timed apart; the median of plans + host is the render thread's whole
+//! preparation of a frame (issue 37's host bar).
+//!
 //! `temporal=on` both paths accumulate (the default `TemporalSettings`: the resident frame's
 //! pass, `ResidentFrame::set_temporal`; the staged path's CPU `TemporalAccumulator` per eye).
+//!
+//! `rings` picks VaFR's rings (`VafrRings`): `eq3-any-gaze` (default; the layout the resident
+//! frame builds its tables from once, only the pole and the shaded runs following the gaze),
+//! `exact` (the CPU path's default: rings and buffer follow the gaze) or `eq3`.
 //!
 //! ```sh
 //! XDG_RUNTIME_DIR=$(mktemp -d) cargo run --release -p fovea-gpu --example binocular_frame -- \
 //!     [frames=4] [method=vafr] [res=vive-pro-eye|4k|8k|retinal] [lights=1] [staged=on|off] \
-//!     [temporal=off|on] [denoise=both|on|off]
+//!     [rings=eq3-any-gaze|exact|eq3] [temporal=off|on] [denoise=both|on|off]
 //! ```
 
 #[path = "common/binocular_view.rs"]
@@ -37,7 +44,7 @@ use binocular_view::{binocular_view, direct_settings};
 
 use std::time::Instant;
 
-use fovea_core::mapping::Method;
+use fovea_core::mapping::{Method, VafrRings};
 use fovea_gpu::executors::GpuExecutors;
 use fovea_gpu::frame::{FrameGpuTimes, ResidentFrame, ToneSettings};
 use fovea_gpu::{GpuContext, GpuRequest, TrafficCounts};
@@ -45,7 +52,7 @@ use fovea_post::denoise::DenoiseParams;
 use fovea_post::tonemap::ToneCurve;
 use fovea_render::eye::EyeState;
 use fovea_render::pipeline::{render_planned, FrameContext, FrameInputs, StageTimes};
-use fovea_render::plan::FramePlan;
+use fovea_render::plan::{FramePlan, PlanCache};
 use fovea_render::shade::FrameNoise;
 use fovea_render::temporal::{TemporalAccumulator, TemporalSettings};
 
@@ -110,29 +117,39 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "off" => false,
         other => return Err(format!("staged={other} (on or off)").into()),
     };
-    let temporal = match args.get(5).map_or("off", String::as_str) {
+    let temporal = match args.get(6).map_or("off", String::as_str) {
         "on" => Some(TemporalSettings::default()),
         "off" => None,
         other => return Err(format!("temporal={other} (on or off)").into()),
     };
-    let (plain_on, denoised_on) = match args.get(6).map_or("both", String::as_str) {
+    let (plain_on, denoised_on) = match args.get(7).map_or("both", String::as_str) {
         "both" => (true, true),
         "on" => (false, true),
         "off" => (true, false),
         other => return Err(format!("denoise={other} (both, on or off)").into()),
     };
 
+    let rings = match args.get(5).map_or("eq3-any-gaze", String::as_str) {
+        "eq3-any-gaze" => VafrRings::Eq3AnyGaze,
+        "exact" => VafrRings::Exact,
+        "eq3" => VafrRings::Eq3,
+        other => return Err(format!("rings={other} (eq3-any-gaze, exact or eq3)").into()),
+    };
+
     let (world, cams, display) = binocular_view(res, lights)?;
-    let settings = direct_settings(method);
+    let mut settings = direct_settings(method);
+    settings.mapping.vafr.rings = rings;
     let mut denoise_settings = settings.clone();
     denoise_settings.denoise = Some(DenoiseParams::default());
 
     let ctx = GpuContext::new(&GpuRequest::default())?;
     println!(
-        "{method} at {res} ({}x{}), both eyes, {} light(s), direct shading, temporal {}; on {}",
+        "{method} at {res} ({}x{}), both eyes, {} light(s), direct shading, VaFR rings {}, \
+         temporal {}; on {}",
         display.width_px,
         display.height_px,
         world.lights.len(),
+        rings.name(),
         if temporal.is_some() { "on" } else { "off" },
         ctx.adapter()
     );
@@ -147,22 +164,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         display.gaze(x, y)
     };
     let plans_with = |f: usize,
-                      settings: &fovea_render::pipeline::FrameSettings|
+                      settings: &fovea_render::pipeline::FrameSettings,
+                      cache: &mut PlanCache|
      -> Result<Vec<FramePlan>, Box<dyn std::error::Error>> {
         (0..2)
             .map(|e| {
-                Ok(FramePlan::new(
+                Ok(FramePlan::cached(
                     &world,
                     &cams[e],
                     settings,
                     &EyeState::looking_at(gaze_at(f, e)?),
                     [0.0, 0.0],
+                    cache,
                 )?
                 .with_noise(FrameNoise::new(f as u64, e as u32)))
             })
             .collect()
     };
-    let plans_of = |f: usize| plans_with(f, &settings);
+    let (mut cache, mut denoise_cache) = (PlanCache::new(), PlanCache::new());
+    let mut plans_of = |f: usize| plans_with(f, &settings, &mut cache);
 
     let t = Instant::now();
     let p0 = plans_of(0)?;
@@ -179,7 +199,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     // The same frame with the sample-space denoiser on (its own scene, buffers and timers).
     let mut denoised = if denoised_on {
-        let p0 = plans_with(0, &denoise_settings)?;
+        let p0 = plans_with(0, &denoise_settings, &mut denoise_cache)?;
         let mut d =
             ResidentFrame::new(&ctx, &world, [&p0[0], &p0[1]], [&cams[0], &cams[1]], TONE)?;
         d.set_temporal(temporal)?;
@@ -202,6 +222,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     let (mut walls, mut staged_walls, mut hosts) = (Vec::new(), Vec::new(), Vec::new());
+    let mut prepares = Vec::new();
     let mut gpu_lines = Vec::new();
     let (mut denoised_walls, mut denoised_lines) = (Vec::new(), Vec::new());
     // GPU ms per frame: the plain frame's total; the denoised frame's total and its denoiser.
@@ -212,7 +233,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let plan_ms = t.elapsed().as_secs_f64() * 1e3;
 
         if let Some(d) = &mut denoised {
-            let plans = plans_with(f, &denoise_settings)?;
+            let plans = plans_with(f, &denoise_settings, &mut denoise_cache)?;
             let before = ctx.traffic();
             let t = Instant::now();
             let times = d.render(&world, [&plans[0], &plans[1]], [&cams[0], &cams[1]])?;
@@ -263,6 +284,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         if f > 0 {
             walls.push(wall);
             hosts.push(times.host_ms);
+            prepares.push(plan_ms + times.host_ms);
         }
         for g in resident.poll_gpu_times()? {
             if g.frame > 0 {
@@ -334,9 +356,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     println!(
         "median over frames 1..{frames}: resident {rw:.1} ms wall ({:.1} fps binocular), host \
-         {:.2} ms; {staged}",
+         {:.2} ms (plans + host {:.2} ms); {staged}",
         1e3 / rw,
         median(hosts),
+        median(prepares),
     );
     Ok(())
 }

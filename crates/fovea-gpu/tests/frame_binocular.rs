@@ -9,9 +9,12 @@
 //!   `to_srgb8` with the same exposure and curve: luma PSNR ≥ 40 dB (Rec. 601 luma of the
 //!   codes, as `fovea_eval::metrics::luma_psnr`), for the first frame and for a frame after a
 //!   saccade-sized gaze step;
+//! * VaFR with Eq. 3's rings in the buffer for any gaze (`VafrRings::Eq3AnyGaze`, the layout
+//!   whose tables the resident frame builds once) the same, along a path of 8° steps that
+//!   changes the exact rings' buffer every frame;
 //! * that steady-state frame (the gaze moved 8° for the left eye and 6° for the right, to the
-//!   mirror of their first gazes through the screen's centre, which keeps the foveated
-//!   buffers' sizes): exactly one submission, no blocking wait, at most 256 KiB uploaded,
+//!   mirror of their first gazes through the screen's centre, which keeps the exact rings'
+//!   buffers' sizes; for `eq3-any-gaze`, each step of its path): exactly one submission, no blocking wait, at most 256 KiB uploaded,
 //!   nothing read back, no buffer and no bind group created; the host's milliseconds per
 //!   binocular frame (checking, tables, uniforms, recording; no submission) printed, never
 //!   asserted;
@@ -33,7 +36,7 @@ mod common;
 mod resident;
 
 use common::{gpu_or_skip, shout};
-use fovea_core::mapping::Method;
+use fovea_core::mapping::{Method, VafrRings};
 use fovea_gpu::frame::{ResidentFrame, ToneSettings};
 use fovea_gpu::{GpuContext, GpuError};
 use fovea_post::denoise::DenoiseParams;
@@ -148,6 +151,22 @@ fn check_images(
     }
 }
 
+/// The screen's centre is (720, 800): each second gaze is the first mirrored through it.
+const MIRRORED: [[(f64, f64); 2]; 2] = [
+    [(620.0, 800.0), (660.0, 760.0)],
+    [(820.0, 800.0), (780.0, 840.0)],
+];
+
+/// Saccade-sized steps (~8°, 80–90 px at the Vive Pro Eye) that change the exact rings'
+/// buffer every frame (no gaze is another's mirror), down to near a corner and back.
+const WANDERING: [[(f64, f64); 2]; 5] = [
+    [(620.0, 800.0), (660.0, 760.0)],
+    [(540.0, 740.0), (580.0, 700.0)],
+    [(455.0, 690.0), (495.0, 650.0)],
+    [(390.0, 610.0), (430.0, 575.0)],
+    [(470.0, 660.0), (505.0, 625.0)],
+];
+
 fn the_binocular_frame_is_the_cpus(ctx: &GpuContext, method: Method) {
     the_frame_with_settings_is_the_cpus(ctx, method, settings(method), 4);
 }
@@ -165,19 +184,28 @@ fn denoised_settings(method: Method) -> FrameSettings {
     s
 }
 
-/// The first frame and `steady` frames after it (the gaze stepping back and forth) of `s`
-/// against the CPU: images at the first and the last, counters on every steady frame.
+/// The first frame and `steady` frames after it (the gaze stepping back and forth between
+/// mirrored gazes) of `s` against the CPU.
 fn the_frame_with_settings_is_the_cpus(
     ctx: &GpuContext,
     method: Method,
     s: FrameSettings,
-    steady: u64,
+    steady: usize,
+) {
+    let path: Vec<_> = (0..=steady).map(|f| MIRRORED[f % 2]).collect();
+    binocular_frame_on_a_path(ctx, &s, &method.to_string(), &path);
+}
+/// The resident frame of `s` along `path` (both eyes' gazes per frame) against the CPU's:
+/// the first and last frames' images, every later frame's traffic.
+fn binocular_frame_on_a_path(
+    ctx: &GpuContext,
+    s: &FrameSettings,
+    method: &str,
+    path: &[[(f64, f64); 2]],
 ) {
     let (world, cams) = setup();
-    // The screen's centre is (720, 800): each second gaze is the first mirrored through it.
-    let first = [(620.0, 800.0), (660.0, 760.0)];
-    let moved = [(820.0, 800.0), (780.0, 840.0)];
-    let p0 = plans(&world, &cams, &s, first, 0);
+    let s = s.clone();
+    let p0 = plans(&world, &cams, &s, path[0], 0);
     let mut frame =
         ResidentFrame::new(ctx, &world, [&p0[0], &p0[1]], [&cams[0], &cams[1]], TONE).unwrap();
     let before = ctx.traffic();
@@ -197,8 +225,8 @@ fn the_frame_with_settings_is_the_cpus(
     // Steady state: the gaze moves by a saccade-sized step every frame, back and forth.
     let mut host = Vec::new();
     let mut last = p0;
-    for f in 1..=steady {
-        let gazes = if f % 2 == 1 { moved } else { first };
+    for (f, &gazes) in path.iter().enumerate().skip(1) {
+        let f = f as u64;
         let p = plans(&world, &cams, &s, gazes, f);
         let before = ctx.traffic();
         let t = frame
@@ -252,7 +280,7 @@ fn the_frame_with_settings_is_the_cpus(
         &world,
         &cams,
         &last,
-        &format!("{method} frame {steady}"),
+        &format!("{method} frame {}", path.len() - 1),
     );
     if s.denoise.is_some() && frame.timed() {
         let denoise_ms: Vec<f64> = times
@@ -299,6 +327,19 @@ fn vafr_binocular_frame_is_the_cpus() {
         return;
     };
     the_binocular_frame_is_the_cpus(&ctx, Method::Vafr);
+}
+
+#[test]
+fn vafr_any_gaze_frame_is_the_cpus_while_the_gaze_wanders() {
+    // Eq. 3's rings in the buffer for any gaze (`VafrRings::Eq3AnyGaze`): the tables are
+    // built with the first frame and only the pole, the rings' uniforms and the shaded runs
+    // go up after, wherever the gaze goes; the CPU renders the same plans.
+    let Some(ctx) = gpu_or_skip("vafr_any_gaze_frame_is_the_cpus_while_the_gaze_wanders") else {
+        return;
+    };
+    let mut s = settings(Method::Vafr);
+    s.mapping.vafr.rings = VafrRings::Eq3AnyGaze;
+    binocular_frame_on_a_path(&ctx, &s, "vafr eq3-any-gaze", &WANDERING);
 }
 
 #[test]

@@ -343,7 +343,21 @@ pub fn polar_lut(mapping: &dyn FoveationMapping, centre: ScreenPoint, w: u32, h:
         .map(|&(x, y)| (x - c.x_px).hypot(y - c.y_px))
         .fold(0.0, f64::max)
         + 2.0;
-    let n = (r_max / LUT_STEP_PX).ceil() as usize + 2;
+    polar_lut_to(mapping, centre, polar_lut_len(r_max))
+}
+
+/// Entries of a `u(r)` table reaching `r_max_px` ([`polar_lut`]'s length for that radius).
+pub fn polar_lut_len(r_max_px: f64) -> usize {
+    (r_max_px / LUT_STEP_PX).ceil() as usize + 2
+}
+
+/// [`polar_lut`] with `n` entries (`r = k · LUT_STEP_PX` for `k < n`), whatever the screen:
+/// entry for entry the same numbers, so a table built once for the largest radius any gaze
+/// reads serves a mapping whose `u(r)` does not depend on the gaze
+/// (`FoveationMapping::layout_is_gaze_free`; at another pole the same to the rounding of a
+/// point's radius from it).
+pub fn polar_lut_to(mapping: &dyn FoveationMapping, centre: ScreenPoint, n: usize) -> Vec<f32> {
+    let c = centre;
     (0..n)
         .into_par_iter()
         .map(|k| {

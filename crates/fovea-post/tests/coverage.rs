@@ -14,7 +14,9 @@
 //!   weights summing to one. A ring stretched over the screen (the old behaviour past VaFR's
 //!   60°) puts that mean far away; an uncovered pixel has weight zero.
 //!
-//! The negative control, VaFR with the paper's fixed 60° buffer, fails both.
+//! VaFR's exact rings and Eq. 3's rings in the buffer for any gaze (`VafrRings::Eq3AnyGaze`,
+//! the resident GPU frame's layout) leave their off-screen texels unshaded; both are checked
+//! on the same grid. The negative control, VaFR with the paper's fixed 60° buffer, fails both.
 
 use rayon::prelude::*;
 
@@ -265,15 +267,19 @@ fn every_method_covers_the_screen_at_every_gaze() {
                 }
             }
         }
-        // VaFR with its rings at the true eccentricity, whose off-screen texels are unshaded.
-        for g in gazes(&d) {
-            let m = build(Method::Vafr, &d, g, &exact_rings()).unwrap();
-            let (n, worst) = mapping_failures(&d, g, m.as_ref(), &px);
-            if n > 0 {
-                report.push(format!(
-                    "{} vafr --vafr-rings exact gaze ({:.0},{:.0}): {n} uncovered, worst {worst:?}",
-                    d.name, g.point.x_px, g.point.y_px,
-                ));
+        // VaFR with its rings at the true eccentricity, and Eq. 3's in the buffer for any
+        // gaze (the resident GPU frame's), whose off-screen texels are unshaded.
+        for (name, config) in [("exact", exact_rings()), ("eq3-any-gaze", any_gaze_rings())] {
+            for g in gazes(&d) {
+                let m = build(Method::Vafr, &d, g, &config).unwrap();
+                let (n, worst) = mapping_failures(&d, g, m.as_ref(), &px);
+                if n > 0 {
+                    report.push(format!(
+                        "{} vafr --vafr-rings {name} gaze ({:.0},{:.0}): {n} uncovered, worst \
+                         {worst:?}",
+                        d.name, g.point.x_px, g.point.y_px,
+                    ));
+                }
             }
         }
     }
@@ -284,6 +290,16 @@ fn exact_rings() -> MappingConfig {
     MappingConfig {
         vafr: VafrParams {
             rings: VafrRings::Exact,
+            ..Default::default()
+        },
+        ..Default::default()
+    }
+}
+
+fn any_gaze_rings() -> MappingConfig {
+    MappingConfig {
+        vafr: VafrParams {
+            rings: VafrRings::Eq3AnyGaze,
             ..Default::default()
         },
         ..Default::default()
@@ -381,11 +397,13 @@ fn the_reconstruction_never_stretches_a_ring_over_the_screen() {
             }
         }
         // Every pixel reads shaded texels only, though off-screen ones are skipped.
-        let n = reconstruction_failures(&d, g, &exact_rings(), Method::Vafr);
-        if n > 0 {
-            report.push(format!(
-                "vafr --vafr-rings exact at ({gx},{gy}): {n} pixels"
-            ));
+        for (name, config) in [("exact", exact_rings()), ("eq3-any-gaze", any_gaze_rings())] {
+            let n = reconstruction_failures(&d, g, &config, Method::Vafr);
+            if n > 0 {
+                report.push(format!(
+                    "vafr --vafr-rings {name} at ({gx},{gy}): {n} pixels"
+                ));
+            }
         }
     }
     assert!(report.is_empty(), "{}", report.join("\n"));

@@ -6,7 +6,8 @@
 //! cargo run --release -p fovea-render --example plan_host_ms -- [PRESETS] [FRAMES] [METHOD]
 //! ```
 //!
-//! Defaults: `vive-pro-eye,8k`, 12 frames, `vafr` (`vafr-eq3`: VaFR with Eq. 3's rings). Prints, per display, the mean wall and
+//! Defaults: `vive-pro-eye,8k`, 12 frames, `vafr` (`vafr-eq3`: VaFR with Eq. 3's rings;
+//! `vafr-eq3-any-gaze`: Eq. 3's rings in the buffer for any gaze, the resident frame's). Prints, per display, the mean wall and
 //! process CPU ms per binocular frame of every part, and the CPU share (CPU / (wall × cores)):
 //! the plans before (`FramePlan::new`, the AA pass's alignment table built texel by texel as
 //! `fovea-gpu` did) and after (`FramePlan::cached` with one `PlanCache` for both eyes,
@@ -66,10 +67,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let presets = args.first().map_or("vive-pro-eye,8k", String::as_str);
     let frames: usize = args.get(1).map_or(Ok(12), |s| s.parse())?;
-    // `vafr-eq3`: VaFR with the paper's Eq. 3 rings instead of the exact ones.
+    // `vafr-eq3`: VaFR with the paper's Eq. 3 rings instead of the exact ones;
+    // `vafr-eq3-any-gaze`: Eq. 3's rings in the buffer for any gaze (the resident frame's).
     let method_arg = args.get(2).map_or("vafr", String::as_str);
-    let eq3 = method_arg == "vafr-eq3";
-    let method = Method::parse(if eq3 { "vafr" } else { method_arg })?;
+    let rings = match method_arg {
+        "vafr-eq3" => Some(fovea_core::mapping::VafrRings::Eq3),
+        "vafr-eq3-any-gaze" => Some(fovea_core::mapping::VafrRings::Eq3AnyGaze),
+        _ => None,
+    };
+    let method = Method::parse(if rings.is_some() { "vafr" } else { method_arg })?;
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let scene = builtin::depth_range()?;
     let desc = scene.cameras[0].clone();
@@ -77,8 +83,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let rig = HmdRig::new(desc.position, desc.forward, desc.up, 0.063)?;
     let mut settings = FrameSettings::new(method);
     settings.memory_limit_bytes = u64::MAX;
-    if eq3 {
-        settings.mapping.vafr.rings = fovea_core::mapping::VafrRings::Eq3;
+    if let Some(rings) = rings {
+        settings.mapping.vafr.rings = rings;
     }
     // Jittered samples, as with temporal accumulation on.
     let jitter = [0.25, -0.25];

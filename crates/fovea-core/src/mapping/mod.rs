@@ -29,6 +29,7 @@ pub mod kfr;
 pub mod lafr;
 mod layered;
 mod log_polar;
+mod screen_arcs;
 pub mod vafr;
 mod vafr_rings;
 pub mod visual_polar;
@@ -202,6 +203,25 @@ pub trait FoveationMapping: Send + Sync {
     /// and for screen-aligned mappings.
     fn ring(&self, _layer: u32, _u: f64) -> Option<Ring> {
         None
+    }
+
+    /// The shaded texels of column `i` of `layer` as half-open runs of rows `[j0, j1)`,
+    /// sorted and disjoint, appended to `out`: exactly the `j` for which
+    /// [`Self::is_shaded`]`(layer, i, j)`, without asking row by row. `false` (and nothing
+    /// appended) where the mapping does not list them; then ask [`Self::is_shaded`].
+    fn append_shaded_runs(&self, _layer: u32, _i: u32, _out: &mut Vec<(u32, u32)>) -> bool {
+        false
+    }
+
+    /// Whether the polar layout (rows and periods) and the forward map about the pole (`u`
+    /// of the radius, `v` of the angle) depend on the gaze only through what
+    /// [`Self::buffers`] and [`Self::params`] report: then tables built from them (the
+    /// reconstruction's `u(r)` table, the sample-space AA's grid) hold at every gaze with
+    /// equal buffers and parameters, only the pole moving. The shaded texels may still
+    /// follow the gaze. `false` unless the mapping says so (VaFR with
+    /// `VafrRings::Eq3AnyGaze`, or Eq. 3's rings at a fixed `e_max`).
+    fn layout_is_gaze_free(&self) -> bool {
+        false
     }
 }
 

@@ -24,7 +24,8 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::vafr_rings::{ColumnRays, RingProfile, RingTable};
+use super::screen_arcs::{arcs_in_rect, runs_of_arcs, Rect};
+use super::vafr_rings::{ColumnRays, RingProfile, RingTable, SCREEN_MARGIN_PX};
 use super::{
     polar_deg, tangential_denominator, BufferSize, Coverage, FoveationMapping, Method, Ring,
     SamplePoint, MAX_COVERAGE_DEG,
@@ -65,6 +66,15 @@ pub enum VafrRings {
     /// ([`Vafr::ring_table`]).
     #[default]
     Exact,
+    /// Eq. 3's rings in one buffer for every gaze on the screen: it reaches the screen's
+    /// diagonal (the farthest corner of a gaze in the opposite corner; with
+    /// [`Coverage::Screen`]), so its columns, rows and periods — and every table built from
+    /// them — are the same at every such gaze and only the pole moves; the texels whose
+    /// footprint lies off the screen are not shaded (`screen_arcs.rs`, found in closed form
+    /// per column). What the resident GPU frame builds its tables from once per display
+    /// (`fovea_gpu::frame`). Its rings are [`VafrRings::Eq3`]'s, so from a corner gaze the far
+    /// rings are as coarse as Eq. 3's.
+    Eq3AnyGaze,
 }
 
 impl VafrRings {
@@ -73,6 +83,7 @@ impl VafrRings {
         match self {
             VafrRings::Eq3 => "eq3",
             VafrRings::Exact => "exact",
+            VafrRings::Eq3AnyGaze => "eq3-any-gaze",
         }
     }
 }
@@ -123,14 +134,16 @@ pub struct Vafr {
     periods: Vec<f64>,
     height: u32,
     count: u64,
-    /// With [`VafrRings::Exact`]: the ring table and each column's shaded runs of rows.
+    /// With [`VafrRings::Exact`]: the ring table.
     exact: Option<ExactRings>,
+    /// Each column's shaded runs of rows `[j0, j1)`, where not every row is shaded
+    /// ([`VafrRings::Exact`], [`VafrRings::Eq3AnyGaze`]).
+    runs: Option<Vec<Vec<(u32, u32)>>>,
 }
 
 #[derive(Clone, Debug)]
 struct ExactRings {
     profile: RingProfile,
-    runs: Vec<Vec<(u32, u32)>>,
 }
 
 impl Vafr {
@@ -141,7 +154,10 @@ impl Vafr {
         if let Coverage::Fixed(e) = params.max_eccentricity {
             check_range_open_lo("max_eccentricity", e.0, 0.0, MAX_COVERAGE_DEG)?;
         }
-        let e_max = params.max_eccentricity.resolve(display, &gaze);
+        let e_max = match params.rings {
+            VafrRings::Eq3AnyGaze => any_gaze_e_max(display, &gaze, params.max_eccentricity),
+            _ => params.max_eccentricity.resolve(display, &gaze),
+        };
         let profile = (params.rings == VafrRings::Exact).then(|| {
             // Out to the farthest corner; a fixed e_max (Eq. 3's radius) may stop short of it.
             let screen = display.farthest_corner_px(&gaze) + 1.0;
@@ -169,18 +185,28 @@ impl Vafr {
             .map(|&l| if l > 0.5 { (l - 0.5).ceil() as u32 } else { 0 })
             .collect();
         let height = rows.iter().copied().max().unwrap_or(0);
-        let runs: Option<Vec<Vec<(u32, u32)>>> = profile.as_ref().map(|p| {
-            let rays = ColumnRays::new(display, &gaze);
-            rows.par_iter()
-                .enumerate()
-                .map(|(i, &n)| p.shaded_runs(i as u32, n, periods[i], &rays))
-                .collect()
-        });
-        let exact = profile
-            .zip(runs)
-            .map(|(profile, runs)| ExactRings { profile, runs });
-        let count = match &exact {
-            Some(x) => x.runs.iter().flatten().map(|&(a, b)| (b - a) as u64).sum(),
+        let runs: Option<Vec<Vec<(u32, u32)>>> = match (&profile, params.rings) {
+            (Some(p), _) => {
+                let rays = ColumnRays::new(display, &gaze);
+                Some(
+                    rows.par_iter()
+                        .enumerate()
+                        .map(|(i, &n)| p.shaded_runs(i as u32, n, periods[i], &rays))
+                        .collect(),
+                )
+            }
+            (None, VafrRings::Eq3AnyGaze) => Some(near_screen_runs(
+                display,
+                &gaze,
+                &params.acuity,
+                &rows,
+                &periods,
+            )),
+            _ => None,
+        };
+        let exact = profile.map(|profile| ExactRings { profile });
+        let count = match &runs {
+            Some(runs) => runs.iter().flatten().map(|&(a, b)| (b - a) as u64).sum(),
             None => rows.iter().map(|&r| r as u64).sum(),
         };
         if count == 0 {
@@ -204,6 +230,7 @@ impl Vafr {
             height,
             count,
             exact,
+            runs,
         })
     }
 
@@ -307,6 +334,69 @@ fn shading_height(params: &VafrParams, e_deg: f64) -> f64 {
         / params.acuity.mar_deg(e_deg)
 }
 
+/// [`VafrRings::Eq3AnyGaze`]'s `e_max`: with [`Coverage::Screen`], Eq. 3's eccentricity of
+/// the screen's diagonal (the farthest corner of any gaze on the screen) or of this gaze's
+/// farthest corner where it lies farther (a gaze off the screen), plus one pixel of radius as
+/// [`Coverage::resolve`] adds; a fixed `e_max` as it is.
+fn any_gaze_e_max(display: &DisplayProfile, gaze: &Gaze, coverage: Coverage) -> f64 {
+    match coverage {
+        Coverage::Fixed(e) => e.0,
+        Coverage::Screen => {
+            let diagonal = (display.width_px as f64).hypot(display.height_px as f64);
+            let r = diagonal.max(display.farthest_corner_px(gaze)) + 1.0;
+            crate::display::eccentricity_deg(display.c_r(), r).min(MAX_COVERAGE_DEG)
+        }
+    }
+}
+
+/// [`VafrRings::Eq3AnyGaze`]'s shaded runs: per column `i`, the rows whose texel, widened as
+/// [`RingProfile::shaded_runs`] widens the exact rings' (one texel each way and
+/// [`SCREEN_MARGIN_PX`] beyond), may touch the screen widened by that margin. The widened
+/// texel lies within `radial + arc` pixels of the texel's centre (its farthest radius from
+/// the centre's, plus the arc of its angular half-width at its outer radius), so the texel is
+/// kept when its centre lies in the screen widened by `margin + radial + arc`: the closed-form
+/// arcs of that circle in that rectangle (`screen_arcs.rs`), one row more either side.
+fn near_screen_runs(
+    display: &DisplayProfile,
+    gaze: &Gaze,
+    acuity: &AcuityModel,
+    rows: &[u32],
+    periods: &[f64],
+) -> Vec<Vec<(u32, u32)>> {
+    let m = SCREEN_MARGIN_PX;
+    let c_r = display.c_r();
+    // Eq. 3 inverted at Eq. 10's e(u), the eccentricity kept below 90° (a column past the
+    // last reads a radius only for its margin).
+    let r_of_u = |u: f64| {
+        acuity
+            .e_of_u(u.max(0.0))
+            .min(MAX_COVERAGE_DEG)
+            .to_radians()
+            .tan()
+            / c_r
+    };
+    let (w, h) = (display.width_px as f64, display.height_px as f64);
+    let g = gaze.point;
+    rows.iter()
+        .zip(periods)
+        .enumerate()
+        .map(|(i, (&n, &period))| {
+            if n == 0 || period <= 0.0 {
+                return Vec::new();
+            }
+            let i = i as f64;
+            let r_c = r_of_u(i + 0.5);
+            let r_lo = (r_of_u(i - 1.0) - m).max(0.0);
+            let r_hi = r_of_u(i + 2.0) + m;
+            let dilate = 1.0 + (m * period / (std::f64::consts::TAU * r_lo.max(1.0))).ceil();
+            let arc = std::f64::consts::TAU * r_hi * (0.5 + dilate) / period;
+            let radial = (r_hi - r_c).max(r_c - r_lo);
+            let rect = Rect::screen(w, h, m + radial + arc);
+            runs_of_arcs(&arcs_in_rect(g.x_px, g.y_px, r_c, &rect), n, period)
+        })
+        .collect()
+}
+
 impl FoveationMapping for Vafr {
     fn method(&self) -> Method {
         Method::Vafr
@@ -338,12 +428,35 @@ impl FoveationMapping for Vafr {
         if layer != 0 {
             return false;
         }
-        match &self.exact {
-            Some(x) => x
-                .runs
+        match &self.runs {
+            Some(runs) => runs
                 .get(i as usize)
                 .is_some_and(|runs| runs.iter().any(|&(a, b)| j >= a && j < b)),
             None => self.rows.get(i as usize).is_some_and(|&r| j < r),
+        }
+    }
+
+    fn append_shaded_runs(&self, layer: u32, i: u32, out: &mut Vec<(u32, u32)>) -> bool {
+        if layer != 0 {
+            return true;
+        }
+        match &self.runs {
+            Some(runs) => out.extend(runs.get(i as usize).into_iter().flatten()),
+            None => out.extend(
+                self.rows
+                    .get(i as usize)
+                    .filter(|&&r| r > 0)
+                    .map(|&r| (0, r)),
+            ),
+        }
+        true
+    }
+
+    fn layout_is_gaze_free(&self) -> bool {
+        match self.params.rings {
+            VafrRings::Eq3AnyGaze => true,
+            VafrRings::Eq3 => matches!(self.params.max_eccentricity, Coverage::Fixed(_)),
+            VafrRings::Exact => false,
         }
     }
 
@@ -660,12 +773,13 @@ mod tests {
                 let g = d.gaze(fx * w, fy * h).unwrap();
                 let v = Vafr::new(&d, g, exact()).unwrap();
                 let x = v.exact.as_ref().unwrap();
+                let runs = v.runs.as_ref().unwrap();
                 let mut checked = 0;
                 for (i, &rows) in v.rows.iter().enumerate() {
                     let want =
                         x.profile
                             .shaded_runs_per_angle(&d, &g, i as u32, rows, v.periods[i]);
-                    assert_eq!(x.runs[i], want, "{} gaze ({fx},{fy}) column {i}", d.name);
+                    assert_eq!(runs[i], want, "{} gaze ({fx},{fy}) column {i}", d.name);
                     checked += rows as usize;
                 }
                 assert!(checked > 1000, "{checked}");
@@ -724,6 +838,191 @@ mod tests {
                 }
             }
             assert_eq!(far, 0, "({gx},{gy}): shaded texels far off the screen");
+        }
+    }
+
+    fn any_gaze() -> VafrParams {
+        VafrParams {
+            rings: VafrRings::Eq3AnyGaze,
+            ..VafrParams::default()
+        }
+    }
+
+    /// The 7×7 gaze grid of the coverage tests (`fovea-post/tests/coverage.rs`): corners,
+    /// edges and five steps between.
+    fn gaze_grid(d: &DisplayProfile) -> Vec<Gaze> {
+        let (w, h) = (d.width_px as f64, d.height_px as f64);
+        (0..49)
+            .map(|k| {
+                d.gaze(w * (k % 7) as f64 / 6.0, h * (k / 7) as f64 / 6.0)
+                    .unwrap()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn any_gaze_layout_is_the_same_at_every_gaze_on_the_screen() {
+        // Bit for bit: buffers, rows, periods and parameters; u(r) about the pole too (to
+        // the rounding of a point's radius from the pole); the
+        // buffer reaches the diagonal (the corner gazes' farthest corner) and is Eq. 3's
+        // there; a gaze off the screen beyond the diagonal grows it.
+        for name in ["vive-pro-eye", "8k"] {
+            let d = DisplayProfile::preset(name).unwrap();
+            let first = Vafr::new(&d, d.gaze(0.0, 0.0).unwrap(), any_gaze()).unwrap();
+            let corner = Vafr::new(&d, d.gaze(0.0, 0.0).unwrap(), VafrParams::eq3()).unwrap();
+            assert_eq!(first.buffers(), corner.buffers(), "{name}");
+            assert!(first.layout_is_gaze_free());
+            let l0 = first.polar_layout().unwrap();
+            for g in gaze_grid(&d) {
+                let v = Vafr::new(&d, g, any_gaze()).unwrap();
+                let l = v.polar_layout().unwrap();
+                assert_eq!(v.buffers(), first.buffers(), "{name} {g:?}");
+                assert_eq!((&l.rows, &l.period), (&l0.rows, &l0.period), "{name} {g:?}");
+                assert_eq!(v.params(), first.params());
+                for k in 0..50 {
+                    let r = k as f64 * 37.3;
+                    let p = ScreenPoint::new(g.point.x_px + r, g.point.y_px);
+                    let q = ScreenPoint::new(r, 0.0);
+                    // The same u to the rounding of the radius (p's x less the pole's).
+                    let (a, b) = (v.forward(p).unwrap().u, first.forward(q).unwrap().u);
+                    assert!((a - b).abs() <= 1e-12 * b.max(1.0), "{name} r {r}: {a} {b}");
+                }
+                // Fewer shaded than the buffer's texels, more than the screen needs.
+                assert!(v.sample_count() < v.buffers()[0].pixels());
+            }
+            let (w, h) = (d.width_px as f64, d.height_px as f64);
+            let off = Vafr::new(&d, d.gaze(-0.05 * w, -0.05 * h).unwrap(), any_gaze()).unwrap();
+            assert!(off.buffers()[0].width > first.buffers()[0].width);
+        }
+        // The exact rings' layout follows the gaze.
+        let d = DisplayProfile::preset("vive-pro-eye").unwrap();
+        assert!(!Vafr::new(&d, d.centre_gaze(), exact())
+            .unwrap()
+            .layout_is_gaze_free());
+    }
+
+    #[test]
+    fn any_gaze_forward_and_inverse_are_eq3s_and_inverse() {
+        // Every screen point maps where Eq. 3 (with its own coverage) maps it, and back.
+        let d = DisplayProfile::preset("vive-pro-eye").unwrap();
+        for (gx, gy) in [
+            (101.0, 100.0),
+            (1100.0, 1200.0),
+            (-30.0, 800.0),
+            (720.0, 800.0),
+        ] {
+            let g = d.gaze(gx, gy).unwrap();
+            let v = Vafr::new(&d, g, any_gaze()).unwrap();
+            let q3 = Vafr::new(&d, g, VafrParams::eq3()).unwrap();
+            for k in 0..500 {
+                let p =
+                    ScreenPoint::new((k * 37 % 1440) as f64 + 0.3, (k * 91 % 1600) as f64 + 0.7);
+                let s = v.forward(p).expect("every screen point is covered");
+                assert_eq!(Some(s), q3.forward(p), "({gx},{gy}) {p:?}");
+                let q = v.inverse(s).unwrap();
+                assert!(q.distance(p) < 1e-6, "({gx},{gy}) {p:?} -> {s:?} -> {q:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn any_gaze_runs_are_listed_as_is_shaded_answers() {
+        let d = DisplayProfile::preset("vive-pro-eye").unwrap();
+        for (gx, gy) in [(0.0, 0.0), (720.0, 800.0), (1300.0, 200.0)] {
+            for p in [any_gaze(), exact(), VafrParams::eq3()] {
+                let v = Vafr::new(&d, d.gaze(gx, gy).unwrap(), p).unwrap();
+                let b = v.buffers()[0];
+                let mut listed = 0u64;
+                for i in 0..b.width {
+                    let mut runs = Vec::new();
+                    assert!(v.append_shaded_runs(0, i, &mut runs));
+                    for w in runs.windows(2) {
+                        assert!(w[0].1 < w[1].0);
+                    }
+                    for j in 0..b.height {
+                        let listed_j = runs.iter().any(|&(a, e)| j >= a && j < e);
+                        assert_eq!(listed_j, v.is_shaded(0, i, j), "({gx},{gy}) ({i},{j})");
+                        listed += listed_j as u64;
+                    }
+                }
+                assert_eq!(listed, v.sample_count());
+            }
+        }
+    }
+
+    #[test]
+    fn any_gaze_skips_only_texels_off_the_screen() {
+        // Brute force on a small display and at the Vive Pro Eye: every texel the bilinear
+        // lookup of an on-screen pixel reads is shaded; every texel whose centre is on the
+        // screen is shaded; and a shaded texel's centre lies within its column's margin
+        // (2 px, one texel radially and the dilated rows along the ring: 2 px + 3 radial
+        // spacings + 4 + 2·dilate row spacings) of the screen.
+        let small = DisplayProfile::with_vertical_fov("small", 320, 200, Degrees(100.0)).unwrap();
+        let vive = DisplayProfile::preset("vive-pro-eye").unwrap();
+        for (d, stride) in [(small, 1), (vive, 7)] {
+            let (w, h) = (d.width_px, d.height_px);
+            let (wf, hf) = (w as f64, h as f64);
+            for (fx, fy) in [(0.0, 0.0), (0.5, 0.5), (0.997, 0.15), (-0.03, 1.05)] {
+                let g = d.gaze(fx * wf, fy * hf).unwrap();
+                let v = Vafr::new(&d, g, any_gaze()).unwrap();
+                let layout = v.polar_layout().unwrap();
+                for y in (0..h).step_by(stride) {
+                    for x in (0..w).step_by(stride) {
+                        let s = v
+                            .forward(ScreenPoint::new(x as f64 + 0.5, y as f64 + 0.5))
+                            .unwrap();
+                        let i0 = (s.u - 0.5).floor() as i64;
+                        for i in [i0, i0 + 1] {
+                            let Some(&rows) =
+                                (i >= 0).then(|| layout.rows.get(i as usize)).flatten()
+                            else {
+                                continue;
+                            };
+                            if rows == 0 {
+                                continue;
+                            }
+                            let turn = s.v / v.period_at_u(s.u);
+                            let j0 = (turn * layout.period[i as usize] - 0.5).floor() as i64;
+                            for j in [j0, j0 + 1] {
+                                let j = j.rem_euclid(rows as i64) as u32;
+                                assert!(
+                                    v.is_shaded(0, i as u32, j),
+                                    "{} ({fx},{fy}) px ({x},{y}) texel ({i},{j})",
+                                    d.name
+                                );
+                            }
+                        }
+                    }
+                }
+                let r_of = |u: f64| v.ring(0, u.clamp(0.0, v.u_max())).unwrap().r_px;
+                let mut shaded = 0u64;
+                for (i, &rows) in layout.rows.iter().enumerate() {
+                    let period = layout.period[i];
+                    let u = i as f64 + 0.5;
+                    let radial = r_of(u + 1.0) - r_of(u - 1.0);
+                    let r_lo = (r_of(u - 1.5) - 2.0).max(1.0);
+                    let dilate = 1.0 + (2.0 * period / (std::f64::consts::TAU * r_lo)).ceil();
+                    let spacing = std::f64::consts::TAU * (r_of(u) + radial + 2.0) / period;
+                    let bound = 2.0 + 3.0 * radial + (4.0 + 2.0 * dilate) * spacing;
+                    for j in 0..rows {
+                        let p = v.inverse(SamplePoint::new(u, j as f64 + 0.5)).unwrap();
+                        let out = (-p.x_px).max(p.x_px - wf).max(-p.y_px).max(p.y_px - hf);
+                        let on = v.is_shaded(0, i as u32, j);
+                        shaded += on as u64;
+                        if out <= 0.0 {
+                            assert!(on, "{} ({fx},{fy}) texel ({i},{j}) on screen", d.name);
+                        }
+                        if on {
+                            assert!(
+                                out <= bound,
+                                "{} ({fx},{fy}) texel ({i},{j}) {out:.1} px off (bound {bound:.1})",
+                                d.name
+                            );
+                        }
+                    }
+                }
+                assert_eq!(shaded, v.sample_count());
+            }
         }
     }
 }

@@ -171,7 +171,7 @@ impl RowMarks {
 
 /// Margin, in pixels, around the screen within which a texel counts as on the screen, and the
 /// pixel footprint the reconstruction may read beyond a texel's neighbours.
-const SCREEN_MARGIN_PX: f64 = 2.0;
+pub(crate) const SCREEN_MARGIN_PX: f64 = 2.0;
 
 /// `u(r)` and the rows per turn of every ring, tabulated in radius.
 #[derive(Clone, Debug)]

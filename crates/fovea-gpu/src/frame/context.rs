@@ -93,6 +93,7 @@ fn column_tables(
     let jitter = plan.jitter_texels;
     let mut columns = Vec::with_capacity(range.len());
     let mut runs = Vec::with_capacity(2 * range.len());
+    let mut listed = Vec::new();
     for i in range {
         let first = runs.len() as u32;
         let ring = mapping.ring(0, i as f64 + o[0] + jitter[0]);
@@ -119,19 +120,30 @@ fn column_tables(
             .copied()
             .unwrap_or(0)
             .min(size.height);
-        let mut start = None;
-        for j in 0..rows {
-            match (mapping.is_shaded(0, i, j), start) {
-                (true, None) => start = Some(j),
-                (false, Some(a)) => {
-                    runs.push([a, j]);
-                    start = None;
+        listed.clear();
+        if mapping.append_shaded_runs(0, i, &mut listed) {
+            // The mapping's own runs (VaFR's), clipped to the rows the buffer holds.
+            runs.extend(
+                listed
+                    .iter()
+                    .filter(|&&(a, _)| a < rows)
+                    .map(|&(a, b)| [a, b.min(rows)]),
+            );
+        } else {
+            let mut start = None;
+            for j in 0..rows {
+                match (mapping.is_shaded(0, i, j), start) {
+                    (true, None) => start = Some(j),
+                    (false, Some(a)) => {
+                        runs.push([a, j]);
+                        start = None;
+                    }
+                    _ => {}
                 }
-                _ => {}
             }
-        }
-        if let Some(a) = start {
-            runs.push([a, rows]);
+            if let Some(a) = start {
+                runs.push([a, rows]);
+            }
         }
         columns.push(FrameColumnGpu {
             r_px: ring.r_px as f32,
@@ -162,24 +174,37 @@ fn tables(plan: &FramePlan, layout: RayLayout) -> Tables {
         }
     };
     let size = plan.buffers[0];
-    // The columns in as many contiguous parts as the machine has threads (the run scan asks
-    // `is_shaded` for every row), then joined, each part's runs offset by those before.
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    // The columns in as many contiguous parts as the machine has threads where the run scan
+    // asks `is_shaded` for every row, then joined, each part's runs offset by those before;
+    // in one part where the mapping lists its runs (a few arithmetic operations a column:
+    // cheaper than starting a thread).
+    let lists_runs = plan
+        .mapping()
+        .append_shaded_runs(0, 0, &mut Vec::with_capacity(4));
+    let threads = if lists_runs {
+        1
+    } else {
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    };
     let per = (size.width as usize).div_ceil(threads).max(1) as u32;
-    let parts: Vec<(Vec<FrameColumnGpu>, Vec<[u32; 2]>)> = std::thread::scope(|scope| {
-        let handles: Vec<_> = (0..size.width)
-            .step_by(per as usize)
-            .map(|i0| {
-                let i1 = (i0 + per).min(size.width);
-                let polar = &polar;
-                scope.spawn(move || column_tables(plan, polar, size, o, i0..i1))
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
-            .collect()
-    });
+    let parts: Vec<(Vec<FrameColumnGpu>, Vec<[u32; 2]>)> = if threads == 1 {
+        vec![column_tables(plan, &polar, size, o, 0..size.width)]
+    } else {
+        std::thread::scope(|scope| {
+            let handles: Vec<_> = (0..size.width)
+                .step_by(per as usize)
+                .map(|i0| {
+                    let i1 = (i0 + per).min(size.width);
+                    let polar = &polar;
+                    scope.spawn(move || column_tables(plan, polar, size, o, i0..i1))
+                })
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+                .collect()
+        })
+    };
     let mut columns = Vec::with_capacity(size.width as usize + 1);
     let mut runs = Vec::with_capacity(2 * size.width as usize);
     for (part_columns, part_runs) in parts {

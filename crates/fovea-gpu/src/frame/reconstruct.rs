@@ -34,7 +34,8 @@ use fovea_core::mapping::FoveationMapping;
 use fovea_post::fxaa::FxaaParams;
 use fovea_post::grid::Grid;
 use fovea_post::inverse_map::{
-    column_footprints, minified_columns, polar_lut, PolarColumns, ReconstructFilter, LUT_STEP_PX,
+    column_footprints, minified_columns, polar_lut, polar_lut_len, polar_lut_to, PolarColumns,
+    ReconstructFilter, LUT_STEP_PX,
 };
 
 use crate::device::GpuContext;
@@ -410,7 +411,7 @@ impl ResidentPolar {
                 self.capacity.rows
             )));
         }
-        let key = mapping_key(mapping);
+        let key = mapping_key(mapping, display);
         let mut upload = TableUpload::default();
         if self.tables.key.as_deref() != Some(key.as_str()) {
             let t = self.build_tables(mapping, display, layer.height)?;
@@ -428,8 +429,12 @@ impl ResidentPolar {
             aa: u32::from(self.aa.is_some()),
             pad: [0; 3],
         };
-        let (px_hi, px_lo) = split_f64(t.centre.0);
-        let (py_hi, py_lo) = split_f64(t.centre.1);
+        // The pole is this frame's (a gaze-free layout's tables were built at another gaze).
+        let centre = mapping
+            .polar_layout()
+            .map_or(t.centre, |l| (l.centre.x_px, l.centre.y_px));
+        let (px_hi, px_lo) = split_f64(centre.0);
+        let (py_hi, py_lo) = split_f64(centre.1);
         let pi = std::f64::consts::PI;
         let rec = ReconstructUniform {
             pole_hi: [px_hi, py_hi],
@@ -593,7 +598,13 @@ impl ResidentPolar {
                 mapping.method()
             ))
         })?;
-        let raw = polar_lut(mapping, layout.centre, display.width_px, display.height_px);
+        let raw = if mapping.layout_is_gaze_free() {
+            // Out to the farthest corner of any gaze on the screen, so the table holds wherever
+            // the pole moves (`mapping_key` leaves the pole out).
+            polar_lut_to(mapping, layout.centre, gaze_free_lut_len(mapping, display))
+        } else {
+            polar_lut(mapping, layout.centre, display.width_px, display.height_px)
+        };
         if raw.len() < 2 || raw.len() > self.capacity.lut_entries as usize {
             return Err(GpuError::Input(format!(
                 "the {} mapping's u(r) table has {} entries (2 to {}: a pole on the screen)",
@@ -828,16 +839,38 @@ impl AaStage {
     }
 }
 
-/// What identifies a mapping's tables: its method, pole, buffers and parameters.
-fn mapping_key(mapping: &dyn FoveationMapping) -> String {
+/// What identifies a mapping's tables: its method, pole, buffers and parameters. A gaze-free
+/// layout (`FoveationMapping::layout_is_gaze_free`) leaves the pole out — its tables hold at
+/// every gaze with the same buffers and parameters — and puts the `u(r)` table's length in
+/// (longer only for a pole off the screen, farther from a corner than the diagonal).
+fn mapping_key(mapping: &dyn FoveationMapping, display: &DisplayProfile) -> String {
+    let gaze_free = mapping.layout_is_gaze_free();
     let c = mapping.polar_layout().map(|l| l.centre);
+    let pole = if gaze_free {
+        format!("any pole, {} entries", gaze_free_lut_len(mapping, display))
+    } else {
+        format!("{:?}", c.map(|c| (c.x_px.to_bits(), c.y_px.to_bits())))
+    };
     format!(
-        "{}|{:?}|{:?}|{}",
+        "{}|{pole}|{:?}|{}",
         mapping.method(),
-        c.map(|c| (c.x_px.to_bits(), c.y_px.to_bits())),
         mapping.buffers(),
         mapping.params()
     )
+}
+
+/// Entries of a gaze-free layout's `u(r)` table: out to the screen's diagonal plus 2 px (the
+/// farthest corner of any pole on the screen), or to this pole's farthest corner where that
+/// lies farther.
+fn gaze_free_lut_len(mapping: &dyn FoveationMapping, display: &DisplayProfile) -> usize {
+    let (w, h) = (f64::from(display.width_px), f64::from(display.height_px));
+    let far = mapping.polar_layout().map_or(0.0, |l| {
+        [(0.0, 0.0), (w, 0.0), (0.0, h), (w, h)]
+            .iter()
+            .map(|&(x, y)| (x - l.centre.x_px).hypot(y - l.centre.y_px))
+            .fold(0.0, f64::max)
+    });
+    polar_lut_len(w.hypot(h).max(far) + 2.0)
 }
 
 /// Writes the entries of `new` from the first that differs from `old` to the last that does

@@ -59,7 +59,7 @@ impl GpuMapping {
     /// the default ([`vafr_rings`], the reference's ring table uploaded).
     pub fn vafr(ctx: &GpuContext, vafr: &fovea_core::mapping::Vafr) -> Result<Self> {
         match vafr.rings() {
-            fovea_core::mapping::VafrRings::Eq3 => {
+            fovea_core::mapping::VafrRings::Eq3 | fovea_core::mapping::VafrRings::Eq3AnyGaze => {
                 let block = vafr::VafrUniform::new(vafr)?;
                 Self::new(ctx, "vafr", &vafr::SHADER, bytemuck::bytes_of(&block), None)
             }

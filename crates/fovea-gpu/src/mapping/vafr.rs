@@ -71,12 +71,14 @@ pub(crate) fn split_f64(x: f64) -> (f32, f32) {
 }
 
 impl VafrUniform {
-    /// The block for `vafr`. [`GpuError::Unsupported`] for rings other than Eq. 3's (the exact
-    /// rings go through [`super::vafr_rings`]; [`GpuMapping::vafr`](crate::GpuMapping::vafr)
+    /// The block for `vafr`. [`GpuError::Unsupported`] for the exact rings (they
+    /// go through [`super::vafr_rings`]; [`GpuMapping::vafr`](crate::GpuMapping::vafr)
     /// picks the right one), or when the acuity model has more than
     /// [`MAX_PIECES`] pivots or the tangential factor more than [`MAX_PIECES`].
     pub fn new(vafr: &Vafr) -> Result<Self> {
-        if vafr.rings() != fovea_core::mapping::VafrRings::Eq3 {
+        // Eq. 3's rings in the buffer for any gaze map as Eq. 3's: only its shaded texels
+        // differ, which the mapping shader does not decide.
+        if vafr.rings() == fovea_core::mapping::VafrRings::Exact {
             return Err(GpuError::Unsupported(format!(
                 "VaFR with --vafr-rings {} in the Eq. 3 mapping shader (GpuMapping::vafr takes \
                  the exact rings through their table)",
