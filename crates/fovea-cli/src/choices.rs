@@ -181,6 +181,24 @@ pub enum Shading {
     Path,
 }
 
+/// `--shading` of the measurements (`report`, `dof-compare`, `inset-analysis`): what a viewer
+/// gets (`fovea_eval::reference::MeasuredShading::Viewer`, the default) or the noise-free
+/// shading of the tables before issue 38.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum MeasuredShadingChoice {
+    Viewer,
+    NoiseFree,
+}
+
+impl From<MeasuredShadingChoice> for fovea_eval::reference::MeasuredShading {
+    fn from(c: MeasuredShadingChoice) -> Self {
+        match c {
+            MeasuredShadingChoice::Viewer => Self::Viewer,
+            MeasuredShadingChoice::NoiseFree => Self::NoiseFree,
+        }
+    }
+}
+
 /// `--env-light`: how direct shading lights surfaces with the environment (the ray count is
 /// `--env-samples`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

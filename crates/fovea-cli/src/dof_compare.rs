@@ -61,7 +61,10 @@ pub struct DofCompareArgs {
     /// (see `fovea render --help`).
     #[arg(long, default_value_t = 0.0)]
     pub cull_hidden_coc: f64,
-    /// Shading: direct or path.
+    /// Shading: direct (the default: with the viewer's real-time environment light, one
+    /// occluded ray per sample, so the pinhole frame and the reference carry its Monte Carlo
+    /// noise and the tables print the reference's noise floor; `--env-light unshadowed` for
+    /// the noise-free comparison of before issue 38) or path.
     #[arg(long, value_enum, ignore_case = true, default_value_t = Shading::Direct)]
     pub shading: Shading,
     #[command(flatten)]
@@ -176,12 +179,15 @@ pub fn params(args: &DofCompareArgs, display: &DisplayProfile) -> Result<DofComp
         // No bounce count of its own: the mode's default (path tracing's 2, indirect's 3).
         shading: shading(
             Some(args.shading),
-            fovea_render::quality::Quality::Offline,
+            // The viewer's shading by default (issue 38): the real-time preset's one
+            // occluded environment ray per sample; `--env-light unshadowed` is the noise-free
+            // comparison of before.
+            fovea_render::quality::Quality::Realtime,
             None,
             4,
             1,
             &args.env,
-            EnvLightChoice::Unshadowed,
+            EnvLightChoice::Occluded,
         )?,
         eye: args.eye.eye()?,
         coc_model: args.eye.coc_model()?,

@@ -10,7 +10,7 @@ use clap::Args;
 use fovea_eval::experiments::inset::{run as run_inset, InsetAnalysis, InsetParams};
 use fovea_eval::gradient_intensity::DEFAULT_BAND_PX;
 
-use crate::choices::Headset;
+use crate::choices::{Headset, MeasuredShadingChoice};
 use crate::common::DisplayArgs;
 use crate::scene_args::{prepare, GazeArgs, SceneArgs};
 
@@ -35,6 +35,15 @@ pub struct InsetAnalysisArgs {
     /// Width in pixels of Area2 and Area3 on either side of the boundary.
     #[arg(long, default_value_t = DEFAULT_BAND_PX)]
     pub band: u32,
+    /// The shading of every image: `viewer` (the default: the real-time preset with the
+    /// denoiser, as `fovea view`; the row `full` is then a converged reference of the same
+    /// shading, printed beside its twin of another seed, the noise floor) or `noise-free` (the
+    /// table before issue 38: no Monte Carlo noise, the reference the inset's own frame).
+    #[arg(long, value_enum, ignore_case = true, default_value_t = MeasuredShadingChoice::Viewer)]
+    pub shading: MeasuredShadingChoice,
+    /// Rays per pixel of the reference with the viewer's shading, 2 to 1024.
+    #[arg(long, default_value_t = fovea_eval::experiments::inset::DEFAULT_INSET_REFERENCE_PIXEL_SAMPLES)]
+    pub reference_pixel_samples: u32,
     /// Output folder: one PNG per composite and inset-analysis.json.
     #[arg(long, default_value = "fovea-out/inset-analysis")]
     pub out: PathBuf,
@@ -68,6 +77,8 @@ pub fn run(args: InsetAnalysisArgs) -> Result<()> {
         periphery_factor: args.periphery_factor,
         band_px: args.band,
         images: Some(args.out.clone()),
+        shading: args.shading.into(),
+        reference_pixel_samples: args.reference_pixel_samples,
     };
     params.validate()?;
     params.check_display(&display)?;
@@ -91,7 +102,13 @@ pub fn run(args: InsetAnalysisArgs) -> Result<()> {
     );
     println!("| method | Area1 x / y | Area2 x / y | Area3 x / y | Area4 x / y | slope 2→3 x / y | Area2/Area3 x / y | high/low x / y |");
     println!("|---|---|---|---|---|---|---|---|");
-    for r in &analysis.rows {
+    for r in analysis
+        .rows
+        .iter()
+        .take(1)
+        .chain(&analysis.floor_row)
+        .chain(analysis.rows.iter().skip(1))
+    {
         let a = &r.report.areas;
         let ratio = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.2}"));
         println!(
@@ -113,6 +130,11 @@ pub fn run(args: InsetAnalysisArgs) -> Result<()> {
             ratio(r.report.ratio_y)
         );
     }
+    println!(
+        "{} shading; {}",
+        analysis.params.shading.name(),
+        analysis.floor.describe()
+    );
     if !args.quiet {
         println!("wrote {}", args.out.display());
     }

@@ -69,12 +69,19 @@ fn quick_report_of_the_builtin_scene_has_every_table_and_passes_verify() {
         .unwrap();
     assert!(vafr.as_array().unwrap()[1..].iter().all(|c| c == 1_061_630));
     let q = section(&j, "quality");
-    // The reference is supersampled (4 rays per pixel with --quick), so the one-ray full
-    // frame is scored beside the seven methods.
-    assert_eq!(q["data"]["reference_pixel_samples"], 4);
-    assert_eq!(q["tables"][0]["rows"].as_array().unwrap().len(), 8);
-    assert_eq!(q["tables"][0]["rows"][0][0], "full");
-    assert_eq!(q["tables"][1]["rows"].as_array().unwrap().len(), 32);
+    // The viewer's shading by default (issue 38): the reference is supersampled (32 rays per
+    // pixel with --quick) and its twin of another seed is scored first (the noise floor),
+    // then the one-ray full frame and the seven methods.
+    assert_eq!(q["data"]["shading"], "viewer");
+    assert_eq!(q["data"]["reference_pixel_samples"], 32);
+    assert!(q["data"]["noise_floor"]["psnr_db"].as_f64().unwrap() > 0.0);
+    assert_eq!(q["tables"][0]["rows"].as_array().unwrap().len(), 9);
+    assert_eq!(
+        q["tables"][0]["rows"][0][0],
+        "reference, seed 1 (noise floor)"
+    );
+    assert_eq!(q["tables"][0]["rows"][1][0], "full");
+    assert_eq!(q["tables"][1]["rows"].as_array().unwrap().len(), 36);
     // Reproducibility: command, revision and seed are on the page.
     let keys: Vec<&str> = j["provenance"]
         .as_array()

@@ -56,6 +56,57 @@ pub fn band_index(edges: &[f64], e: f64) -> usize {
     edges.partition_point(|&lo| lo <= e).saturating_sub(1)
 }
 
+/// Which pixels (row-major) lie in the band of eccentricity `[lo_deg, hi_deg)` from `gaze`
+/// (`hi_deg = None`: no upper edge), eccentricity as [`pixel_eccentricities`] (VaFR Eq. 3 at
+/// the pixel centre). "Beyond 30°" is `band_mask(display, gaze, 30.0, None)`.
+pub fn band_mask(
+    display: &DisplayProfile,
+    gaze: &Gaze,
+    lo_deg: f64,
+    hi_deg: Option<f64>,
+) -> Vec<bool> {
+    pixel_eccentricities(display, gaze)
+        .into_iter()
+        .map(|e| e >= lo_deg && hi_deg.is_none_or(|hi| e < hi))
+        .collect()
+}
+
+/// Mean ꟻLIP (at the display's pixels per degree, computed over the whole frame so its
+/// filters see every neighbour) of `test` against `reference` over the pixels of `mask`
+/// ([`band_mask`]), with their count; `None` for an empty mask.
+pub fn masked_flip(
+    reference: &Image<Rgb>,
+    test: &Image<Rgb>,
+    display: &DisplayProfile,
+    mask: &[bool],
+) -> Result<Option<(f64, u64)>> {
+    let (w, h) = (display.width_px, display.height_px);
+    for (name, im) in [("reference", reference), ("test", test)] {
+        if im.width() != w || im.height() != h {
+            return Err(FoveaError::invalid(
+                name,
+                format!("{}×{}", im.width(), im.height()),
+                format!("the display's {w}×{h}"),
+            ));
+        }
+    }
+    if mask.len() != (w as usize) * (h as usize) {
+        return Err(FoveaError::invalid(
+            "mask",
+            mask.len(),
+            format!("one flag per pixel of the display's {w}×{h}"),
+        ));
+    }
+    let flip = flip_map(reference, test, Region::full(w, h), display.ppd() as f32)
+        .ok_or_else(|| FoveaError::Unsupported("ꟻLIP of an empty frame".into()))?;
+    let (mut sum, mut n) = (0.0f64, 0u64);
+    for (&v, _) in flip.data().iter().zip(mask).filter(|(_, &m)| m) {
+        sum += f64::from(v);
+        n += 1;
+    }
+    Ok((n > 0).then(|| (sum / n as f64, n)))
+}
+
 /// One band.
 #[derive(Clone, Debug, Serialize)]
 pub struct BandQuality {
@@ -276,6 +327,71 @@ mod tests {
         assert_eq!(w.psnr_db, Some(f64::INFINITY));
         assert!(w.samples_per_pixel.is_none());
         assert!(whole_frame(&[]).is_none());
+    }
+
+    #[test]
+    fn the_band_mask_matches_a_brute_force_eccentricity() {
+        // Eq. 3 from scratch: e = atan(r / f_y), r the pixel centre's distance from the gaze.
+        for (d, g) in [
+            (display(), (48.0, 32.0)),
+            (display(), (7.0, 4.0)),
+            (
+                DisplayProfile::with_vertical_fov("u", 120, 90, fovea_core::units::Degrees(110.0))
+                    .unwrap(),
+                (90.3, 20.7),
+            ),
+        ] {
+            let gaze = d.gaze(g.0, g.1).unwrap();
+            let f = d.focal_y_px();
+            for (lo, hi) in [(30.0, None), (5.0, Some(15.0)), (0.0, Some(5.0))] {
+                let mask = band_mask(&d, &gaze, lo, hi);
+                let mut n = 0;
+                for j in 0..d.height_px {
+                    for i in 0..d.width_px {
+                        let r = (i as f64 + 0.5 - g.0).hypot(j as f64 + 0.5 - g.1);
+                        let e = (r / f).atan().to_degrees();
+                        let want = e >= lo && hi.is_none_or(|h| e < h);
+                        assert_eq!(mask[(j * d.width_px + i) as usize], want, "{i},{j} e={e}");
+                        n += usize::from(want);
+                    }
+                }
+                assert!(n > 0, "band {lo}–{hi:?} empty at gaze {g:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn masked_flip_averages_the_map_over_the_band_only() {
+        // An error beyond 30° only: the masked ꟻLIP beyond 30° equals the mean of the map over
+        // those pixels (brute force), and the band within 5° (far from the error) is ~0.
+        let d = display();
+        let g = d.centre_gaze();
+        let reference = Image::new(96, 64, [0.2f32; 3]).unwrap();
+        let mut test = reference.clone();
+        let outer = band_mask(&d, &g, 30.0, None);
+        for (k, &m) in outer.iter().enumerate() {
+            if m {
+                *test.get_mut(k as u32 % 96, k as u32 / 96) = [0.9; 3];
+            }
+        }
+        let (f, n) = masked_flip(&reference, &test, &d, &outer).unwrap().unwrap();
+        let map = flip_map(&reference, &test, Region::full(96, 64), d.ppd() as f32).unwrap();
+        let want: Vec<f64> = map
+            .data()
+            .iter()
+            .zip(&outer)
+            .filter(|(_, &m)| m)
+            .map(|(&v, _)| f64::from(v))
+            .collect();
+        assert_eq!(n as usize, want.len());
+        assert!((f - want.iter().sum::<f64>() / want.len() as f64).abs() < 1e-12);
+        assert!(f > 0.1, "{f}");
+        let inner = band_mask(&d, &g, 0.0, Some(5.0));
+        let (fi, _) = masked_flip(&reference, &test, &d, &inner).unwrap().unwrap();
+        assert!(fi < 1e-6, "{fi}");
+        let none = vec![false; outer.len()];
+        assert!(masked_flip(&reference, &test, &d, &none).unwrap().is_none());
+        assert!(masked_flip(&reference, &test, &d, &outer[1..]).is_err());
     }
 
     #[test]

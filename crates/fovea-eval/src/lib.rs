@@ -8,6 +8,9 @@
 //! * [`gradient_intensity::gradient_areas`]: Sobel gradient intensity in four areas across an
 //!   inset boundary (Liu et al., inset boundary smoothing, Sec. 4);
 //! * [`bands::band_quality`]: PSNR, SSIM, ꟻLIP and samples per pixel by eccentricity band;
+//! * [`reference`]: the shading the measurements score (a viewer's by default), their
+//!   converged reference and its noise floor (two seeds scored against each other);
+//! * [`bands::masked_flip`]: ꟻLIP over one band of eccentricity (e.g. beyond 30°);
 //! * [`flicker::FlickerMeter`]: temporal flicker of a sequence against the full-resolution
 //!   sequence, by eccentricity band.
 //!
@@ -21,6 +24,7 @@ pub mod experiments;
 pub mod flicker;
 pub mod gradient_intensity;
 pub mod metrics;
+pub mod reference;
 pub mod ssim;
 
 pub use error::{EvalError, Result};

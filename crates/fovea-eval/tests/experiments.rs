@@ -193,9 +193,11 @@ fn inset_table_has_one_row_per_smoothing() {
     let d = display(128, 128);
     let (world, camera, _) = scene(&d);
     let dir = tempfile::tempdir().unwrap();
+    // Noise-free: the inset is then the reference's own pixels (checked below).
     let params = InsetParams {
         band_px: 8,
         images: Some(dir.path().to_path_buf()),
+        shading: fovea_eval::reference::MeasuredShading::NoiseFree,
         ..InsetParams::default()
     };
     let a = inset::run(&world, &camera, &d.centre_gaze(), &params).unwrap();

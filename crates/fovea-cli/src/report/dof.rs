@@ -42,6 +42,11 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
     } else {
         DofCompareParams::default()
     };
+    let shading = fovea_eval::reference::MeasuredShading::from(args.shading);
+    let p = DofCompareParams {
+        shading: shading.shading(),
+        ..p
+    };
     p.validate()?;
     let quiet = args.quiet;
     let t0 = std::time::Instant::now();
@@ -61,14 +66,19 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         &dir,
     )?;
     sec.text(format!(
-        "Window {}×{} around the gaze at {:.1} px/deg, pupil {:.2} mm, thin-lens reference with {} lens samples, {} pixel samples, CoC model {}. Focus cases as Konrad et al.: the 10th (near) and 90th (far) percentile of the window's depths.",
+        "Window {}×{} around the gaze at {:.1} px/deg, pupil {:.2} mm, thin-lens reference with {} lens samples, {} pixel samples, CoC model {}, {}. Focus cases as Konrad et al.: the 10th (near) and 90th (far) percentile of the window's depths.",
         result.window.width,
         result.window.height,
         result.pixels_per_degree,
         result.params.eye.pupil.0,
         result.params.lens_samples,
         result.params.pixel_samples,
-        result.params.coc_model.name()
+        result.params.coc_model.name(),
+        if shading.is_noisy() {
+            "the viewer's shading (one occluded environment ray per ray: the pinhole frame carries the noise of its pixel samples, not denoised, and the reference's own noise floor is in each case's title)"
+        } else {
+            "noise-free shading"
+        }
     ));
     sec.table(table(
         "dof-mean".into(),
@@ -91,7 +101,7 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         "Contact sheet: per focus case, the thin-lens reference, then each filter with its PSNR",
     );
     sec.text(format!(
-        "Reproduce: fovea dof-compare {}{} --gaze {:.0},{:.0} --window {}x{} --lens-samples {} --pixel-samples {}.",
+        "Reproduce: fovea dof-compare {}{} --gaze {:.0},{:.0} --window {}x{} --lens-samples {} --pixel-samples {}{}.",
         super::scene_flags(&args.scene),
         super::display_flags(&args.display),
         ctx.gaze.point.x_px,
@@ -99,7 +109,12 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         p.window[0],
         p.window[1],
         p.lens_samples,
-        p.pixel_samples
+        p.pixel_samples,
+        if shading.is_noisy() {
+            ""
+        } else {
+            " --env-light unshadowed"
+        }
     ));
     sec.data = written.json;
     Ok(())

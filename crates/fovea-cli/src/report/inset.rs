@@ -10,9 +10,19 @@ use crate::inset_analysis::write_json;
 use super::doc::{Cell, Section, Table};
 use super::Ctx;
 
+/// Rays per pixel of the inset section's reference with the viewer's shading and `--quick`.
+pub const QUICK_INSET_REFERENCE_PIXEL_SAMPLES: u32 = 16;
+
 pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
     // The paper's periphery: 1/4 resolution per side, upsampled by 4; the default band.
-    let mut params = InsetParams::default();
+    let mut params = InsetParams {
+        shading: ctx.args.shading.into(),
+        ..InsetParams::default()
+    };
+    if ctx.args.quick {
+        // CI: a lighter reference (its noise floor row says what that costs).
+        params.reference_pixel_samples = QUICK_INSET_REFERENCE_PIXEL_SAMPLES;
+    }
     params.validate()?;
     params.check_display(&ctx.display)?;
     let dir = ctx.dir("inset")?;
@@ -53,7 +63,12 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
             Cell::text("— (flat Area3)")
         }
     };
-    for r in rows {
+    for r in rows
+        .iter()
+        .take(1)
+        .chain(&analysis.floor_row)
+        .chain(rows.iter().skip(1))
+    {
         let a = &r.report.areas;
         let mut cells = vec![Cell::text(r.method.clone())];
         for area in a.iter().take(4) {
@@ -70,6 +85,15 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         t.row(cells);
     }
     sec.table(t);
+    sec.text(if params.shading.is_noisy() {
+        format!(
+            "Shading as a viewer gets it (`--shading viewer`): the inset and the periphery are denoised full-resolution frames of the real-time preset; the row `full` is the converged reference ({} rays per pixel, not denoised), and the row after it its twin of another seed: {}.",
+            params.reference_pixel_samples,
+            analysis.floor.describe()
+        )
+    } else {
+        "Noise-free shading (`--shading noise-free`): the inset is the full frame's own pixels.".to_string()
+    });
     if let Some(best) = rows
         .iter()
         .skip(1)
@@ -99,11 +123,13 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         );
     }
     sec.text(format!(
-        "Reproduce: fovea inset-analysis {}{} --gaze {:.0},{:.0}.",
+        "Reproduce: fovea inset-analysis {}{} --gaze {:.0},{:.0} --shading {} --reference-pixel-samples {}.",
         super::scene_flags(&ctx.args.scene),
         super::display_flags(&ctx.args.display),
         ctx.gaze.point.x_px,
-        ctx.gaze.point.y_px
+        ctx.gaze.point.y_px,
+        params.shading.name(),
+        params.reference_pixel_samples
     ));
     sec.data = json;
     Ok(())

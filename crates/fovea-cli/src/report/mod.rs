@@ -28,7 +28,7 @@ use fovea_render::camera::EyeCamera;
 
 use crate::backend::Preflight;
 use crate::choices::BackendArg;
-use crate::choices::{self, EyeChoice, Headset};
+use crate::choices::{self, EyeChoice, Headset, MeasuredShadingChoice};
 use crate::common::DisplayArgs;
 use crate::scene_args::{load, GazeArgs, Loaded, SceneArgs};
 use doc::{Report, Section};
@@ -70,9 +70,19 @@ pub struct ReportArgs {
     /// headset only with --quick).
     #[arg(long)]
     pub bench_res: Option<String>,
+    /// The shading the quality, DOF and inset sections score: `viewer` (the default: what
+    /// `fovea view` renders — the real-time preset, direct light with one environment ray per
+    /// sample, and the sample-space denoiser — against a converged full-resolution reference
+    /// of the same shading without the denoiser, beside that reference's noise floor: a twin
+    /// of another seed scored like the methods) or `noise-free` (the unshadowed environment,
+    /// no Monte Carlo noise, no denoiser: the foveation's error alone, the tables before
+    /// issue 38).
+    #[arg(long, value_enum, ignore_case = true, default_value_t = MeasuredShadingChoice::Viewer)]
+    pub shading: MeasuredShadingChoice,
     /// Primary rays per pixel of the quality section's full-resolution reference, 1 to 1024,
     /// stratified over the pixel (as `fovea render --method full --pixel-samples N`); default
-    /// 16 (4 with --quick). The foveated frames keep one ray per sample, and a one-ray full
+    /// 256 with the viewer's shading (32 with --quick, as CI runs it), 16 noise-free (4 with
+    /// --quick). The foveated frames keep one ray per sample, and a one-ray full
     /// frame is scored beside them: a one-ray frame aliases, so it is a poor reference itself.
     #[arg(long,
           value_parser = clap::value_parser!(u32).range(1..=i64::from(fovea_render::settings::MAX_PIXEL_SAMPLES)))]

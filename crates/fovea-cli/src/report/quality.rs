@@ -1,8 +1,15 @@
 //! Image quality of every foveation method against the supersampled full-resolution frame
-//! (16 rays per pixel by default, 4 with `--quick`; same view, same gaze), with the one-ray
-//! full frame scored beside them: luma PSNR, SSIM and ꟻLIP at the display's pixels per
-//! degree, over the whole frame and by eccentricity band (0–5°, 5–15°, 15–30°, > 30°), with
-//! each method's samples per pixel there (`fovea_eval::bands`).
+//! (same view, same gaze), with the one-ray full frame scored beside them: luma PSNR, SSIM and
+//! ꟻLIP at the display's pixels per degree, over the whole frame and by eccentricity band
+//! (0–5°, 5–15°, 15–30°, > 30°), with each method's samples per pixel there
+//! (`fovea_eval::bands`).
+//!
+//! With `--shading viewer` (the default, issue 38) every frame is shaded as a viewer shades it
+//! — the real-time preset with the sample-space denoiser — and the reference is the same
+//! shading without the denoiser at 256 rays per pixel (32 with `--quick`); a twin of the
+//! reference with another seed is scored like the methods (the row `reference, seed 1`: the
+//! reference's noise floor, `fovea_eval::reference`). With `--shading noise-free` the frames
+//! and the reference are noise-free (16 rays per pixel, 4 with `--quick`), as before.
 
 use anyhow::Result;
 
@@ -12,9 +19,9 @@ use fovea_core::Image;
 use fovea_eval::bands::{
     band_index, band_quality, pixel_eccentricities, whole_frame, BandQuality, REPORT_BANDS_DEG,
 };
+use fovea_eval::reference::{render_reference, MeasuredShading, DEFAULT_REFERENCE_SEEDS};
 use fovea_post::Rgb;
 use fovea_render::pipeline::{render_frame, FrameSettings};
-use fovea_render::shade::ShadingMode;
 
 use crate::output::{side_by_side, write_rgb, write_scalar};
 use crate::plot::{line_plot, Series, Style};
@@ -37,8 +44,12 @@ pub const VAFR_FOVEA_FLIP_VS_ONE_RAY: f64 = 1.25;
 /// on a flat-shaded object VaFR and the one-ray frame both score 0.0000 ± 0.0001.
 pub const FLIP_LOSS_FLOOR: f64 = 1e-3;
 
-/// Rays per pixel of the quality section's reference by default (with `--quick`).
+/// Rays per pixel of the quality section's noise-free reference by default (with `--quick`).
 pub const DEFAULT_REFERENCE_PIXEL_SAMPLES: (u32, u32) = (16, 4);
+
+/// Rays per pixel of the quality section's reference with the viewer's noisy shading by
+/// default (with `--quick`, what CI runs: its noise floor is printed beside the scores).
+pub const DEFAULT_VIEWER_REFERENCE_PIXEL_SAMPLES: (u32, u32) = (256, 32);
 
 fn band_name(b: &BandQuality) -> String {
     match b.hi_deg {
@@ -58,21 +69,41 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
             eprintln!("           quality: {m}");
         }
     };
-    say("full resolution");
+    let shading = MeasuredShading::from(ctx.args.shading);
+    let defaults = if shading.is_noisy() {
+        DEFAULT_VIEWER_REFERENCE_PIXEL_SAMPLES
+    } else {
+        DEFAULT_REFERENCE_PIXEL_SAMPLES
+    };
     let rays_per_pixel = ctx
         .args
         .reference_pixel_samples
         .unwrap_or(if ctx.args.quick {
-            DEFAULT_REFERENCE_PIXEL_SAMPLES.1
+            defaults.1
         } else {
-            DEFAULT_REFERENCE_PIXEL_SAMPLES.0
+            defaults.0
         });
-    // Foveated frames are scored against this one pixel by pixel: shade without Monte Carlo
-    // noise (the occluded environment light's noise would be scored instead of the methods).
-    let mut reference = FrameSettings::new(Method::Full);
-    reference.shading = ShadingMode::NOISE_FREE;
-    reference.pixel_samples = rays_per_pixel;
-    let full = render_frame(world, camera, &reference, gaze, &|_, _| {})?;
+    say(&format!(
+        "full resolution, {rays_per_pixel} rays per pixel, {} shading{}",
+        shading.name(),
+        if shading.is_noisy() {
+            " (and its twin of another seed)"
+        } else {
+            ""
+        }
+    ));
+    // Foveated frames are scored against this one pixel by pixel: the same shading without
+    // the denoiser, converged by its rays per pixel; with noisy shading its twin of another
+    // seed is scored like the methods (the reference's own noise floor).
+    let reference = render_reference(
+        world,
+        camera,
+        shading,
+        rays_per_pixel,
+        gaze,
+        DEFAULT_REFERENCE_SEEDS,
+    )?;
+    let full = &reference.frame;
     let dir = ctx.dir("quality")?;
     let tone = fovea_post::tonemap::ToneCurve::Reinhard;
     write_rgb(&dir.join("full.png"), &full.color, 0.0, tone)?;
@@ -106,16 +137,54 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         ],
     );
     let mut data = Vec::new();
+    let mut floor_bands = None;
     let mut vafr_bands = None;
     let mut one_ray_bands = None;
     // With a supersampled reference, the one-ray full frame is scored like the methods.
     let rows = Method::ALL
         .into_iter()
-        .filter(|&m| m != Method::Full || rays_per_pixel > 1);
+        .filter(|&m| m != Method::Full || rays_per_pixel > 1 || shading.is_noisy());
+    if let Some(twin) = &reference.twin {
+        // The noise floor, scored like the methods: no method can be told from the reference
+        // by less than this.
+        let per = band_quality(
+            &full.color,
+            &twin.color,
+            None,
+            display,
+            &gaze,
+            &REPORT_BANDS_DEG,
+        )?;
+        let w = &whole_frame(&per).ok_or_else(|| anyhow::anyhow!("the frame has no pixels"))?;
+        let name = format!("reference, seed {} (noise floor)", reference.floor.seeds[1]);
+        whole.row(vec![
+            Cell::text(name.clone()),
+            Cell::Int(twin.stats.samples),
+            Cell::Num(100.0, 1),
+            w.psnr_db.map_or(Cell::text("— (no pixels)"), Cell::Psnr),
+            metric(w.ssim, 4),
+            metric(w.flip, 4),
+        ]);
+        for b in &per {
+            bands.row(vec![
+                Cell::text(name.clone()),
+                Cell::text(band_name(b)),
+                Cell::Int(b.pixels),
+                Cell::Num(rays_per_pixel as f64, 3),
+                b.psnr_db.map_or(Cell::text("— (no pixels)"), Cell::Psnr),
+                metric(b.ssim, 4),
+                metric(b.flip, 4),
+            ]);
+        }
+        floor_bands = Some(serde_json::json!({
+            "whole": w,
+            "bands": per,
+        }));
+    }
     for m in rows {
         say(m.name());
         let mut s = FrameSettings::new(m);
-        s.shading = ShadingMode::NOISE_FREE;
+        shading.apply(&mut s);
         s.density_view = true;
         let frame = render_frame(world, camera, &s, gaze, &|_, _| {})?;
         let per = band_quality(
@@ -172,7 +241,7 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
             "bands": per,
         }));
     }
-    let (reference_rays, reference_flags) = if rays_per_pixel == 1 {
+    let (reference_rays, mut reference_flags) = if rays_per_pixel == 1 {
         ("one sample at each pixel centre".to_string(), String::new())
     } else {
         (
@@ -182,12 +251,26 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
             format!(" --pixel-samples {rays_per_pixel}"),
         )
     };
+    let shading_words = if shading.is_noisy() {
+        "Shading as a viewer gets it (`--shading viewer`): the real-time preset (direct light, one environment ray per sample through shadow rays) with the sample-space denoiser on every method's frame; the reference has the same shading without the denoiser"
+    } else {
+        "Noise-free shading (`--shading noise-free`: the unshadowed environment, no denoiser): the foveation's error alone"
+    };
     sec.text(format!(
-        "Every method renders the same view with the gaze at ({:.0}, {:.0}) px; the reference is the full-resolution frame ({reference_rays}). SSIM and ꟻLIP are computed over the whole frame and averaged over each band's pixels; PSNR from the band's pixels.",
-        gaze.point.x_px, gaze.point.y_px
+        "Every method renders the same view with the gaze at ({:.0}, {:.0}) px; the reference is the full-resolution frame ({reference_rays}). {shading_words}. {}. SSIM and ꟻLIP are computed over the whole frame and averaged over each band's pixels; PSNR from the band's pixels.",
+        gaze.point.x_px,
+        gaze.point.y_px,
+        reference.floor.describe()
     ));
+    let method_flags = if shading.is_noisy() {
+        reference_flags += " --quality realtime --denoise off";
+        " --quality realtime"
+    } else {
+        reference_flags += " --shading direct --env-light unshadowed --denoise off";
+        " --shading direct --env-light unshadowed --denoise off"
+    };
     sec.text(format!(
-        "Reproduce one row's frames: fovea render {}{} --gaze {:.0},{:.0} --method METHOD --density-out density.png (and --method full{reference_flags} for the reference).",
+        "Reproduce one row's frames: fovea render {}{} --gaze {:.0},{:.0} --method METHOD{method_flags} --density-out density.png (and --method full{reference_flags} for the reference).",
         super::scene_flags(&ctx.args.scene),
         super::display_flags(&ctx.args.display),
         gaze.point.x_px,
@@ -220,6 +303,9 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         "bands_deg": REPORT_BANDS_DEG,
         "full_samples": full.stats.samples,
         "reference_pixel_samples": rays_per_pixel,
+        "shading": shading.name(),
+        "noise_floor": reference.floor.json(),
+        "noise_floor_bands": floor_bands,
         "methods": data,
     });
     Ok(())

@@ -7,17 +7,28 @@
 //! Laplacian pyramid) and every composite gets the gradient analysis
 //! ([`crate::gradient_intensity`]: grey, 3×3 Sobel ×100, four areas across the inset
 //! boundary).
+//!
+//! **Shading** ([`InsetParams::shading`], issue 38): by default the viewer's
+//! ([`MeasuredShading::Viewer`]: the real-time preset with the sample-space denoiser): the
+//! inset and the periphery are full-resolution pipeline frames of the screen and of the
+//! reduced display, denoised, and the row `full` is a converged reference of the same shading
+//! (`reference_pixel_samples` rays per pixel, not denoised), with its twin of another seed as
+//! the row `full, seed 1 (noise floor)`: the two rows' difference is how far the reference's
+//! own noise moves the gradients. [`MeasuredShading::NoiseFree`] renders every image with the
+//! noise-free shading at pixel centres, the reference being the inset's own frame, as before.
 
 use std::path::PathBuf;
 
 use serde::Serialize;
 
 use fovea_core::display::{DisplayProfile, Gaze};
+use fovea_core::mapping::Method;
 use fovea_core::units::ScreenPoint;
 use fovea_core::Image;
 use fovea_post::inset_smoothing::{composite, Rect, Smoothing};
 use fovea_post::Rgb;
 use fovea_render::camera::EyeCamera;
+use fovea_render::pipeline::{render_frame, FrameSettings};
 use fovea_render::shade::ShadingMode;
 use fovea_render::thin_lens::{render_window, Window};
 use fovea_render::world::World;
@@ -25,6 +36,7 @@ use fovea_render::world::World;
 use crate::error::{EvalError, Result};
 use crate::gradient_intensity::{gradient_areas, GradientReport, DEFAULT_BAND_PX};
 use crate::metrics::{crop, Region};
+use crate::reference::{render_reference, MeasuredShading, NoiseFloor, DEFAULT_REFERENCE_SEEDS};
 
 use super::{create_dir, write_png};
 
@@ -49,7 +61,18 @@ pub struct InsetParams {
     /// Write `full.png` and one PNG per composite (`none.png`, `alpha-blend.png`, …) into
     /// this folder. Default: none.
     pub images: Option<PathBuf>,
+    /// The shading of every image (module header). Default: the viewer's.
+    pub shading: MeasuredShading,
+    /// Rays per pixel of the full-resolution reference with the viewer's shading, 2 to
+    /// `fovea_render::settings::MAX_PIXEL_SAMPLES`. Default:
+    /// [`DEFAULT_INSET_REFERENCE_PIXEL_SAMPLES`].
+    pub reference_pixel_samples: u32,
 }
+
+/// Rays per pixel of the inset analysis' reference with the viewer's shading by default: the
+/// gradients are means over bands of thousands of pixels, so the reference's noise moves them
+/// less than a pixel-by-pixel score (the noise-floor row says by how much).
+pub const DEFAULT_INSET_REFERENCE_PIXEL_SAMPLES: u32 = 64;
 
 impl Default for InsetParams {
     fn default() -> Self {
@@ -58,6 +81,8 @@ impl Default for InsetParams {
             periphery_factor: 4,
             band_px: DEFAULT_BAND_PX,
             images: None,
+            shading: MeasuredShading::Viewer,
+            reference_pixel_samples: DEFAULT_INSET_REFERENCE_PIXEL_SAMPLES,
         }
     }
 }
@@ -81,6 +106,14 @@ impl InsetParams {
             if w < 4 * self.band_px || h < 4 * self.band_px {
                 return Err(inset_size_error(w, h));
             }
+        }
+        let max = fovea_render::settings::MAX_PIXEL_SAMPLES;
+        if !(2..=max).contains(&self.reference_pixel_samples) {
+            return Err(EvalError::invalid(
+                "reference-pixel-samples",
+                self.reference_pixel_samples,
+                format!("2 to {max}"),
+            ));
         }
         Ok(())
     }
@@ -156,6 +189,10 @@ pub struct InsetAnalysis {
     pub params: InsetParams,
     /// The full frame first, then the hard composite and each smoothing.
     pub rows: Vec<Row>,
+    /// The reference's twin of another seed, analysed like the rows (viewer's shading only).
+    pub floor_row: Option<Row>,
+    /// The reference's noise floor (luma PSNR and ꟻLIP of the twin against it).
+    pub floor: NoiseFloor,
 }
 
 impl InsetAnalysis {
@@ -167,6 +204,10 @@ impl InsetAnalysis {
             "inset": self.inset,
             "band_px": self.params.band_px,
             "periphery_factor": self.params.periphery_factor,
+            "shading": self.params.shading.name(),
+            "reference_pixel_samples": self.params.reference_pixel_samples,
+            "noise_floor": self.floor.json(),
+            "noise_floor_row": self.floor_row,
             "rows": self.rows,
         })
     }
@@ -179,8 +220,8 @@ pub fn smoothings() -> Vec<(&'static str, Smoothing)> {
 }
 
 /// Renders the full frame and the periphery seen by `camera`, composites them around `gaze`
-/// with every smoothing and analyses each composite (noise-free direct shading,
-/// `ShadingMode::NOISE_FREE`, pixel centres).
+/// with every smoothing and analyses each composite, shaded as `params.shading` says (module
+/// header).
 pub fn run(
     world: &World,
     camera: &EyeCamera,
@@ -196,22 +237,27 @@ pub fn run(
         params.periphery_factor,
         params.band_px,
     );
-    // Noise-free: the gradient metric would measure the environment light's noise.
-    let shading = ShadingMode::NOISE_FREE;
-    // The reference, and the periphery on a display of 1/f of the pixels per side with the
-    // same field of view.
-    let full = render_window(
-        world,
-        camera,
-        Window::full(w, h),
-        None,
-        1,
-        shading,
-        &|_, _| {},
-    )?;
+    let noisy = params.shading.is_noisy();
+    let shading: ShadingMode = params.shading.shading();
+    // A frame at pixel centres: noise-free, the ray caster's; with the viewer's shading, the
+    // pipeline's full-resolution frame, denoised.
+    let frame = |camera: &EyeCamera, w: u32, h: u32| -> Result<Image<Rgb>> {
+        if noisy {
+            let mut s = FrameSettings::new(Method::Full);
+            params.shading.apply(&mut s);
+            let g = camera.display.centre_gaze();
+            Ok(render_frame(world, camera, &s, g, &|_, _| {})?.color)
+        } else {
+            let win = Window::full(w, h);
+            Ok(render_window(world, camera, win, None, 1, shading, &|_, _| {})?.color)
+        }
+    };
+    // The inset's frame, and the periphery on a display of 1/f of the pixels per side with
+    // the same field of view.
+    let full = frame(camera, w, h)?;
     // The inset's rays are the full frame's pixel-centre rays inside the rectangle.
     let inset = crop(
-        &full.color,
+        &full,
         Region {
             x0: rect.x0,
             y0: rect.y0,
@@ -230,24 +276,41 @@ pub fn run(
         ..display.clone()
     };
     let low_camera = EyeCamera::new(camera.position, camera.forward, camera.up, &low_display)?;
-    let low = render_window(
-        world,
-        &low_camera,
-        Window::full(w / f, h / f),
-        None,
-        1,
-        shading,
-        &|_, _| {},
-    )?;
+    let low = frame(&low_camera, w / f, h / f)?;
+    // The reference: the inset's own frame without noise; a converged frame and its twin
+    // with the viewer's shading.
+    let (reference_img, twin, floor) = if noisy {
+        let r = render_reference(
+            world,
+            camera,
+            params.shading,
+            params.reference_pixel_samples,
+            *gaze,
+            DEFAULT_REFERENCE_SEEDS,
+        )?;
+        (r.frame.color, r.twin.map(|t| t.color), r.floor)
+    } else {
+        let floor =
+            crate::reference::noise_floor(&full, &full, DEFAULT_REFERENCE_SEEDS, display.ppd())?;
+        (full.clone(), None, floor)
+    };
 
     if let Some(dir) = &params.images {
         create_dir(dir)?;
-        write_png(&dir.join("full.png"), &full.color)?;
+        write_png(&dir.join("full.png"), &reference_img)?;
     }
-    let reference = gradient_areas(&full.color, rect, band)?;
+    let reference = gradient_areas(&reference_img, rect, band)?;
     let mut rows = vec![row("full", reference.clone(), &reference)];
+    let floor_row = match &twin {
+        Some(t) => Some(row(
+            &format!("full, seed {} (noise floor)", floor.seeds[1]),
+            gradient_areas(t, rect, band)?,
+            &reference,
+        )),
+        None => None,
+    };
     for (name, m) in smoothings() {
-        let img: Image<Rgb> = composite(&inset, rect, &low.color, w, h, m)?;
+        let img: Image<Rgb> = composite(&inset, rect, &low, w, h, m)?;
         if let Some(dir) = &params.images {
             write_png(&dir.join(format!("{name}.png")), &img)?;
         }
@@ -260,6 +323,8 @@ pub fn run(
         periphery_px: [w / f, h / f],
         params: params.clone(),
         rows,
+        floor_row,
+        floor,
     })
 }
 

@@ -11,6 +11,7 @@
 //! | [`dof_compare`] | Konrad et al. Sec. IV: DOF filters against a thin-lens reference; Liu Eq. 10–11 culling |
 //! | [`flicker`] | peripheral temporal flicker with and without temporal accumulation (Weier 2018 Sec. 4) |
 //! | [`inset`] | Liu et al., inset boundary smoothing, Sec. 4: the gradient-intensity table |
+//! | [`periphery_flip`] | issue 38's "no magnified noise": ꟻLIP beyond 30° of denoised VaFR and the one-ray full frame |
 //!
 //! [`scenario`] holds the synthesised gaze scenarios and camera motion the sequences use.
 
@@ -26,6 +27,7 @@ pub mod bench;
 pub mod dof_compare;
 pub mod flicker;
 pub mod inset;
+pub mod periphery_flip;
 pub mod scenario;
 
 /// Writes `img` as 8-bit sRGB PNG after the Reinhard tone curve (as `fovea render` writes
