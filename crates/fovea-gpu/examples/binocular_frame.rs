@@ -200,8 +200,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // The same frame with the sample-space denoiser on (its own scene, buffers and timers).
     let mut denoised = if denoised_on {
         let p0 = plans_with(0, &denoise_settings, &mut denoise_cache)?;
-        let mut d =
-            ResidentFrame::new(&ctx, &world, [&p0[0], &p0[1]], [&cams[0], &cams[1]], TONE)?;
+        let mut d = ResidentFrame::new(&ctx, &world, [&p0[0], &p0[1]], [&cams[0], &cams[1]], TONE)?;
         d.set_temporal(temporal)?;
         Some(d)
     } else {

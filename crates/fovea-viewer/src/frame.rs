@@ -283,6 +283,9 @@ struct Resident {
     /// The last fallback said (each new reason is said once).
     said: Option<String>,
     quiet: bool,
+    /// Frames accumulated on the device since temporal accumulation (T) went on or the frame
+    /// was made: the next frame's noise index, as the CPU accumulator's `frame()`.
+    accumulated: u64,
 }
 
 /// Why the resident frame does not render `view` (checked before the plans; the plans'
@@ -292,8 +295,6 @@ fn resident_refusal(view: &ViewSettings) -> Option<&'static str> {
         Some("level of detail (L) changes the scene per gaze")
     } else if view.overlays.density || view.overlays.coc {
         Some("the density and CoC overlays (Y, C) read the frame on the CPU")
-    } else if view.eyes == EyesChoice::One && view.temporal {
-        Some("temporal accumulation (T) is not on the device yet")
     } else {
         None
     }
@@ -340,6 +341,7 @@ impl FrameRenderer {
             gpu: None,
             said: None,
             quiet,
+            accumulated: 0,
         });
     }
 
@@ -659,6 +661,9 @@ impl Resident {
             return Ok(None);
         }
         let both = a.view.eyes == EyesChoice::Both;
+        // Temporal accumulation (T) where the CPU path accumulates: one eye shown (both eyes
+        // render each frame afresh there, and so here).
+        let accumulate = a.view.temporal && !both;
         // Each eye's camera and eye state: both eyes at the fixated point (as the staged
         // path and `fovea render --eyes both`), or the one eye twice (the resident frame is
         // binocular; the right copy is not shown).
@@ -683,8 +688,11 @@ impl Resident {
             // Each eye its own random numbers (as `fovea render --eyes both` and the staged
             // path); one eye shown: the staged path's frame 0 without an accumulator.
             let index = if both { k as u32 } else { 0 };
+            // With temporal accumulation (T) each frame draws its own random numbers, as the
+            // CPU accumulator's frames do (issue 38); the device's pass blends them.
+            let noise = if accumulate { self.accumulated } else { 0 };
             let plan = FramePlan::new(world, cam, a.settings, e, [0.0, 0.0])?
-                .with_noise(FrameNoise::new(0, index));
+                .with_noise(FrameNoise::new(noise, index));
             if let Err(e) = ResidentFrame::supports(&plan, cam) {
                 self.fall_back(e.to_string());
                 return Ok(None);
@@ -704,6 +712,7 @@ impl Resident {
             let mut f = ResidentFrame::new(&self.ctx, world, plans, cams, tone).map_err(gpu_err)?;
             f.set_presenting(true);
             self.frame = Some((f, a.view.lights));
+            self.accumulated = 0;
             self.totals = ResidentTotals::default();
             self.gpu = None;
         }
@@ -711,12 +720,20 @@ impl Resident {
             return Ok(None);
         };
         frame.set_tone(tone).map_err(gpu_err)?;
+        // Temporal accumulation on the device (the CPU's default settings, no jitter); turning
+        // it on starts a new history.
+        let temporal = accumulate.then(TemporalSettings::default);
+        if frame.temporal() != temporal.as_ref() {
+            frame.set_temporal(temporal).map_err(gpu_err)?;
+            self.accumulated = 0;
+        }
         let before = self.ctx.traffic();
         let times = frame.render(world, plans, cams).map_err(gpu_err)?;
         if let Some(t) = frame.poll_gpu_times().map_err(gpu_err)?.pop() {
             self.gpu = Some(t);
         }
         let traffic = Traffic::of(&self.ctx.traffic().since(&before));
+        self.accumulated = if accumulate { self.accumulated + 1 } else { 0 };
         self.totals.frames += 1;
         self.totals.traffic.add(&traffic);
         self.said = None;
