@@ -36,6 +36,9 @@ pub struct Backend {
     pub tone_map: Option<Box<dyn ToneMapExecutor>>,
     /// The GPU's device and the executors' times.
     pub device: Option<Arc<dyn ExecutorDevice>>,
+    /// The device itself, for the resident frame (`fovea_gpu::frame::Route`).
+    #[cfg(feature = "gpu")]
+    pub gpu: Option<fovea_gpu::GpuContext>,
 }
 
 impl Backend {
@@ -50,6 +53,8 @@ impl Backend {
             second: None,
             tone_map: None,
             device: None,
+            #[cfg(feature = "gpu")]
+            gpu: None,
         }
     }
 
@@ -173,6 +178,7 @@ fn open(requested: BackendArg, world: Option<&World>) -> Result<Backend> {
     };
     b.adapter = Some(format!("{} — {}", ctx.adapter(), ctx.adapter().driver));
     b.cpu_emulated = ctx.adapter().kind == DeviceKind::Software;
+    b.gpu = Some(ctx.clone());
     if let Some(world) = world {
         let gpu = executors::GpuExecutors::new(&ctx, world)?;
         (b.executors, b.second, b.tone_map) = (gpu.first, Some(gpu.second), Some(gpu.tone_map));
