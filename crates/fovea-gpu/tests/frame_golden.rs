@@ -10,8 +10,9 @@
 //! here through `fovea_gpu::frame::ResidentRun` (the plan as the golden test makes it, for
 //! both eyes of the frame), its 8-bit image read back, and compared with the stored file:
 //! PSNR of the three encoded channels, each 8-bit code `c` as `257·c` against the 16-bit
-//! code. 8-bit rounding alone bounds that PSNR near 59 dB; each case's tolerance is a few dB
-//! under what lavapipe measured (the figures are printed).
+//! code. 8-bit rounding alone bounds that PSNR near 59 dB (an error uniform over a code:
+//! `20·log10(255·√12)` = 58.9 dB); each case's tolerance is 3 dB under what lavapipe measured
+//! (57.4–59.0 dB; the figures are printed).
 //!
 //! The device's counters are checked against the frame's known passes (the steady frame of the
 //! first case; every case's first frame for its submission and waits): a steady frame is one
@@ -86,21 +87,23 @@ fn served() -> Vec<Case> {
         Some(FilterKind::Gather),
         FocusMode::Fixed(1.0),
     ));
+    // Measured on lavapipe (2026-12-05): 59.02 dB full resolution (with and without the
+    // gather DOF), 59.00 VaFR, 58.97 KFR and LaFR, 57.43 visual-polar — at the 8-bit ceiling.
     vec![
-        case("realtime-full-centre", realtime(Method::Full), centre, 45.0),
-        case("realtime-vafr-centre", realtime(Method::Vafr), centre, 40.0),
-        case("realtime-full", realtime(Method::Full), off_centre(), 45.0),
-        case("realtime-vafr", realtime(Method::Vafr), off_centre(), 40.0),
-        case("realtime-kfr", realtime(Method::Kfr), off_centre(), 40.0),
-        case("realtime-lafr", realtime(Method::Lafr), off_centre(), 40.0),
+        case("realtime-full-centre", realtime(Method::Full), centre, 56.0),
+        case("realtime-vafr-centre", realtime(Method::Vafr), centre, 56.0),
+        case("realtime-full", realtime(Method::Full), off_centre(), 56.0),
+        case("realtime-vafr", realtime(Method::Vafr), off_centre(), 56.0),
+        case("realtime-kfr", realtime(Method::Kfr), off_centre(), 56.0),
+        case("realtime-lafr", realtime(Method::Lafr), off_centre(), 56.0),
         case(
             "realtime-visual-polar",
             realtime(Method::VisualPolar),
             off_centre(),
-            40.0,
+            54.0,
         ),
-        case("realtime-vafr-no-aa", no_aa, off_centre(), 40.0),
-        case("realtime-dof-gather-full-1m", dof, off_centre(), 40.0),
+        case("realtime-vafr-no-aa", no_aa, off_centre(), 56.0),
+        case("realtime-dof-gather-full-1m", dof, off_centre(), 56.0),
     ]
 }
 
@@ -217,8 +220,13 @@ fn the_golden_cases_it_serves_render_through_the_resident_frame() {
         );
         let codes: Vec<u8> = img.data().iter().flatten().copied().collect();
         let db = psnr_db(&golden(c.name), &codes);
+        let which = if c.name == "realtime-full-centre" {
+            "steady"
+        } else {
+            "first"
+        };
         common::shout(&format!(
-            "[frame_golden] {:<28} {db:.2} dB (≥ {} dB); steady frame {} B up, {} B back (the first case: its steady frame)",
+            "[frame_golden] {:<28} {db:.2} dB (≥ {} dB); {which} frame {} B up, {} B back",
             c.name, c.min_psnr_db, counts.bytes_uploaded, counts.bytes_read_back
         ));
         if db.is_nan() || db < c.min_psnr_db {
