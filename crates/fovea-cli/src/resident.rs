@@ -33,6 +33,7 @@ pub enum GazePathArg {
 /// What `fovea render` did with the resident frame.
 pub enum Rendered {
     /// It rendered the frame and wrote `--out`: the backend's JSON and the printed line.
+    #[cfg_attr(not(feature = "gpu"), allow(dead_code))]
     Resident { json: Value, line: String },
     /// The staged path renders it, and why (`None`: no GPU).
     Staged(Option<String>),
