@@ -81,7 +81,9 @@ pub enum Route {
 impl Route {
     /// The resident frame when it serves `plans` seen by `cameras` (index = eye: left,
     /// right; a one-eye frame passes its plan twice), made on `ctx` for `world` with `tone`;
-    /// otherwise [`Route::Staged`] with the refusal's line. Nothing is uploaded for a refusal.
+    /// otherwise [`Route::Staged`] with the refusal's line. Nothing is uploaded for a refusal
+    /// of the plans; a device too small for the frame's buffers (found while making them) is
+    /// staged too, with the binding it lacks.
     pub fn decide(
         ctx: &GpuContext,
         world: &World,
@@ -92,9 +94,15 @@ impl Route {
         if let Some(why) = refusal(plans, cameras) {
             return Ok(Route::Staged(why));
         }
-        Ok(Route::Resident(Box::new(ResidentRun::new(
-            ctx, world, plans, cameras, tone,
-        )?)))
+        match ResidentRun::new(ctx, world, plans, cameras, tone) {
+            Ok(run) => Ok(Route::Resident(Box::new(run))),
+            // A device whose bindings cannot hold the frame's buffers (lavapipe's 128 MiB at
+            // 8K): the staged path splits its work and runs.
+            Err(e @ GpuError::AdapterTooSmall { .. }) => {
+                Ok(Route::Staged(format!("not served: {e}")))
+            }
+            Err(e) => Err(e),
+        }
     }
 
     /// `"resident"` or `"staged"`.
