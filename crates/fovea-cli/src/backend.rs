@@ -36,10 +36,10 @@ pub struct Backend {
     pub tone_map: Option<Box<dyn ToneMapExecutor>>,
     /// The GPU's device and the executors' times.
     pub device: Option<Arc<dyn ExecutorDevice>>,
-    /// The GPU context itself (the viewer renders its resident frames and draws its window
-    /// with it).
+    /// The device itself, for the resident frame (`fovea_gpu::frame::Route`; the viewer
+    /// renders its resident frames and draws its window with it).
     #[cfg(feature = "gpu")]
-    pub context: Option<fovea_gpu::GpuContext>,
+    pub gpu: Option<fovea_gpu::GpuContext>,
 }
 
 impl Backend {
@@ -55,7 +55,7 @@ impl Backend {
             tone_map: None,
             device: None,
             #[cfg(feature = "gpu")]
-            context: None,
+            gpu: None,
         }
     }
 
@@ -184,6 +184,6 @@ fn open(requested: BackendArg, world: Option<&World>) -> Result<Backend> {
         (b.executors, b.second, b.tone_map) = (gpu.first, Some(gpu.second), Some(gpu.tone_map));
         b.device = Some(Arc::new(gpu.report));
     }
-    b.context = Some(ctx);
+    b.gpu = Some(ctx);
     Ok(b)
 }

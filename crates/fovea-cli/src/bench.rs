@@ -31,6 +31,7 @@ use crate::choices::{BackendArg, EnvLightChoice, Eyes, LockstepArg, Shading};
 use crate::common::{display_of, thousands, FrameOptions, MethodOptions};
 use crate::dof_args::EyeArgs;
 use crate::render::{memory_limit, progress_bar, shading, EnvLightArgs};
+use crate::resident::GazePathArg;
 use crate::scene_args::{load, Loaded, SceneArgs};
 
 /// Options of `fovea bench`.
@@ -109,6 +110,14 @@ pub struct BenchArgs {
     /// renders them in turn.
     #[arg(long, value_enum, ignore_case = true, default_value_t = LockstepArg::Auto)]
     pub lockstep: LockstepArg,
+    /// With --backend gpu --eyes both: how the gaze moves from frame to frame in the
+    /// binocular frames timed through the resident frame beside the staged path (saccade: a
+    /// jump of --gaze-step degrees every frame; circle: arcs of --gaze-step; still).
+    #[arg(long, value_enum, ignore_case = true, default_value_t = GazePathArg::Saccade)]
+    pub gaze_path: GazePathArg,
+    /// The gaze path's step, degrees a frame (0 to 30).
+    #[arg(long, default_value_t = 8.0)]
+    pub gaze_step: f64,
     /// Print JSON only.
     #[arg(long)]
     pub json: bool,
@@ -160,6 +169,12 @@ pub fn params(args: &BenchArgs) -> Result<BenchParams> {
             .collect::<Result<_>>()?,
     };
     let stereo = args.eyes == Eyes::Both;
+    if !(args.gaze_step.is_finite() && (0.0..=30.0).contains(&args.gaze_step)) {
+        anyhow::bail!(
+            "invalid parameter `gaze-step` = {}: expected 0 to 30 degrees a frame",
+            args.gaze_step
+        );
+    }
     let params = BenchParams {
         displays,
         methods,
@@ -193,8 +208,23 @@ pub fn run(args: BenchArgs) -> Result<()> {
         args.quiet || args.json,
         (!args.json).then_some(args.backend != BackendArg::Cpu),
     )?;
+    // Both eyes on a GPU: the binocular frame resident against staged, the gaze moving.
+    let resident = if params.stereo {
+        crate::resident::bench_rows(
+            &mut loaded,
+            &args.scene,
+            &params,
+            &preflight,
+            args.gaze_path,
+            args.gaze_step,
+            args.json,
+        )?
+    } else {
+        Vec::new()
+    };
     if args.json {
         let mut json = result.to_json();
+        json["resident_binocular"] = resident.into();
         json["backend"] = serde_json::json!({
             "requested": args.backend,
             "resolved": preflight.describe,

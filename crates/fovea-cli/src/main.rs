@@ -21,6 +21,7 @@ mod output;
 mod plot;
 mod render;
 mod report;
+mod resident;
 mod scene_args;
 mod sequence;
 mod table;

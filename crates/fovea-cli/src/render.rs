@@ -8,6 +8,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use fovea_core::mapping::Method;
 use fovea_post::tonemap::ToneCurve;
+use fovea_render::camera::EyeCamera;
 use fovea_render::eye::{EyeState, FocusDistance};
 use fovea_render::pipeline::{
     default_memory_limit, render_planned, FrameContext, FrameInputs, FrameSettings, Stage,
@@ -25,6 +26,7 @@ use crate::common::{thousands, DisplayArgs, FrameOptions, MethodOptions};
 use crate::dof_args::DofArgs;
 use crate::exposure_args::{expose, exposure_json, ExposureArgs};
 use crate::output::{check_image_path, write_rgb_on, write_scalar};
+use crate::resident::Rendered;
 use crate::scene_args::{prepare, GazeArgs, SceneArgs};
 
 /// Options of `fovea render`.
@@ -126,6 +128,11 @@ pub struct RenderArgs {
     /// (lavapipe), where it measured slower. The frames are the same either way.
     #[arg(long, value_enum, ignore_case = true, default_value_t = LockstepArg::Auto)]
     pub lockstep: LockstepArg,
+    /// With a GPU backend: the staged path (each stage lent to the GPU call by call, its
+    /// results back on the host) even where the resident frame (the whole frame on the device,
+    /// one submission) serves the frame; for comparison and tests.
+    #[arg(long)]
+    pub staged: bool,
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
@@ -387,6 +394,37 @@ pub fn run(args: RenderArgs) -> Result<()> {
     // Which executors run the trace and reconstruct stages; refused here, before any ray is
     // traced.
     let mut backend = crate::backend::resolve(args.backend, world)?;
+    // On a GPU, the resident frame when it takes the plan and what is asked for.
+    let exposure = args.exposure.choose(prepared.world.scene.light_units)?;
+    let staged_because = match crate::resident::render(
+        &backend,
+        world,
+        &[&plan],
+        &[&prepared.camera],
+        exposure.0.fixed_stops(),
+        tone,
+        &args.out,
+        resident_outputs(&args, settings.dof.is_some()),
+    )? {
+        Rendered::Resident { json, line } => {
+            let stats = serde_json::json!({
+                "scene": prepared.world.scene.name,
+                "triangles": prepared.world.tris.len(),
+                "lights": prepared.world.lights.len(),
+                "display": display.name,
+                "width": display.width_px,
+                "height": display.height_px,
+                "method": method.name(),
+                "gaze": [gaze.point.x_px, gaze.point.y_px],
+                "quality": quality.name(),
+                "shading": settings.shading,
+                "lod": lod_stats,
+                "backend": json,
+            });
+            return write_resident(&args, &stats, &line, &written);
+        }
+        Rendered::Staged(why) => why,
+    };
     let pb = progress_bar(args.quiet, method.name());
     let mut ctx = FrameContext::new();
     backend.install(&mut ctx);
@@ -405,7 +443,6 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let frame = ctx.take_frame().context("no frame rendered")?;
     pb.finish_and_clear();
 
-    let exposure = args.exposure.choose(prepared.world.scene.light_units)?;
     let exposed = expose(&frame.color, &frame.depth, exposure, tone);
     write_rgb_on(
         &args.out,
@@ -453,7 +490,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         // The smoothing asked for; `frame.inset_smoothing` is the one applied.
         "inset_smoothing": (method == Method::Inset).then(|| settings.inset_smoothing.name()),
         "lod": lod_stats,
-        "backend": backend.json(s),
+        "backend": with_route(backend.json(s), staged_because),
         "exposure": exposure_json(exposure.0, &exposed),
         "frame": s,
     });
@@ -621,6 +658,50 @@ fn run_stereo(
     ];
     // Which executors run both eyes' stages (`--backend`), decided before any ray is traced.
     let mut backend = crate::backend::resolve(args.backend, world)?;
+    let exposure = args.exposure.choose(prepared.world.scene.light_units)?;
+    // On a GPU, Dup through the resident frame when it takes both plans.
+    let staged_because = if !backend.on_gpu() {
+        None
+    } else if mode != fovea_render::stereo::StereoMode::Dup {
+        Some("not served: reprojection (--stereo rep warps on the CPU)".to_string())
+    } else {
+        let plan = |cam: &EyeCamera, eye: &EyeState, k: u32| {
+            FramePlan::new(world, cam, &settings, eye, [0.0, 0.0])
+                .map(|p| p.with_noise(fovea_render::shade::FrameNoise::new(0, k)))
+        };
+        let plans = [plan(&lc, &eyes[0], 0)?, plan(&rc, &eyes[1], 1)?];
+        match crate::resident::render(
+            &backend,
+            world,
+            &[&plans[0], &plans[1]],
+            &[&lc, &rc],
+            exposure.0.fixed_stops(),
+            tone,
+            &args.out,
+            resident_outputs(args, settings.dof.is_some()),
+        )? {
+            Rendered::Resident { json, line } => {
+                let stats = serde_json::json!({
+                    "scene": prepared.world.scene.name,
+                    "display": display.name,
+                    "width": 2 * display.width_px,
+                    "height": display.height_px,
+                    "method": settings.method.name(),
+                    "ipd_m": prepared.rig.ipd_m,
+                    "fixation": [target.x, target.y, target.z],
+                    "gaze_left": [lg.point.x_px, lg.point.y_px],
+                    "gaze_right": [rg.point.x_px, rg.point.y_px],
+                    "quality": args.frame.quality(Quality::Offline).name(),
+                    "shading": settings.shading,
+                    "stereo": {"mode": mode.name()},
+                    "lod": lod_stats,
+                    "backend": json,
+                });
+                return write_resident(args, &stats, &line, &[]);
+            }
+            Rendered::Staged(why) => why,
+        }
+    };
     let mut ctx = FrameContext::new();
     backend.install(&mut ctx);
     // Dup on a GPU: the right eye in a context of its own, both eyes at the same time.
@@ -645,7 +726,6 @@ fn run_stereo(
     let (w, h) = (display.width_px, display.height_px);
     let both = crate::output::side_by_side(&frame.left.color, &frame.right.color)?;
     let both_depth = crate::output::side_by_side(&frame.left.depth, &frame.right.depth)?;
-    let exposure = args.exposure.choose(prepared.world.scene.light_units)?;
     let exposed = expose(&both, &both_depth, exposure, tone);
     write_rgb_on(
         &args.out,
@@ -681,7 +761,7 @@ fn run_stereo(
         // Whether the eyes rendered at the same time, their device work in shared submissions.
         "lockstep": second.is_some(),
         // Both eyes ran on the same device; the GPU's times are summed over both eyes.
-        "backend": backend.json(&frame.left.stats),
+        "backend": with_route(backend.json(&frame.left.stats), staged_because),
     });
     crate::output::write_file(
         &stats_path,
@@ -702,6 +782,59 @@ fn run_stereo(
     );
     println!("{}", wrote_line(&[&args.out, &stats_path]));
     println!("{}", backend_line(&backend, &frame.left.stats));
+    Ok(())
+}
+
+/// Why the resident frame cannot write what was asked for besides the image (or `--staged`): it keeps no
+/// depth, density or CoC image, and an EXR of a DOF frame needs the colour after the DOF (it
+/// reads the linear colour before it).
+fn resident_outputs(args: &RenderArgs, dof: bool) -> std::result::Result<(), String> {
+    if args.staged {
+        return Err("--staged asked for".into());
+    }
+    if args.depth_out.is_some() || args.density_out.is_some() || args.coc_out.is_some() {
+        return Err("not served: --depth-out, --density-out or --coc-out".into());
+    }
+    let exr = args
+        .out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    if exr && dof {
+        return Err("not served: an EXR of a DOF frame (write a PNG)".into());
+    }
+    Ok(())
+}
+
+/// The backend's JSON with the route its frames took: `"staged"` and why, on a GPU.
+fn with_route(mut json: serde_json::Value, staged_because: Option<String>) -> serde_json::Value {
+    if let Some(why) = staged_because {
+        json["route"] = "staged".into();
+        json["staged_because"] = why.into();
+    }
+    json
+}
+
+/// Writes the stats JSON of a resident frame (`--stats` or beside `--out`) and prints what
+/// was written and `line`.
+fn write_resident(
+    args: &RenderArgs,
+    stats: &serde_json::Value,
+    line: &str,
+    written: &[&Path],
+) -> Result<()> {
+    let path = args
+        .stats
+        .clone()
+        .unwrap_or_else(|| args.out.with_extension("json"));
+    crate::output::write_file(
+        &path,
+        (serde_json::to_string_pretty(stats)? + "\n").as_bytes(),
+    )?;
+    let mut all: Vec<&Path> = vec![&args.out];
+    all.extend_from_slice(written);
+    all.push(&path);
+    println!("{}", wrote_line(&all));
+    println!("backend: {}", line);
     Ok(())
 }
 

@@ -280,7 +280,7 @@ pub fn run(args: ViewArgs) -> Result<()> {
         }),
         executors: backend.take_executors(),
         tone_map: backend.tone_map.take(),
-        resident: backend.context.clone(),
+        resident: backend.gpu.clone(),
         backend: backend.describe.clone(),
         cpu_path,
         move_speed_m_s: args.speed,

@@ -18,8 +18,9 @@ fn fovea() -> Command {
 /// Direct shading (the default before issue 38): the frames compared here are the GPU's
 /// stages against the CPU's, and the indirect light's bounces, cast on the CPU from each
 /// backend's G-buffer, would add their own path noise wherever a record differs in its last
-/// bits.
-const SMALL: [&str; 9] = [
+/// bits. `--staged`: these tests check the staged path stage by stage (the resident frame
+/// would take most of these frames; its tests are `gpu_render_goes_resident_…` below).
+const SMALL: [&str; 10] = [
     "render",
     "--res",
     "320x180",
@@ -27,6 +28,7 @@ const SMALL: [&str; 9] = [
     "2",
     "--shading",
     "direct",
+    "--staged",
     "-q",
     "--gaze",
 ];
@@ -934,6 +936,170 @@ fn bench_gpu_reports_pass_times_fps_and_speedup() {
 
 /// `fovea demo --backend`: stdout and the page say where the foveated frames were made, and
 /// a GPU that cannot run is the same one-line error as `render`'s, before any frame.
+/// PSNR (dB, peak 255) of two 8-bit PNGs of the same size, over every channel.
+#[cfg(feature = "gpu")]
+fn png_psnr_db(a: &Path, b: &Path) -> f64 {
+    let (a, b) = (
+        image::open(a).unwrap().into_rgb8(),
+        image::open(b).unwrap().into_rgb8(),
+    );
+    assert_eq!(a.dimensions(), b.dimensions());
+    let se: f64 = a
+        .as_raw()
+        .iter()
+        .zip(b.as_raw())
+        .map(|(&x, &y)| (x as f64 - y as f64).powi(2))
+        .sum();
+    let mse = se / a.as_raw().len() as f64;
+    10.0 * (255.0f64 * 255.0 / mse.max(1e-12)).log10()
+}
+
+/// `fovea render --backend gpu` through the resident frame (issue 37): a frame it serves
+/// (`--quality realtime`, one eye and both eyes with `--stereo dup`) goes resident — the
+/// JSON's `backend.route` says so, the frame is one submission, no blocking wait, nothing
+/// read back, the image read back only for `--out` (3 bytes a pixel and eye) — and its PNG is
+/// the CPU's within 40 dB; a frame it does not serve (the offline preset's indirect light,
+/// `--stereo rep`) is staged, and the JSON says why in one line.
+#[cfg(feature = "gpu")]
+#[test]
+fn gpu_render_goes_resident_when_served_and_says_why_not() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |name: &str, extra: &[&str]| {
+        let mut c = fovea();
+        c.args([
+            "render", "--res", "320x180", "--lights", "1", "-q", "--gaze", "150,80",
+        ])
+        .args(extra)
+        .arg("--out")
+        .arg(dir.path().join(format!("{name}.png")));
+        c.output().unwrap()
+    };
+    // `--quality realtime` turns the denoiser on, which the resident frame does not run yet.
+    let realtime = ["--quality", "realtime", "--denoise", "off"];
+    for (name, eyes, width) in [
+        // Full resolution: VaFR at 320×180 shades 20× the pixels (its buffer is sized for
+        // acuity), slow on lavapipe; VaFR's resident images are `fovea-gpu`'s golden test.
+        ("one", &["--method", "full", "--eyes", "one"][..], 320u64),
+        (
+            "dup",
+            &["--method", "full", "--eyes", "both", "--stereo", "dup"][..],
+            640,
+        ),
+    ] {
+        let out = run(name, &[&realtime[..], eyes, &["--backend", "gpu"]].concat());
+        if !gpu_ran(
+            &out,
+            "gpu_render_goes_resident_when_served_and_says_why_not",
+        ) {
+            return;
+        }
+        let s = stats(dir.path(), name);
+        let b = &s["backend"];
+        assert_eq!(b["route"], "resident", "{s}");
+        let f = &b["resident_frame"];
+        assert_eq!(f["submissions"], 1, "{s}");
+        assert_eq!(f["blocking_waits"], 0, "{s}");
+        assert_eq!(f["bytes_read_back"], 0, "{s}");
+        let image = b["image_readback"]["bytes_read_back"].as_u64().unwrap();
+        assert_eq!(image, 3 * width * 180, "{s}");
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            stdout.contains("backend: resident frame: 1 submission"),
+            "{stdout}"
+        );
+        let cpu = format!("{name}-cpu");
+        let out = run(&cpu, &[&realtime[..], eyes, &["--backend", "cpu"]].concat());
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let db = png_psnr_db(
+            &dir.path().join(format!("{name}.png")),
+            &dir.path().join(format!("{cpu}.png")),
+        );
+        eprintln!("[fovea-cli] resident {name} against the CPU: PSNR {db:.1} dB");
+        assert!(db >= 40.0, "{name}: {db} dB");
+    }
+    for (name, extra, why) in [
+        ("offline", &["--method", "full"][..], "indirect light"),
+        (
+            "rep",
+            &[&realtime[..], &["--eyes", "both", "--stereo", "rep"]].concat()[..],
+            "reprojection",
+        ),
+    ] {
+        let out = run(name, &[extra, &["--backend", "gpu"]].concat());
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let s = stats(dir.path(), name);
+        assert_eq!(s["backend"]["route"], "staged", "{s}");
+        let because = s["backend"]["staged_because"].as_str().unwrap();
+        assert!(
+            because.contains(why) && !because.contains('\n'),
+            "{because}"
+        );
+    }
+}
+
+/// `fovea bench --backend gpu --eyes both` times the binocular frame resident against staged
+/// with the gaze moving a saccade-sized step every frame, counted by fovea-gpu: per steady
+/// frame one submission, no blocking wait, nothing read back, the bytes up and the host time
+/// reported; the staged path's submissions and the ratio beside it. Presence and counts only:
+/// no timing is compared. (`--quality realtime` turns the denoiser on for the bench's frames,
+/// which the resident frame refuses: `--denoise off`.)
+#[cfg(feature = "gpu")]
+#[test]
+fn bench_gpu_compares_the_resident_frame_with_the_staged_path() {
+    let common = [
+        "--backend",
+        "gpu",
+        "--eyes",
+        "both",
+        "--stereo-reps",
+        "1",
+        "--frames",
+        "1",
+        "--gaze-path",
+        "saccade",
+        "--quality",
+        "realtime",
+    ];
+    let out = bench(&[&common[..], &["--denoise", "off"]].concat(), &[]);
+    if !gpu_ran(
+        &out,
+        "bench_gpu_compares_the_resident_frame_with_the_staged_path",
+    ) {
+        return;
+    }
+    let j = bench_json(&out);
+    let rows = j["resident_binocular"].as_array().unwrap();
+    assert_eq!(rows.len(), 1, "{j}");
+    let row = &rows[0];
+    assert_eq!(row["route"], "resident", "{row}");
+    assert_eq!(row["gaze_path"], "saccade", "{row}");
+    let r = &row["resident"];
+    assert_eq!(r["submissions_max"], 1, "{row}");
+    assert_eq!(r["blocking_waits_max"], 0, "{row}");
+    assert_eq!(r["bytes_read_back_max"], 0, "{row}");
+    assert!(r["bytes_uploaded_max"].as_u64().unwrap() > 0, "{row}");
+    for k in ["wall_ms", "cpu_ms", "host_ms", "plan_ms", "record_ms"] {
+        let v = r[k].as_f64().unwrap_or(f64::NAN);
+        assert!(v.is_finite() && v > 0.0, "{k}: {row}");
+    }
+    assert!(r["submissions_max"].as_u64() < row["staged"]["submissions_max"].as_u64());
+    let ratio = row["staged_over_resident_wall"].as_f64().unwrap();
+    assert!(ratio.is_finite() && ratio > 0.0, "{row}");
+    let frames = row["per_frame"].as_array().unwrap();
+    assert_eq!(frames.len(), 1, "{row}");
+    // Frame 1 (after the warmup frame at the centre) is one step to the right of it.
+    let x = frames[0]["gaze_px"][0].as_f64().unwrap();
+    assert!(x > 80.0 + 1.0, "{row}");
+}
+
 #[test]
 fn demo_says_which_backend_made_its_frames() {
     let dir = tempfile::tempdir().unwrap();

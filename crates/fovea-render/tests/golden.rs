@@ -248,7 +248,48 @@ fn cases() -> Vec<Case> {
         case("stereo-rep-right", |s| stereo_rep(s, true)),
         case("temporal-vafr", |s| temporal(s, Method::Vafr)),
         case("temporal-weier", |s| temporal(s, Method::Weier)),
+        // The real-time preset (issue 37): what the resident GPU frame serves.
+        // `fovea-gpu/tests/frame_golden.rs` renders these through it and compares them with
+        // the same files; keep the two lists in step.
+        case("realtime-full-centre", |s| {
+            frame(s, &realtime(Method::Full), display().centre_gaze())
+        }),
+        case("realtime-vafr-centre", |s| {
+            frame(s, &realtime(Method::Vafr), display().centre_gaze())
+        }),
+        case("realtime-full", |s| {
+            frame(s, &realtime(Method::Full), off_centre())
+        }),
+        case("realtime-vafr", |s| {
+            frame(s, &realtime(Method::Vafr), off_centre())
+        }),
+        case("realtime-kfr", |s| {
+            frame(s, &realtime(Method::Kfr), off_centre())
+        }),
+        case("realtime-lafr", |s| {
+            frame(s, &realtime(Method::Lafr), off_centre())
+        }),
+        case("realtime-visual-polar", |s| {
+            frame(s, &realtime(Method::VisualPolar), off_centre())
+        }),
+        case("realtime-vafr-no-aa", |s| {
+            let mut f = realtime(Method::Vafr);
+            f.aa = fovea_render::pipeline::AaMode::None;
+            frame(s, &f, off_centre())
+        }),
+        case("realtime-dof-gather-full-1m", |s| {
+            let mut f = with_dof(Method::Full, FilterKind::Gather, FocusMode::Fixed(1.0));
+            f.shading = fovea_render::quality::Quality::Realtime.shading();
+            frame(s, &f, off_centre())
+        }),
     ]
+}
+
+/// `--quality realtime`'s shading (direct light, one occluded environment ray per sample).
+fn realtime(m: Method) -> FrameSettings {
+    let mut f = FrameSettings::new(m);
+    f.shading = fovea_render::quality::Quality::Realtime.shading();
+    f
 }
 
 /// Reinhard + sRGB, 16 bits per channel.

@@ -16,10 +16,18 @@
 //! * [`temporal`]: temporal accumulation in sample space between the shading and the screen
 //!   side, with per-eye histories kept on the device ([`ResidentTemporal`]).
 //! * [`timing`]: per-pass GPU times read back frames late, never blocking ([`FrameTimer`]).
+//! * [`run`]: the resident frame as the tools run it — decided once before the first pass
+//!   ([`Route`]), each frame counted ([`FrameCounts`]).
+//! * [`gaze_path`]: how a benchmark's gaze moves from frame to frame ([`GazePath`]).
+//! * [`compare`]: the binocular frame resident against staged, side by side
+//!   ([`compare_binocular`]).
 
 pub mod binocular;
+pub mod compare;
 pub mod context;
+pub mod gaze_path;
 pub mod reconstruct;
+pub mod run;
 pub mod samples;
 pub mod screen;
 pub mod shade;
@@ -29,8 +37,11 @@ pub mod timing;
 pub use binocular::{
     BinocularTimes, ResidentFrame, ToneSettings, BINOCULAR_PASSES, DENOISE_PASSES,
 };
+pub use compare::{compare_binocular, BinocularComparison, CompareParams, PathSummary};
 pub use context::{EyeShade, RecordTimes, ResidentSamples};
+pub use gaze_path::{GazePath, SACCADE_STEP_DEG};
 pub use reconstruct::{PolarCapacity, ResidentPolar, TableUpload};
+pub use run::{refusal, FrameCounts, ResidentRun, Route};
 pub use samples::{DeviceSamples, SampleLayer};
 pub use screen::{
     ScreenConfig, ScreenContext, ScreenDof, ScreenInput, ScreenLimits, SCREEN_PASSES,
