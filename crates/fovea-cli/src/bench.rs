@@ -27,7 +27,7 @@ use fovea_render::world::World;
 use fovea_render::RenderError;
 
 use crate::backend::Preflight;
-use crate::choices::{BackendArg, EnvLightChoice, Eyes, LockstepArg, Shading};
+use crate::choices::{BackendArg, EnvLightChoice, Eyes, LockstepArg, Shading, Switch};
 use crate::common::{display_of, thousands, FrameOptions, MethodOptions};
 use crate::dof_args::EyeArgs;
 use crate::render::{memory_limit, progress_bar, shading, EnvLightArgs};
@@ -118,6 +118,11 @@ pub struct BenchArgs {
     /// The gaze path's step, degrees a frame (0 to 30).
     #[arg(long, default_value_t = 8.0)]
     pub gaze_step: f64,
+    /// With --backend gpu --eyes both: temporal accumulation in those binocular frames, on
+    /// both paths (the resident frame's pass on the device, the staged path's on the CPU):
+    /// on (default; the viewer's setting) or off.
+    #[arg(long, value_enum, ignore_case = true, default_value_t = Switch::On)]
+    pub temporal: Switch,
     /// Print JSON only.
     #[arg(long)]
     pub json: bool,
@@ -215,8 +220,11 @@ pub fn run(args: BenchArgs) -> Result<()> {
             &args.scene,
             &params,
             &preflight,
-            args.gaze_path,
-            args.gaze_step,
+            crate::resident::MovingGaze {
+                path: args.gaze_path,
+                step_deg: args.gaze_step,
+                temporal: args.temporal.is_on(),
+            },
             args.json,
         )?
     } else {

@@ -148,6 +148,18 @@ pub fn render(
     Ok(Rendered::Staged(None))
 }
 
+/// How the benchmark's binocular frames move their gaze, and whether they accumulate.
+#[derive(Clone, Copy, Debug)]
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub struct MovingGaze {
+    /// `--gaze-path`.
+    pub path: GazePathArg,
+    /// `--gaze-step`, degrees a frame.
+    pub step_deg: f64,
+    /// `--temporal`: accumulation on both paths.
+    pub temporal: bool,
+}
+
 /// `--eyes both` on a GPU: each display's binocular frame of every `--methods` method,
 /// resident against staged with the gaze moving along `path` by `step_deg` a frame, printed
 /// unless `quiet`; the rows for the JSON's `resident_binocular`.
@@ -157,14 +169,18 @@ pub fn bench_rows(
     scene: &crate::scene_args::SceneArgs,
     params: &fovea_eval::experiments::bench::BenchParams,
     preflight: &crate::backend::Preflight,
-    path: GazePathArg,
-    step_deg: f64,
+    moving: MovingGaze,
     quiet: bool,
 ) -> Result<Vec<Value>> {
     use fovea_gpu::frame::{compare_binocular, CompareParams, GazePath, ToneSettings};
     let Some(ctx) = &preflight.gpu else {
         return Ok(Vec::new());
     };
+    let MovingGaze {
+        path,
+        step_deg,
+        temporal,
+    } = moving;
     let path = match path {
         GazePathArg::Saccade => GazePath::Saccade,
         GazePathArg::Circle => GazePath::Circle,
@@ -194,6 +210,7 @@ pub fn bench_rows(
                         exposure_stops: 0.0,
                         curve: ToneCurve::Reinhard,
                     },
+                    temporal: temporal.then(fovea_render::temporal::TemporalSettings::default),
                 },
             )?;
             if !quiet {
@@ -212,8 +229,7 @@ pub fn bench_rows(
     _scene: &crate::scene_args::SceneArgs,
     _params: &fovea_eval::experiments::bench::BenchParams,
     _preflight: &crate::backend::Preflight,
-    _path: GazePathArg,
-    _step_deg: f64,
+    _moving: MovingGaze,
     _quiet: bool,
 ) -> Result<Vec<Value>> {
     Ok(Vec::new())
@@ -256,7 +272,15 @@ fn bench_line(c: &fovea_gpu::frame::BinocularComparison) -> String {
         _ => String::new(),
     };
     format!(
-        "{} {}x{} {} binocular, gaze {} {}°/frame, median of {}: {resident}{staged}{ratio}",
-        c.display, c.width, c.height, c.method, c.gaze_path, c.step_deg, c.frames
+        "{} {}x{} {} binocular, gaze {} {}°/frame, temporal {}, median of {}: \
+         {resident}{staged}{ratio}",
+        c.display,
+        c.width,
+        c.height,
+        c.method,
+        c.gaze_path,
+        c.step_deg,
+        if c.temporal { "on" } else { "off" },
+        c.frames
     )
 }

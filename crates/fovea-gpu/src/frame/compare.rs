@@ -33,6 +33,7 @@ use fovea_render::pipeline::{
 use fovea_render::plan::{FramePlan, PlanCache};
 use fovea_render::shade::FrameNoise;
 use fovea_render::stereo::fixating_eyes;
+use fovea_render::temporal::{TemporalAccumulator, TemporalSettings};
 use fovea_render::world::World;
 use serde::Serialize;
 
@@ -67,6 +68,10 @@ pub struct CompareParams<'a> {
     pub staged: bool,
     /// The tone map both paths end with.
     pub tone: ToneSettings,
+    /// Temporal accumulation on both paths (`None`: off): the resident frame's pass
+    /// ([`super::ResidentFrame::set_temporal`]), the staged path's CPU accumulator per eye;
+    /// frame `f` draws the random numbers of noise index `f` on both.
+    pub temporal: Option<TemporalSettings>,
 }
 
 /// One path's binocular frame.
@@ -143,6 +148,8 @@ pub struct BinocularComparison {
     /// The gaze path and its step, degrees.
     pub gaze_path: &'static str,
     pub step_deg: f64,
+    /// Whether both paths accumulated temporally.
+    pub temporal: bool,
     /// Frames reported (after the warmup).
     pub frames: usize,
     /// `"resident"` or `"staged"`: where the tool's frames go.
@@ -226,6 +233,11 @@ pub fn compare_binocular(ctx: &GpuContext, p: &CompareParams<'_>) -> Result<Bino
     if p.frames == 0 {
         return Err(GpuError::Input("0 frames to compare (1 or more)".into()));
     }
+    if p.temporal.is_some_and(|t| t.jitter) {
+        return Err(GpuError::Input(
+            "temporal jitter in the comparison (its plans are not jittered; jitter off)".into(),
+        ));
+    }
     let world = p.world;
     let mut caches = [PlanCache::new(), PlanCache::new()];
     let (cams, plans, _) = plans_of(p, 0, &mut caches)?;
@@ -236,11 +248,27 @@ pub fn compare_binocular(ctx: &GpuContext, p: &CompareParams<'_>) -> Result<Bino
         [&cams[0], &cams[1]],
         p.tone,
     )?;
+    if let Route::Resident(run) = &mut route {
+        run.set_temporal(p.temporal)?;
+    }
     let mut staged = if p.staged || matches!(route, Route::Staged(_)) {
         let gx = GpuExecutors::new(ctx, world)?;
         let mut fc = FrameContext::new();
         fc.set_executors(gx.first);
-        Some((fc, gx.tone_map, [PlanCache::new(), PlanCache::new()]))
+        let accumulators = match p.temporal {
+            Some(t) => {
+                let acc =
+                    || TemporalAccumulator::new(t).map_err(|e| GpuError::Input(e.to_string()));
+                Some([acc()?, acc()?])
+            }
+            None => None,
+        };
+        Some((
+            fc,
+            gx.tone_map,
+            [PlanCache::new(), PlanCache::new()],
+            accumulators,
+        ))
     } else {
         None
     };
@@ -280,7 +308,7 @@ pub fn compare_binocular(ctx: &GpuContext, p: &CompareParams<'_>) -> Result<Bino
                 }
             }
         }
-        if let Some((fc, tone, caches)) = &mut staged {
+        if let Some((fc, tone, caches, accumulators)) = &mut staged {
             let before = ctx.traffic();
             let sw = Stopwatch::start();
             let (cams, plans, gaze) = plans_of(p, f, caches)?;
@@ -292,7 +320,10 @@ pub fn compare_binocular(ctx: &GpuContext, p: &CompareParams<'_>) -> Result<Bino
                     world,
                     &cams[e],
                     &plans[e],
-                    FrameInputs::default(),
+                    FrameInputs {
+                        accumulator: accumulators.as_mut().map(|a| &mut a[e]),
+                        prefill: None,
+                    },
                     StageTimes::default(),
                     &|_, _| {},
                 )
@@ -329,6 +360,7 @@ pub fn compare_binocular(ctx: &GpuContext, p: &CompareParams<'_>) -> Result<Bino
         method: p.settings.method.name().to_string(),
         gaze_path: p.path.name(),
         step_deg: p.step_deg,
+        temporal: p.temporal.is_some(),
         frames: p.frames,
         route: route.name(),
         staged_because: route.staged_because().map(str::to_string),

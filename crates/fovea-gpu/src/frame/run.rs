@@ -180,6 +180,15 @@ impl ResidentRun {
         Ok(FrameCounts::of(&self.ctx.traffic().since(&before), &times))
     }
 
+    /// Temporal accumulation on the device from the next frame (`None`: off); see
+    /// [`ResidentFrame::set_temporal`].
+    pub fn set_temporal(
+        &mut self,
+        settings: Option<fovea_render::temporal::TemporalSettings>,
+    ) -> Result<()> {
+        self.frame.set_temporal(settings)
+    }
+
     /// Waits until the device has finished the submitted frames — for a benchmark's wall
     /// clock only, outside any frame's counts (it is a counted blocking wait).
     pub fn finish(&self) -> Result<()> {
