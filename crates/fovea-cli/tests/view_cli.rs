@@ -328,6 +328,10 @@ fn gpu_view_runs_both_eyes_on_the_gpu() {
         let out = fovea()
             .args(["view", "--res", "320x180", "--lights", "2", "-q"])
             .args(["--method", "vafr", "--eyes", "both", "--frames", "1"])
+            // Two rays a pixel: a view the resident frame does not serve, so this test keeps
+            // the staged path's lockstep covered (`resident_view_presents_from_the_render_
+            // device` covers the resident one).
+            .args(["--pixel-samples", "2"])
             .args(["--backend", backend, "--lockstep", "on", "--gaze-csv"])
             .arg(&csv)
             .arg("--screenshot")

@@ -48,7 +48,7 @@ use fovea_render::pipeline::{
 use fovea_render::plan::FramePlan;
 use fovea_render::shade::{EnvLight, ShadingMode};
 use fovea_render::world::World;
-use resident::{plan, setup};
+use resident::{luma_psnr, plan, setup};
 
 const PSNR_MIN_DB: f64 = 40.0;
 const STEADY_UPLOAD_MAX: u64 = 256 * 1024;
@@ -76,24 +76,6 @@ fn cpu_image(world: &World, camera: &EyeCamera, plan: &FramePlan) -> Vec<u8> {
     )
     .unwrap();
     to_srgb8(&frame.color, TONE.exposure_stops, TONE.curve)
-}
-
-/// Luma PSNR of two 8-bit sRGB images (luma of the codes / 255, Rec. 601 weights), dB.
-fn luma_psnr(a: &[u8], b: &[u8]) -> f64 {
-    assert_eq!(a.len(), b.len());
-    let luma = |p: &[u8]| (0.299 * p[0] as f64 + 0.587 * p[1] as f64 + 0.114 * p[2] as f64) / 255.0;
-    let n = a.len() / 3;
-    let mse = a
-        .chunks_exact(3)
-        .zip(b.chunks_exact(3))
-        .map(|(x, y)| (luma(x) - luma(y)).powi(2))
-        .sum::<f64>()
-        / n as f64;
-    if mse == 0.0 {
-        f64::INFINITY
-    } else {
-        10.0 * (1.0 / mse).log10()
-    }
 }
 
 /// Both eyes' plans of frame `frame` with the gazes `gazes` (screen pixels).

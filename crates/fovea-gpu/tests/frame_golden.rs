@@ -4,8 +4,9 @@
 //! `fovea-render/tests/golden.rs` pins each method's frame of the built-in scene at 160×180
 //! as a 16-bit PNG of its Reinhard + sRGB encoding. Its `realtime-*` cases are the shading the
 //! resident frame serves (`--quality realtime`: direct light, one occluded environment ray);
-//! every other case needs indirect light, path tracing, the denoiser, contrast, another DOF
-//! filter, Guenter, the insets, Weier or reprojection, which `ResidentFrame::supports` refuses
+//! every other case needs indirect light, path tracing, contrast, another DOF
+//! filter, Guenter, the insets or Weier, which `ResidentFrame::supports` refuses (the denoiser
+//! and temporal accumulation run resident since; `vafr-denoise` needs indirect light)
 //! (checked below, so a case that becomes resident is noticed). Each served case is rendered
 //! here through `fovea_gpu::frame::ResidentRun` (the plan as the golden test makes it, for
 //! both eyes of the frame), its 8-bit image read back, and compared with the stored file:
@@ -108,10 +109,10 @@ fn served() -> Vec<Case> {
 }
 
 /// Golden cases the resident frame must refuse, with what refuses them (a sample of the
-/// others: offline shading, the denoiser, contrast, another DOF filter, Guenter, Weier).
+/// others: offline shading, contrast, another DOF filter, Guenter, Weier). The denoiser is
+/// served since it runs in the resident frame (checked against the CPU in
+/// `frame_binocular.rs`).
 fn refused() -> Vec<(&'static str, FrameSettings)> {
-    let mut denoise = realtime(Method::Vafr);
-    denoise.denoise = Some(fovea_post::denoise::DenoiseParams::default());
     let mut contrast = realtime(Method::Vafr);
     contrast.contrast = Some(fovea_post::contrast::PeripheralContrast::default());
     let mut bokeh = realtime(Method::Vafr);
@@ -121,7 +122,6 @@ fn refused() -> Vec<(&'static str, FrameSettings)> {
     ));
     vec![
         ("indirect", FrameSettings::new(Method::Vafr)),
-        ("denoiser", denoise),
         ("contrast", contrast),
         ("bokeh", bokeh),
         ("guenter", realtime(Method::Guenter)),

@@ -39,7 +39,7 @@ use fovea_render::plan::FramePlan;
 use fovea_render::shade::{EnvLight, FrameNoise, ShadingMode};
 use fovea_render::temporal::{TemporalAccumulator, TemporalSettings};
 use fovea_render::world::World;
-use resident::{plan, setup};
+use resident::{luma_mse, luma_psnr, plan, setup};
 
 const PSNR_MIN_DB: f64 = 40.0;
 const STEADY_UPLOAD_MAX: u64 = 256 * 1024;
@@ -47,28 +47,6 @@ const TONE: ToneSettings = ToneSettings {
     exposure_stops: 0.0,
     curve: ToneCurve::Reinhard,
 };
-
-/// Luma PSNR of two 8-bit sRGB images (Rec. 601 luma of the codes / 255), dB.
-fn luma_psnr(a: &[u8], b: &[u8]) -> f64 {
-    let mse = luma_mse(a, b);
-    if mse == 0.0 {
-        f64::INFINITY
-    } else {
-        10.0 * (1.0 / mse).log10()
-    }
-}
-
-/// Mean squared difference of the Rec. 601 luma of two 8-bit sRGB images (codes / 255).
-fn luma_mse(a: &[u8], b: &[u8]) -> f64 {
-    assert_eq!(a.len(), b.len());
-    let luma = |p: &[u8]| (0.299 * p[0] as f64 + 0.587 * p[1] as f64 + 0.114 * p[2] as f64) / 255.0;
-    let n = a.len() / 3;
-    a.chunks_exact(3)
-        .zip(b.chunks_exact(3))
-        .map(|(x, y)| (luma(x) - luma(y)).powi(2))
-        .sum::<f64>()
-        / n as f64
-}
 
 /// Both eyes' cameras of frame `f`: still for the first three frames, then turning 0.6° and
 /// moving 3 cm to the right (and 1 cm forward) per frame.

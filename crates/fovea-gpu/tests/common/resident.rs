@@ -1,5 +1,6 @@
-//! Shared by the resident-frame tests (`frame_shade.rs`, `frame_binocular.rs`): the built-in
-//! scene at the Vive Pro Eye with both eyes' cameras, and the plans they render.
+//! Shared by the resident-frame tests (`frame_shade.rs`, `frame_binocular.rs`,
+//! `frame_temporal.rs`): the built-in scene at the Vive Pro Eye with both eyes' cameras, the
+//! plans they render, and the luma PSNR they compare images by.
 
 use fovea_core::display::{DisplayProfile, Gaze};
 use fovea_core::mapping::Method;
@@ -56,4 +57,28 @@ pub fn plan(
     )
     .unwrap()
     .with_noise(FrameNoise::new(frame, eye))
+}
+
+/// Luma PSNR of two 8-bit sRGB images (Rec. 601 luma of the codes / 255), dB.
+#[allow(dead_code)] // not every test file that shares this module compares images
+pub fn luma_psnr(a: &[u8], b: &[u8]) -> f64 {
+    let mse = luma_mse(a, b);
+    if mse == 0.0 {
+        f64::INFINITY
+    } else {
+        10.0 * (1.0 / mse).log10()
+    }
+}
+
+/// Mean squared difference of the Rec. 601 luma of two 8-bit sRGB images (codes / 255).
+#[allow(dead_code)]
+pub fn luma_mse(a: &[u8], b: &[u8]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    let luma = |p: &[u8]| (0.299 * p[0] as f64 + 0.587 * p[1] as f64 + 0.114 * p[2] as f64) / 255.0;
+    let n = a.len() / 3;
+    a.chunks_exact(3)
+        .zip(b.chunks_exact(3))
+        .map(|(x, y)| (luma(x) - luma(y)).powi(2))
+        .sum::<f64>()
+        / n as f64
 }
