@@ -315,6 +315,11 @@ fn best_filter_reaches_33_db_on_real_scenes() {
             "256x256",
             "--lens-samples",
             "128",
+            // The filters against the thin lens, without the environment light's Monte Carlo
+            // noise (the default since issue 38 puts the reference's floor near 32 dB, below
+            // the bar this test holds the filters to).
+            "--env-light",
+            "unshadowed",
             "--json",
             "--out",
             dir.path().to_str().unwrap(),

@@ -149,6 +149,10 @@ fn inset_analysis_reports_every_smoothing() {
             "160x120",
             "--lights",
             "1",
+            // The smoothing rows as before issue 38's viewer shading (which adds the noise
+            // floor's row and lets Area1 move with the noise); inset_cli covers that mode.
+            "--shading",
+            "noise-free",
             "--json",
             "--out",
         ])

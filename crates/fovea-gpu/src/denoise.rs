@@ -45,7 +45,7 @@ use fovea_post::inverse_map::SampleBuffers;
 
 use crate::device::GpuContext;
 use crate::error::{GpuError, Result};
-use crate::frame::samples::{DeviceSamples, SampleLayer};
+use crate::samples::{DeviceSamples, SampleLayer};
 use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
 use crate::transfer::read_buffers;
 
@@ -592,7 +592,7 @@ impl GpuDenoiser {
         let staged = {
             let s = self.sized.as_mut().expect("fit sized the denoiser");
             if s.staged.is_none() {
-                let bytes = texels * crate::frame::samples::TEXEL_BYTES;
+                let bytes = texels * crate::samples::TEXEL_BYTES;
                 let samples = DeviceSamples::new(&ctx, &sizes)?;
                 let guides = DeviceGuides::new(&ctx, &sizes)?;
                 let (readback, counters_readback) =
@@ -640,7 +640,7 @@ impl GpuDenoiser {
         let what = format!("denoising {texels} samples");
         staged.samples.upload(&ctx, samples)?;
         staged.guides.upload(&ctx, guides)?;
-        let bytes = texels * crate::frame::samples::TEXEL_BYTES;
+        let bytes = texels * crate::samples::TEXEL_BYTES;
         let recorded = ctx.scoped(&what, || -> Result<()> {
             let mut encoder =
                 ctx.device()

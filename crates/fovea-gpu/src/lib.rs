@@ -84,6 +84,7 @@ pub mod ray_generation;
 pub mod reconstruct;
 mod records;
 pub mod sample_aa;
+pub mod samples;
 pub mod shaders;
 pub mod surface;
 mod timestamps;

@@ -28,7 +28,9 @@ pub mod context;
 pub mod gaze_path;
 pub mod reconstruct;
 pub mod run;
-pub mod samples;
+// The sample buffers live beside the frame (`crate::samples`): the denoiser reads them too,
+// and the frame records the denoiser.
+pub use crate::samples;
 pub mod screen;
 pub mod shade;
 pub mod temporal;
