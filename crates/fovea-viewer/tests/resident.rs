@@ -148,10 +148,11 @@ fn both_eyes_stay_on_the_device_until_an_image_is_asked_for() {
             assert_eq!(tex.format(), wgpu::TextureFormat::Rgba8Unorm);
         }
         assert_eq!((f.width, f.height), (2 * W, H));
-        // One submission, no wait, and back only the timestamps (16 passes, 16 B each).
+        // One submission, no wait, and back only the timestamps (16 B a timed pass, a few
+        // frames' worth when they resolve together; issue 37's bar for statistics: 64 KiB).
         assert_eq!(t.submissions, 1, "frame {i}");
         assert_eq!(t.blocking_waits, 0, "frame {i}");
-        assert!(t.bytes_read_back <= 16 * 16, "frame {i}: {t:?}");
+        assert!(t.bytes_read_back <= 64 * 1024, "frame {i}: {t:?}");
         if i > 0 {
             assert_eq!(t.buffers_created, 0, "frame {i}");
             assert_eq!(t.bind_groups_created, 0, "frame {i}");
@@ -191,9 +192,9 @@ fn views_it_does_not_serve_fall_back_to_the_staged_path() {
     };
     let mut r = FrameRenderer::new(world, base(), 0.063, Executors::default(), None).unwrap();
     r.set_resident(ctx, true);
-    // One eye with temporal accumulation (on at start): not on the device yet.
-    let view = ViewSettings::new(ViewMethod::Method(Method::Vafr), None, 1.0);
-    assert!(view.temporal);
+    // The density overlay (Y) reads the frame on the CPU, so it stays staged.
+    let mut view = ViewSettings::new(ViewMethod::Method(Method::Vafr), None, 1.0);
+    view.overlays.density = true;
     let f = r.render(&request(0, &view, &display, pose)).unwrap();
     assert!(f.resident.is_none());
     assert_eq!(f.rgba.len(), (W * H * 4) as usize);
@@ -203,9 +204,11 @@ fn views_it_does_not_serve_fall_back_to_the_staged_path() {
     let f = r.render(&request(1, &g, &display, pose)).unwrap();
     assert!(f.resident.is_none());
     assert_eq!(f.stats.len(), 2);
-    // The same view with temporal accumulation off is served.
+    // The same view without the overlay is served, one eye with temporal accumulation (on
+    // at start) included: the resident frame's temporal pass.
     let mut v = view.clone();
-    v.temporal = false;
+    v.overlays.density = false;
+    assert!(v.temporal);
     let f = r.render(&request(2, &v, &display, pose)).unwrap();
     let res = f.resident.as_ref().expect("served");
     assert_eq!(res.textures.len(), 1);
