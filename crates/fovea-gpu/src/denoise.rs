@@ -136,10 +136,8 @@ impl DeviceGuides {
         sizes: &[BufferSize],
         capacity_texels: u64,
     ) -> Result<Self> {
-        let (layers, texels) = DeviceSamples::layout(sizes).ok_or_else(|| {
-            GpuError::Unsupported(format!("denoiser guides of more than {} texels", u32::MAX))
-        })?;
-        let bytes = texels.max(capacity_texels).max(1) * TEXEL_BYTES;
+        let (layers, texels, bytes) =
+            DeviceSamples::sized(sizes, capacity_texels, "denoiser guides")?;
         ctx.check_storage_binding("the denoiser's guides (each of three)", bytes)?;
         let (albedo, normal, noisy) = ctx.scoped("allocating the denoiser's guides", || {
             let make = |label| {
@@ -194,14 +192,8 @@ impl DeviceGuides {
     /// Takes the layers of `sizes` in the same buffers (contents undefined until written) when
     /// they fit the [`capacity`](Self::capacity); `false`, and nothing changed, otherwise.
     pub fn relayout(&mut self, sizes: &[BufferSize]) -> bool {
-        match DeviceSamples::layout(sizes) {
-            Some((layers, texels)) if texels <= self.capacity() => {
-                self.layers = layers;
-                self.texels = texels;
-                true
-            }
-            _ => false,
-        }
+        let capacity = self.capacity();
+        DeviceSamples::relayout_within(sizes, capacity, &mut self.layers, &mut self.texels)
     }
 
     /// Whether these guides have exactly the layers of `sizes`.

@@ -101,10 +101,7 @@ impl DeviceSamples {
         sizes: &[BufferSize],
         capacity_texels: u64,
     ) -> Result<Self> {
-        let (layers, texels) = Self::layout(sizes).ok_or_else(|| {
-            GpuError::Unsupported(format!("sample buffers of more than {} texels", u32::MAX))
-        })?;
-        let bytes = texels.max(capacity_texels).max(1) * TEXEL_BYTES;
+        let (layers, texels, bytes) = Self::sized(sizes, capacity_texels, "sample buffers")?;
         ctx.check_storage_binding("the frame's sample buffers", bytes)?;
         let buffer = ctx.scoped("allocating the frame's sample buffers", || {
             ctx.create_buffer(&wgpu::BufferDescriptor {
@@ -132,10 +129,39 @@ impl DeviceSamples {
     /// them) when they fit its [`capacity`](Self::capacity); `false`, and nothing changed,
     /// otherwise.
     pub fn relayout(&mut self, sizes: &[BufferSize]) -> bool {
+        Self::relayout_within(sizes, self.capacity(), &mut self.layers, &mut self.texels)
+    }
+
+    /// The layers of `sizes`, their texels, and the bytes of a buffer of vec4 texels with
+    /// room for at least `capacity_texels` (shared with the denoiser's guides, which follow
+    /// the samples' layout); `what` names the buffers in the error.
+    pub(crate) fn sized(
+        sizes: &[BufferSize],
+        capacity_texels: u64,
+        what: &str,
+    ) -> Result<(Vec<SampleLayer>, u64, u64)> {
+        let (layers, texels) = Self::layout(sizes).ok_or_else(|| {
+            GpuError::Unsupported(format!("{what} of more than {} texels", u32::MAX))
+        })?;
+        Ok((
+            layers,
+            texels,
+            texels.max(capacity_texels).max(1) * TEXEL_BYTES,
+        ))
+    }
+
+    /// Sets `layers` and `texels` to those of `sizes` when they fit `capacity` texels;
+    /// `false`, and nothing changed, otherwise.
+    pub(crate) fn relayout_within(
+        sizes: &[BufferSize],
+        capacity: u64,
+        layers: &mut Vec<SampleLayer>,
+        texels: &mut u64,
+    ) -> bool {
         match Self::layout(sizes) {
-            Some((layers, texels)) if texels <= self.capacity() => {
-                self.layers = layers;
-                self.texels = texels;
+            Some((l, t)) if t <= capacity => {
+                *layers = l;
+                *texels = t;
                 true
             }
             _ => false,
