@@ -16,8 +16,11 @@
 // `no_hit_coc` (the CPU's value at d = +∞). Depth travels as u32 bit patterns and is
 // classified by its bits: WGSL lets an implementation assume that no float is infinite or NaN.
 //
-// The planes: depth (0 for no hit, flagged), the CoC radius clamp(|c|/2, ½, max_radius) and
-// 1/A(r) from the uploaded area table (linear between entries every 1/16 px, exactly as
+// The planes, one 4-byte value a pixel each (so that no binding is larger than 4 bytes a
+// pixel: an 8K plane is 126.6 MiB, within lavapipe's 128 MiB; issue 37): the depth's bits
+// (0 for no hit — a surface's depth is positive, so its bits are never 0 and the gather reads
+// the hit flag from them), the CoC radius clamp(|c|/2, ½, max_radius) and 1/A(r) from the
+// uploaded area table (linear between entries every 1/16 px, exactly as
 // `disc::AreaLut::inv`).
 
 struct DofCocParams {
@@ -39,24 +42,14 @@ struct DofCocParams {
     pad1: u32,
 }
 
-// What the gather reads per pixel.
-struct Plane {
-    // View depth, metres (0 where `hit` is 0).
-    depth_m: f32,
-    // CoC radius, clamp(|c|/2, ½, max_radius_px), pixels.
-    radius_px: f32,
-    // 1 / A(radius_px).
-    inv_area: f32,
-    // 1 for a surface, 0 for no hit (+∞).
-    hit: u32,
-}
-
 @group(0) @binding(0) var<uniform> params: DofCocParams;
 @group(0) @binding(1) var<storage, read> depth_bits: array<u32>;
 @group(0) @binding(2) var<storage, read> coc_in: array<u32>;
 @group(0) @binding(3) var<storage, read> inv_area_table: array<f32>;
 @group(0) @binding(4) var<storage, read_write> coc_out: array<f32>;
-@group(0) @binding(5) var<storage, read_write> planes: array<Plane>;
+@group(0) @binding(5) var<storage, read_write> plane_depth: array<u32>;
+@group(0) @binding(6) var<storage, read_write> plane_radius: array<f32>;
+@group(0) @binding(7) var<storage, read_write> plane_inv_area: array<f32>;
 
 const EXPONENT_MASK: u32 = 0x7f800000u;
 
@@ -104,5 +97,7 @@ fn coc(@builtin(global_invocation_id) id: vec3<u32>) {
     let f = min(t - f32(k), 1.0);
     let a0 = inv_area_table[k];
     let inv_area = a0 + f * (inv_area_table[k + 1u] - a0);
-    planes[i] = Plane(d, r, inv_area, select(0u, 1u, hit));
+    plane_depth[i] = select(0u, bits, hit);
+    plane_radius[i] = r;
+    plane_inv_area[i] = inv_area;
 }

@@ -16,9 +16,14 @@
 //
 // Constants from the Rust side: the offsets, 1 − tol and 1 + tol (rounded as the CPU's f32),
 // the tile size and the dilation span. Depths of pixels with no hit (+∞ on the CPU) are
-// flagged in the planes instead of stored: WGSL may assume no float is infinite, so the
-// comparisons with +∞ are written out (a pixel with no hit is behind every surface and the
-// same surface as another with none).
+// stored as 0 bits instead (a surface's depth never has them): WGSL may assume no float is
+// infinite, so the comparisons with +∞ are written out (a pixel with no hit is behind every
+// surface and the same surface as another with none).
+//
+// Every per-pixel buffer holds one 4-byte value a pixel — the planes `dof_coc.wgsl` wrote, the
+// colour and the output as three planes of one channel each — so that an 8K screen's (126.6
+// MiB a buffer) fits lavapipe's 128 MiB storage bindings (issue 37). The gather binds 11
+// storage buffers (checked against the adapter's per-stage limit on the Rust side).
 
 struct GatherParams {
     width: u32,
@@ -40,11 +45,13 @@ struct GatherParams {
     pad1: u32,
 }
 
+// One pixel's planes, as the gather reads them.
 struct Plane {
+    // View depth, metres (0 where `hit` is false).
     depth_m: f32,
     radius_px: f32,
     inv_area: f32,
-    hit: u32,
+    hit: bool,
 }
 
 // One disc offset: (dx, dy) and its length |o|.
@@ -56,12 +63,30 @@ struct Offset {
 }
 
 @group(0) @binding(0) var<uniform> params: GatherParams;
-@group(0) @binding(1) var<storage, read> planes: array<Plane>;
-@group(0) @binding(2) var<storage, read> color: array<f32>;
-@group(0) @binding(3) var<storage, read> offsets: array<Offset>;
-@group(0) @binding(4) var<storage, read_write> tile_max_px: array<f32>;
-@group(0) @binding(5) var<storage, read_write> reach_px: array<f32>;
-@group(0) @binding(6) var<storage, read_write> out_color: array<f32>;
+@group(0) @binding(1) var<storage, read> plane_depth: array<u32>;
+@group(0) @binding(2) var<storage, read> plane_radius: array<f32>;
+@group(0) @binding(3) var<storage, read> plane_inv_area: array<f32>;
+@group(0) @binding(4) var<storage, read> color_r: array<f32>;
+@group(0) @binding(5) var<storage, read> color_g: array<f32>;
+@group(0) @binding(6) var<storage, read> color_b: array<f32>;
+@group(0) @binding(7) var<storage, read> offsets: array<Offset>;
+@group(0) @binding(8) var<storage, read_write> tile_max_px: array<f32>;
+@group(0) @binding(9) var<storage, read_write> reach_px: array<f32>;
+@group(0) @binding(10) var<storage, read_write> out_r: array<f32>;
+@group(0) @binding(11) var<storage, read_write> out_g: array<f32>;
+@group(0) @binding(12) var<storage, read_write> out_b: array<f32>;
+
+// Pixel i's planes (the hit flag from the depth's bits).
+fn plane(i: u32) -> Plane {
+    let bits = plane_depth[i];
+    return Plane(bitcast<f32>(bits), plane_radius[i], plane_inv_area[i], bits != 0u);
+}
+
+fn store(i: u32, c: vec3<f32>) {
+    out_r[i] = c.x;
+    out_g[i] = c.y;
+    out_b[i] = c.z;
+}
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn tile_max(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -77,7 +102,7 @@ fn tile_max(@builtin(global_invocation_id) id: vec3<u32>) {
     var m = 0.0;
     for (var y = y0; y < y1; y++) {
         for (var x = x0; x < x1; x++) {
-            m = max(m, planes[y * params.width + x].radius_px);
+            m = max(m, plane_radius[y * params.width + x]);
         }
     }
     tile_max_px[ty * params.tiles_x + tx] = m;
@@ -123,7 +148,7 @@ fn coverage(radius_px: f32, d_px: f32) -> f32 {
 }
 
 fn rgb(i: u32) -> vec3<f32> {
-    return vec3<f32>(color[3u * i], color[3u * i + 1u], color[3u * i + 2u]);
+    return vec3<f32>(color_r[i], color_g[i], color_b[i]);
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -138,12 +163,10 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     let c_self = rgb(i);
     let search_px = reach_px[(y / params.tile_px) * params.tiles_x + x / params.tile_px];
     if search_px <= 0.5 {
-        out_color[3u * i] = c_self.x;
-        out_color[3u * i + 1u] = c_self.y;
-        out_color[3u * i + 2u] = c_self.z;
+        store(i, c_self);
         return;
     }
-    let pc = planes[i];
+    let pc = plane(i);
     let fill_behind = (params.flags & 1u) != 0u;
     let separate_near = (params.flags & 2u) != 0u;
     let near_limit = pc.depth_m * params.near_factor;
@@ -164,13 +187,13 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
             continue;
         }
         let j = u32(py) * w + u32(px);
-        let pp = planes[j];
+        let pp = plane(j);
         // In front of C (near layer), behind it, or the same surface; +∞ written out.
         var in_front = false;
         var behind = false;
-        if pc.hit == 0u {
-            in_front = pp.hit != 0u;
-        } else if pp.hit == 0u {
+        if !pc.hit {
+            in_front = pp.hit;
+        } else if !pp.hit {
             behind = true;
         } else {
             in_front = pp.depth_m < near_limit;
@@ -206,7 +229,5 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
         let alpha = min(near_w, 1.0);
         result = alpha * (near_sum * (1.0 / near_w)) + (1.0 - alpha) * far;
     }
-    out_color[3u * i] = result.x;
-    out_color[3u * i + 1u] = result.y;
-    out_color[3u * i + 2u] = result.z;
+    store(i, result);
 }

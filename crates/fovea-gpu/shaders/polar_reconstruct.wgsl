@@ -18,6 +18,11 @@
 // Colour and depth travel as u32 bit patterns (`vec4<u32>`: r, g, b, depth): depth is
 // +∞ for misses, and WGSL lets an implementation assume that no float is infinite, so depth
 // is only ever copied, never read as a float.
+//
+// Two entry points, the same pixels: `reconstruct` writes `vec4<u32>` a pixel (the per-call
+// path, in bands), `reconstruct_planes` writes four planes of 4 bytes a pixel — red, green,
+// blue, depth — straight into the resident screen's buffers (src/frame/reconstruct.rs), so no
+// binding holds more than 4 bytes a pixel (an 8K plane is 126.6 MiB; issue 37).
 
 struct ReconstructParams {
     // The pole (gaze), screen pixels, as the f32 pair hi + lo.
@@ -62,6 +67,11 @@ struct Column {
 @group(0) @binding(2) var<storage, read> columns: array<Column>;
 @group(0) @binding(3) var<storage, read> texels: array<vec4<u32>>;
 @group(0) @binding(4) var<storage, read_write> out_px: array<vec4<u32>>;
+// `reconstruct_planes`' output: one plane each of red, green, blue and depth bits.
+@group(0) @binding(5) var<storage, read_write> out_red: array<u32>;
+@group(0) @binding(6) var<storage, read_write> out_green: array<u32>;
+@group(0) @binding(7) var<storage, read_write> out_blue: array<u32>;
+@group(0) @binding(8) var<storage, read_write> out_depth: array<u32>;
 
 struct Lookup {
     rgb: vec3<f32>,
@@ -112,14 +122,8 @@ fn box_across_columns(uc: f32, width: f32, turn: f32) -> vec3<f32> {
     return read_column(u32(clamp(floor(uc + 0.5), 0.0, f32(params.last))), turn).rgb;
 }
 
-@compute @workgroup_size(WORKGROUP_SIZE)
-fn reconstruct(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let x = gid.x;
-    if x >= params.width || gid.y >= params.band_rows {
-        return;
-    }
-    let y = params.row0 + gid.y;
-    let index = gid.y * params.width + x;
+// The pixel (x, y): RGB bits and depth bits.
+fn reconstruct_pixel(x: u32, y: u32) -> vec4<u32> {
     let p = vec2<f32>(f32(x) + 0.5, f32(y) + 0.5);
     let d = offset_from_pole(p, params.pole_hi, params.pole_lo);
     // 1. u(r) − ½ from the table (texel centres at integers).
@@ -133,8 +137,7 @@ fn reconstruct(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     u = u - 0.5;
     if !(u <= params.cols_end) {
-        out_px[index] = vec4<u32>(0u, 0u, 0u, params.miss_depth_bits);
-        return;
+        return vec4<u32>(0u, 0u, 0u, params.miss_depth_bits);
     }
     let uc = clamp(u, 0.0, f32(params.last));
     // 2. The angle.
@@ -159,5 +162,28 @@ fn reconstruct(@builtin(global_invocation_id) gid: vec3<u32>) {
             rgb = box_across_columns(uc, max(width, 1.0), turn);
         }
     }
-    out_px[index] = vec4<u32>(bitcast<vec3<u32>>(rgb), depth);
+    return vec4<u32>(bitcast<vec3<u32>>(rgb), depth);
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn reconstruct(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let x = gid.x;
+    if x >= params.width || gid.y >= params.band_rows {
+        return;
+    }
+    out_px[gid.y * params.width + x] = reconstruct_pixel(x, params.row0 + gid.y);
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn reconstruct_planes(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let x = gid.x;
+    if x >= params.width || gid.y >= params.band_rows {
+        return;
+    }
+    let index = gid.y * params.width + x;
+    let px = reconstruct_pixel(x, params.row0 + gid.y);
+    out_red[index] = px.x;
+    out_green[index] = px.y;
+    out_blue[index] = px.z;
+    out_depth[index] = px.w;
 }

@@ -12,6 +12,12 @@
 //
 // Non-finite values (and v·k overflowing) encode as 0, as on the CPU; they are classified by
 // their bits because WGSL lets an implementation assume no float is infinite or NaN.
+//
+// Two entry points, the same encoding: `tonemap` reads the values interleaved (r, g, b a
+// pixel: `Image<Rgb>`'s layout, the per-call path), `tonemap_planes` reads them as three
+// planes of one channel each (the resident screen's layout, so that no binding is larger than
+// 4 bytes a pixel: an 8K screen's plane is 126.6 MiB, within lavapipe's 128 MiB; issue 37).
+// Value v is channel v % 3 of pixel v / 3 either way, so the output bytes are the same.
 
 struct ToneParams {
     // Channel values (3 per pixel).
@@ -28,6 +34,10 @@ struct ToneParams {
 @group(0) @binding(1) var<storage, read> values: array<u32>;
 @group(0) @binding(2) var<storage, read> thresholds: array<f32, 255>;
 @group(0) @binding(3) var<storage, read_write> out_words: array<u32>;
+// `tonemap_planes`' input: one plane a channel.
+@group(0) @binding(4) var<storage, read> red: array<u32>;
+@group(0) @binding(5) var<storage, read> green: array<u32>;
+@group(0) @binding(6) var<storage, read> blue: array<u32>;
 
 const EXPONENT_MASK: u32 = 0x7f800000u;
 
@@ -72,6 +82,38 @@ fn tonemap(@builtin(global_invocation_id) id: vec3<u32>) {
         let v = 4u * wi + b;
         if v < params.n_values {
             word |= encode(values[v]) << (8u * b);
+        }
+    }
+    out_words[wi] = word;
+}
+
+// Value v of the planes: channel v % 3 of pixel v / 3.
+fn plane_value(v: u32) -> u32 {
+    let k = v / 3u;
+    switch v % 3u {
+        case 0u: {
+            return red[k];
+        }
+        case 1u: {
+            return green[k];
+        }
+        default: {
+            return blue[k];
+        }
+    }
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn tonemap_planes(@builtin(global_invocation_id) id: vec3<u32>) {
+    let wi = id.y * 65535u * WORKGROUP_SIZE + id.x;
+    if wi >= params.n_words {
+        return;
+    }
+    var word = 0u;
+    for (var b = 0u; b < 4u; b++) {
+        let v = 4u * wi + b;
+        if v < params.n_values {
+            word |= encode(plane_value(v)) << (8u * b);
         }
     }
     out_words[wi] = word;

@@ -14,10 +14,13 @@
 //!   radius and `1/A(r)`), `dof_gather.wgsl::tile_max`, `::tile_reach` (the CPU's
 //!   `TileReach`, per 16×16 tile) and `::gather` (per pixel, the near/far disc gather).
 //!
-//! Buffers: depth (u32 bits, 4 B/px), colour (3 × f32), the CoC map out (f32), the planes
-//! (16 B/px: depth, radius, 1/A, hit), the offsets (16 B each, ≤ 207k for a 256 px radius),
-//! the area table, two tile planes and the colour out. Each must fit one storage binding
-//! (lavapipe: 128 MiB, so up to 8.4 M pixels), checked before anything is allocated.
+//! Buffers: depth (u32 bits, 4 B/px), colour (three planes of f32, one a channel), the CoC
+//! map out (f32), the gather's planes (three of 4 B/px: depth bits, radius, 1/A), the offsets
+//! (16 B each, ≤ 207k for a 256 px radius), the area table, two tile planes and the colour out
+//! (three planes). No per-pixel buffer holds more than 4 bytes a pixel, so each fits one
+//! storage binding up to 33.5 M pixels on lavapipe's 128 MiB (an 8K screen, 33.2 M, fits;
+//! issue 37), checked before anything is allocated ([`dof_bindings`]). The gather binds
+//! [`GATHER_STORAGE_BUFFERS`] storage buffers, also checked against the adapter.
 //!
 //! Differences from the CPU: the CoC is evaluated in f32 from constants rounded once (the CPU
 //! evaluates in f64 and rounds the result), ~1e-7 relative; the gather sums the same taps in
@@ -78,8 +81,43 @@ pub struct OffsetGpu {
 
 /// The shaders' `Offset`, bytes.
 pub const OFFSET_BYTES: u64 = std::mem::size_of::<OffsetGpu>() as u64;
-/// The shaders' `Plane` (written and read on the device only: depth, radius, 1/A, hit), bytes.
-pub const PLANE_BYTES: u64 = 16;
+/// Bytes a pixel of each per-pixel plane the passes bind: the gather's planes (depth bits,
+/// radius, 1/A, written and read on the device only), each colour channel, the CoC map.
+pub const PLANE_BYTES: u64 = 4;
+/// The gather's planes that `dof_coc.wgsl` writes (depth bits, radius, 1/A).
+pub const GATHER_PLANES: u64 = 3;
+/// Storage buffers the `gather` entry point binds: three planes, three colour channels in,
+/// the offsets, the tile reach, three colour channels out.
+pub const GATHER_STORAGE_BUFFERS: u32 = 11;
+
+/// Every per-pixel storage binding of the depth of field on a screen of `n` pixels with
+/// `n_offsets` disc offsets, named as the error would name it: what both the per-call passes
+/// and the resident screen side check before they allocate (and allocate from).
+pub fn dof_bindings(n: u64, n_offsets: u64) -> [(&'static str, u64); 5] {
+    [
+        ("the depth-of-field planes (each of three)", n * PLANE_BYTES),
+        (
+            "the depth-of-field colour (each of three planes)",
+            n * PLANE_BYTES,
+        ),
+        ("the blurred colour (each of three planes)", n * PLANE_BYTES),
+        ("the CoC map", n * PLANE_BYTES),
+        ("the gather's disc offsets", n_offsets * OFFSET_BYTES),
+    ]
+}
+
+/// [`GpuError::AdapterTooSmall`]-like refusal ([`GpuError::Unsupported`]) when the adapter
+/// binds fewer storage buffers a stage than the gather needs.
+pub(crate) fn check_gather_stage(ctx: &GpuContext) -> Result<()> {
+    let have = ctx.limits().max_storage_buffers_per_shader_stage;
+    if have < GATHER_STORAGE_BUFFERS {
+        return Err(GpuError::Unsupported(format!(
+            "the depth-of-field gather on this adapter (it binds {GATHER_STORAGE_BUFFERS} \
+             storage buffers, the adapter {have} a stage)"
+        )));
+    }
+    Ok(())
+}
 
 /// The uniform block `DofCocParams` of `dof_coc.wgsl` (same field order; see there).
 #[repr(C)]
@@ -168,8 +206,10 @@ pub struct GpuDof {
 }
 
 impl GpuDof {
-    /// Compiles the passes on `ctx`.
+    /// Compiles the passes on `ctx` ([`GpuError::Unsupported`] on an adapter that binds fewer
+    /// than [`GATHER_STORAGE_BUFFERS`] storage buffers a stage).
     pub fn new(ctx: &GpuContext) -> Result<Self> {
+        check_gather_stage(ctx)?;
         let device = ctx.device();
         let (mut coc, mut gather) = ctx.scoped("building the depth-of-field pipelines", || {
             (
@@ -195,18 +235,18 @@ impl GpuDof {
         &self.ctx
     }
 
-    /// Whether an image of `width × height` pixels fits this device: its depth-of-field planes
-    /// ([`PLANE_BYTES`] a pixel) and colour (12 bytes a pixel) each in one storage binding, and
-    /// its rows and columns within one dispatch. A caller that can fall back to the CPU asks
-    /// this first (an 8K frame's planes, 531 MB, do not fit lavapipe's 128 MiB); the passes
-    /// check the same before allocating ([`GpuError::AdapterTooSmall`]).
+    /// Whether an image of `width × height` pixels fits this device: each of its per-pixel
+    /// planes ([`PLANE_BYTES`] a pixel: the gather's planes, each colour channel) in one
+    /// storage binding, and its rows and columns within one dispatch. A caller that can fall
+    /// back to the CPU asks this first (an 8K frame's planes, 126.6 MiB each, fit lavapipe's
+    /// 128 MiB; a retinal one's, 285 MiB, do not); the passes check the same before
+    /// allocating ([`GpuError::AdapterTooSmall`]).
     pub fn fits(&self, width: u32, height: u32) -> bool {
         let limits = self.ctx.limits();
         let binding = self.ctx.max_binding_bytes();
         let n = u64::from(width) * u64::from(height);
         let groups = limits.max_compute_workgroups_per_dimension;
-        n * PLANE_BYTES <= binding
-            && n * 12 <= binding
+        dof_bindings(n, 0).iter().all(|&(_, b)| b <= binding)
             && width.div_ceil(WORKGROUP_SIZE) <= groups
             && height <= groups
     }
@@ -297,14 +337,7 @@ impl GpuDof {
             .map_err(|e| GpuError::Input(e.to_string()))?;
         let n = w as u64 * h as u64;
         let what = format!("the depth of field at {w}x{h}");
-        for (name, bytes) in [
-            ("the depth-of-field planes", n * PLANE_BYTES),
-            ("the depth-of-field colour", n * 12),
-            (
-                "the gather's disc offsets",
-                tables.offsets.len() as u64 * OFFSET_BYTES,
-            ),
-        ] {
+        for (name, bytes) in dof_bindings(n, tables.offsets.len() as u64) {
             self.ctx.check_storage_binding(name, bytes)?;
         }
         let limits = self.ctx.limits();
@@ -400,8 +433,10 @@ impl GpuDof {
                 })
             };
             let copy_out = storage | wgpu::BufferUsages::COPY_SRC;
-            let coc_out = scratch("CoC map", n_bytes(4), copy_out);
-            let planes = scratch("DOF planes", n_bytes(PLANE_BYTES), storage);
+            let coc_out = scratch("CoC map", n_bytes(PLANE_BYTES), copy_out);
+            let planes: [wgpu::Buffer; 3] =
+                ["DOF depth plane", "DOF radius plane", "DOF 1/A plane"]
+                    .map(|label| scratch(label, n_bytes(PLANE_BYTES), storage));
             let bind = |pipeline: &wgpu::ComputePipeline, entries: &[(u32, &wgpu::Buffer)]| {
                 bind_group(&self.ctx, "depth of field", pipeline, entries)
             };
@@ -413,17 +448,24 @@ impl GpuDof {
                     (2, &coc_in),
                     (3, &area),
                     (4, &coc_out),
-                    (5, &planes),
+                    (5, &planes[0]),
+                    (6, &planes[1]),
+                    (7, &planes[2]),
                 ],
             );
             // The gather's buffers and bindings, when it runs.
             let gather = color.map(|color| {
-                let color_in = upload(
-                    &self.ctx,
-                    "colour",
-                    bytes_or_word(bytemuck::cast_slice(color.data())),
-                    storage,
-                );
+                let color_in: Vec<wgpu::Buffer> = (0..3)
+                    .map(|c| {
+                        let plane: Vec<f32> = color.data().iter().map(|p| p[c]).collect();
+                        upload(
+                            &self.ctx,
+                            "colour plane",
+                            bytes_or_word(bytemuck::cast_slice(&plane)),
+                            storage,
+                        )
+                    })
+                    .collect();
                 let offsets_buf = upload(
                     &self.ctx,
                     "disc offsets",
@@ -433,19 +475,26 @@ impl GpuDof {
                 let tiles = (tiles_x as u64 * tiles_y as u64 * 4).max(4);
                 let tile_max = scratch("tile max", tiles, storage);
                 let reach = scratch("tile reach", tiles, storage);
-                let out = scratch("blurred colour", n_bytes(12), copy_out);
+                let out: [wgpu::Buffer; 3] = ["blurred red", "blurred green", "blurred blue"]
+                    .map(|label| scratch(label, n_bytes(PLANE_BYTES), copy_out));
                 let g = &gather_uniform;
-                let b_max = bind(&self.tile_max, &[(0, g), (1, &planes), (4, &tile_max)]);
-                let b_reach = bind(&self.tile_reach, &[(0, g), (4, &tile_max), (5, &reach)]);
+                let b_max = bind(&self.tile_max, &[(0, g), (2, &planes[1]), (8, &tile_max)]);
+                let b_reach = bind(&self.tile_reach, &[(0, g), (8, &tile_max), (9, &reach)]);
                 let b_gather = bind(
                     &self.gather,
                     &[
                         (0, g),
-                        (1, &planes),
-                        (2, &color_in),
-                        (3, &offsets_buf),
-                        (5, &reach),
-                        (6, &out),
+                        (1, &planes[0]),
+                        (2, &planes[1]),
+                        (3, &planes[2]),
+                        (4, &color_in[0]),
+                        (5, &color_in[1]),
+                        (6, &color_in[2]),
+                        (7, &offsets_buf),
+                        (9, &reach),
+                        (10, &out[0]),
+                        (11, &out[1]),
+                        (12, &out[2]),
                     ],
                 );
                 (b_max, b_reach, b_gather, out)
@@ -477,7 +526,7 @@ impl GpuDof {
             }
             let out_color = gather.map(|g| g.3);
             let mut readbacks = Vec::new();
-            for out in std::iter::once(&coc_out).chain(out_color.as_ref()) {
+            for out in std::iter::once(&coc_out).chain(out_color.iter().flatten()) {
                 let read = scratch(
                     "depth-of-field readback",
                     out.size(),
@@ -507,9 +556,12 @@ impl GpuDof {
                 coc = bytemuck::pod_collect_to_vec::<u8, f32>(bytes);
                 coc.truncate(nu);
             } else {
-                let mut px = bytemuck::pod_collect_to_vec::<u8, [f32; 3]>(bytes);
-                px.truncate(nu);
-                blurred = Some(px);
+                // Channel k − 1's plane into the interleaved image.
+                let px = blurred.get_or_insert_with(|| vec![[0f32; 3]; nu]);
+                let plane = bytemuck::pod_collect_to_vec::<u8, f32>(bytes);
+                for (p, &v) in px.iter_mut().zip(&plane) {
+                    p[k - 1] = v;
+                }
             }
         })?;
         let image_err = |e: fovea_core::FoveaError| GpuError::Input(e.to_string());

@@ -46,14 +46,16 @@ use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
 use crate::timestamps::PassTimer;
 use crate::transfer::{read_buffers, upload};
 
-/// The module: entry point `reconstruct`, [`ReconstructUniform`] at binding 0.
+/// The module: entry points `reconstruct` (`vec4<u32>` a pixel, this path's bands) and
+/// `reconstruct_planes` (four planes, the resident screen's), [`ReconstructUniform`] at
+/// binding 0.
 pub const SHADER: ShaderSource = ShaderSource {
     file: "polar_reconstruct.wgsl",
     source: concat!(
         include_str!("../shaders/common.wgsl"),
         include_str!("../shaders/polar_reconstruct.wgsl")
     ),
-    entry_points: &["reconstruct"],
+    entry_points: &["reconstruct", "reconstruct_planes"],
     uniform: (
         "ReconstructParams",
         std::mem::size_of::<ReconstructUniform>(),
@@ -150,7 +152,7 @@ impl GpuReconstructor {
         let device = ctx.device();
         let pipeline = ctx
             .scoped("building the reconstruct pipeline", || {
-                SHADER.pipelines(device).pop()
+                SHADER.pipelines_of(device, &["reconstruct"]).pop()
             })?
             .ok_or_else(|| GpuError::Input("the reconstruct module has no entry point".into()))?;
         Ok(Self {

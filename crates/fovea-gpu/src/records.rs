@@ -225,13 +225,9 @@ fn records() -> Vec<Record> {
 
 /// Structs written and read on the device only (no Rust twin): each module that declares
 /// one must lay it out alike, and `bytes` is what the Rust side allocates per element.
+/// None today: the depth of field's `Plane` became three scalar planes (issue 37).
 fn device_only() -> Vec<(&'static str, Vec<ShaderSource>, usize)> {
-    use crate::dof;
-    vec![(
-        "Plane",
-        vec![dof::COC_SHADER, dof::GATHER_SHADER],
-        dof::PLANE_BYTES as usize,
-    )]
+    Vec::new()
 }
 
 /// A WGSL struct member as naga lays it out: name, offset, size.

@@ -24,14 +24,15 @@ use crate::error::{GpuError, Result};
 use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
 use crate::transfer::{read_buffers, upload};
 
-/// The module: entry point `tonemap`, [`ToneUniform`] at binding 0.
+/// The module: entry points `tonemap` (interleaved values, this path) and `tonemap_planes`
+/// (three planes, the resident screen's), [`ToneUniform`] at binding 0.
 pub const SHADER: ShaderSource = ShaderSource {
     file: "tonemap.wgsl",
     source: concat!(
         include_str!("../shaders/common.wgsl"),
         include_str!("../shaders/tonemap.wgsl")
     ),
-    entry_points: &["tonemap"],
+    entry_points: &["tonemap", "tonemap_planes"],
     uniform: ("ToneParams", std::mem::size_of::<ToneUniform>()),
 };
 
@@ -67,7 +68,7 @@ impl GpuToneMap {
         let device = ctx.device();
         let pipeline = ctx
             .scoped("building the tone-map pipeline", || {
-                SHADER.pipelines(device).pop()
+                SHADER.pipelines_of(device, &["tonemap"]).pop()
             })?
             .ok_or_else(|| GpuError::Input("the tone-map module has no entry point".into()))?;
         let limits = ctx.limits();

@@ -304,7 +304,8 @@ fn bad_input_is_a_typed_error() {
 /// `GpuDof::fits` says beforehand what the passes' own checks decide: a frame whose planes
 /// exceed one storage binding is `AdapterTooSmall` before anything is allocated, and `fits`
 /// is false for it; a small frame fits. The large frame is just over lavapipe's 128 MiB
-/// (4096×2100 × 16 bytes of planes); on a device with larger bindings both say it fits.
+/// (8192×4100 × 4 bytes a plane); on a device with larger bindings both say it fits. An 8K
+/// frame (7680×4320, 126.6 MiB a plane) fits any device whose bindings hold that (issue 37).
 #[test]
 fn fits_agrees_with_the_passes_checks() {
     let Some(ctx) = common::gpu_or_skip("fits_agrees_with_the_passes_checks") else {
@@ -312,12 +313,14 @@ fn fits_agrees_with_the_passes_checks() {
     };
     let gpu = GpuDof::new(&ctx).unwrap();
     assert!(gpu.fits(320, 180));
-    let (w, h) = (4096u32, 2100u32);
+    let (w, h) = (8192u32, 4100u32);
     let limits = ctx.limits();
     let binding = limits
         .max_storage_buffer_binding_size
         .min(limits.max_buffer_size);
-    let over = u64::from(w) * u64::from(h) * fovea_gpu::dof::PLANE_BYTES > binding;
+    let plane = |w: u32, h: u32| u64::from(w) * u64::from(h) * fovea_gpu::dof::PLANE_BYTES;
+    assert_eq!(gpu.fits(7680, 4320), plane(7680, 4320) <= binding);
+    let over = plane(w, h) > binding;
     assert_eq!(gpu.fits(w, h), !over);
     if over {
         let color = Image::new(w, h, [0.5f32; 3]).unwrap();
@@ -334,6 +337,6 @@ fn fits_agrees_with_the_passes_checks() {
         assert!(matches!(e, GpuError::AdapterTooSmall { .. }), "{e}");
         assert!(!e.to_string().contains('\n'), "{e}");
     } else {
-        common::shout("[fovea-gpu] fits_agrees_with_the_passes_checks: this adapter's bindings hold 4096×2100; only `fits` was checked");
+        common::shout("[fovea-gpu] fits_agrees_with_the_passes_checks: this adapter's bindings hold 8192×4100; only `fits` was checked");
     }
 }

@@ -24,7 +24,7 @@
 
 use std::time::Instant;
 
-use fovea_core::mapping::{build, FoveationMapping};
+use fovea_core::mapping::FoveationMapping;
 use fovea_core::units::Metres;
 use fovea_post::dof::gather::ScatterAsGather;
 use fovea_post::dof::FilterKind;
@@ -196,23 +196,8 @@ fn screen_config(plan: &FramePlan, camera: &EyeCamera, tone: ToneSettings) -> Re
 /// centre (where a screen-covering polar buffer is largest), so that a moving gaze does not
 /// outgrow the screen side.
 fn screen_limits(plan: &FramePlan) -> ScreenLimits {
-    let d = &plan.display;
-    let (w, h) = (d.width_px as f64, d.height_px as f64);
-    let mut maps: Vec<Box<dyn FoveationMapping>> = Vec::new();
-    for (x, y) in [
-        (0.0, 0.0),
-        (w - 1.0, 0.0),
-        (0.0, h - 1.0),
-        (w - 1.0, h - 1.0),
-        (0.5 * w, 0.5 * h),
-    ] {
-        let Ok(gaze) = d.gaze(x, y) else {
-            continue;
-        };
-        if let Ok(m) = build(plan.method(), d, gaze, &plan.settings.mapping) {
-            maps.push(m);
-        }
-    }
+    let maps =
+        ScreenLimits::any_gaze_mappings(plan.method(), &plan.display, &plan.settings.mapping);
     let mut refs: Vec<&dyn FoveationMapping> = maps.iter().map(|m| m.as_ref()).collect();
     refs.push(plan.mapping());
     ScreenLimits::of(&refs)

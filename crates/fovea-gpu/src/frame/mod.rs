@@ -42,11 +42,11 @@ pub use binocular::{
 pub use compare::{compare_binocular, BinocularComparison, CompareParams, PathSummary};
 pub use context::{EyeShade, RecordTimes, ResidentSamples};
 pub use gaze_path::{GazePath, SACCADE_STEP_DEG};
-pub use reconstruct::{PolarCapacity, ResidentPolar, TableUpload};
+pub use reconstruct::{PolarCapacity, ResidentPolar, ScreenPlanes, TableUpload};
 pub use run::{refusal, FrameCounts, ResidentRun, Route};
 pub use samples::{DeviceSamples, SampleLayer};
 pub use screen::{
-    ScreenConfig, ScreenContext, ScreenDof, ScreenInput, ScreenLimits, SCREEN_PASSES,
+    ScreenConfig, ScreenContext, ScreenDof, ScreenInput, ScreenLimits, ScreenSizes, SCREEN_PASSES,
 };
 pub use shade::{supports, RayLayout, ShadeScene};
 pub use temporal::ResidentTemporal;

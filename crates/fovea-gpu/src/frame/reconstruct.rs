@@ -15,9 +15,12 @@
 //!    each column padded by one row on either side, and for [`ReconstructFilter::Footprint`]
 //!    each column's colour boxed along its rows to a pixel's width — on the device, where
 //!    `fovea_post::inverse_map::PolarColumns::new` does it on the CPU for the other paths.
-//! 2. `polar_reconstruct.wgsl::reconstruct` (the per-call path's own shader, unchanged): per
-//!    pixel, `u(r)` from the lookup table, the angle, bilinear across the two nearest columns
-//!    or the footprint's box across columns.
+//! 2. `polar_reconstruct.wgsl::reconstruct_planes` (the per-call path's own shader, its
+//!    planar entry point): per pixel, `u(r)` from the lookup table, the angle, bilinear across
+//!    the two nearest columns or the footprint's box across columns, written straight into the
+//!    screen's planes — red, green, blue, depth bits, 4 bytes a pixel each, the caller's
+//!    buffers ([`ScreenPlanes`]) — so no binding holds more than 4 bytes a screen pixel (an 8K
+//!    plane is 126.6 MiB, within lavapipe's 128 MiB; issue 37).
 //!
 //! What the CPU still builds, from the mapping alone (never from the samples): the `u(r)`
 //! lookup table (`fovea_post::inverse_map::polar_lut`, the CPU reconstruction's own) and per
@@ -62,8 +65,18 @@ pub const PAD_SHADER: ShaderSource = ShaderSource {
     uniform: ("PadParams", std::mem::size_of::<PadUniform>()),
 };
 
-/// Bytes of a padded texel and of an output pixel (`vec4<u32>`).
+/// Bytes of a padded texel (`vec4<u32>`).
 const TEXEL_BYTES: u64 = 16;
+
+/// The screen buffers the reconstruction writes, 4 bytes a pixel each (f32 bits): red, green,
+/// blue and depth (+∞ for a pixel no sample covers). The caller's — the screen side's own
+/// planar colour and depth.
+pub struct ScreenPlanes<'a> {
+    /// Red, green and blue.
+    pub color: [&'a wgpu::Buffer; 3],
+    /// Depth.
+    pub depth: &'a wgpu::Buffer,
+}
 /// What the lookup table holds where the mapping has no sample (as `crate::reconstruct`).
 const LUT_UNCOVERED: f32 = 1e30;
 /// A prefilter width standing for "the whole column" (the CPU's +∞ at the pole), finite so
@@ -119,6 +132,22 @@ pub struct PolarCapacity {
 }
 
 impl PolarCapacity {
+    /// The reconstruction's storage bindings for this capacity, named as an error names them:
+    /// the `u(r)` table, the column records, the columns' prefilter widths and the padded
+    /// columns (16 bytes a texel) — what [`ResidentPolar::new`] checks and allocates.
+    pub fn bindings(&self) -> [(&'static str, u64); 4] {
+        let columns = u64::from(self.columns.max(1));
+        [
+            (
+                "the reconstruction's u(r) table",
+                u64::from(self.lut_entries.max(2)) * 4,
+            ),
+            ("the reconstruction's column table", columns * 16),
+            ("the reconstruction's prefilter widths", columns * 4),
+            ("the padded polar columns", self.texels.max(1) * TEXEL_BYTES),
+        ]
+    }
+
     /// Entries of the `u(r)` table that reaches every screen pixel from a pole anywhere on a
     /// `w × h` screen: the diagonal plus 2 px ([`polar_lut`]), every [`LUT_STEP_PX`].
     pub fn lut_for_screen(w: u32, h: u32) -> u32 {
@@ -186,7 +215,6 @@ pub struct ResidentPolar {
     columns: wgpu::Buffer,
     extra: wgpu::Buffer,
     texels: wgpu::Buffer,
-    out: wgpu::Buffer,
     rec_bind: wgpu::BindGroup,
     /// The pad pass's bindings and the sample buffer they bind.
     pad_bind: Option<(wgpu::Buffer, wgpu::BindGroup)>,
@@ -200,15 +228,17 @@ pub struct ResidentPolar {
 }
 
 impl ResidentPolar {
-    /// Buffers, pipelines and the reconstruction's bind group for a `display`-sized screen and
-    /// polar buffers within `capacity`, read with `filter`. Every size is checked against the
-    /// adapter's limits first ([`GpuError::AdapterTooSmall`]).
+    /// Buffers, pipelines and the reconstruction's bind group for a `display`-sized screen
+    /// written into `screen` and polar buffers within `capacity`, read with `filter`. Every
+    /// size is checked against the adapter's limits first ([`GpuError::AdapterTooSmall`]; the
+    /// screen's planes are the caller's to check, [`crate::frame::ScreenSizes`]).
     pub fn new(
         ctx: &GpuContext,
         display: &DisplayProfile,
         filter: ReconstructFilter,
         aa: Option<SampleFilter>,
         capacity: PolarCapacity,
+        screen: ScreenPlanes<'_>,
     ) -> Result<Self> {
         let (w, h) = (display.width_px, display.height_px);
         let limits = ctx.limits();
@@ -220,17 +250,8 @@ impl ResidentPolar {
                 capacity.columns
             )));
         }
-        let screen_bytes = u64::from(w) * u64::from(h) * TEXEL_BYTES;
-        let lut_bytes = u64::from(capacity.lut_entries.max(2)) * 4;
-        let col_bytes = u64::from(capacity.columns.max(1)) * 16;
-        let extra_bytes = u64::from(capacity.columns.max(1)) * 4;
-        let texel_bytes = capacity.texels.max(1) * TEXEL_BYTES;
-        for (what, bytes) in [
-            ("the reconstructed screen", screen_bytes),
-            ("the reconstruction's u(r) table", lut_bytes),
-            ("the reconstruction's column table", col_bytes),
-            ("the padded polar columns", texel_bytes),
-        ] {
+        let [lut_bytes, col_bytes, extra_bytes, texel_bytes] = capacity.bindings().map(|(_, b)| b);
+        for (what, bytes) in capacity.bindings() {
             ctx.check_storage_binding(what, bytes)?;
         }
         let aa_stage = match aa {
@@ -248,7 +269,9 @@ impl ResidentPolar {
         let device = ctx.device();
         ctx.scoped("building the resident polar reconstruction", || {
             let pad = PAD_SHADER.pipelines(device).pop();
-            let reconstruct = crate::reconstruct::SHADER.pipelines(device).pop();
+            let reconstruct = crate::reconstruct::SHADER
+                .pipelines_of(device, &["reconstruct_planes"])
+                .pop();
             let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
             let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
                 ctx.create_buffer(&wgpu::BufferDescriptor {
@@ -273,11 +296,6 @@ impl ResidentPolar {
             let columns = buffer("columns", col_bytes, storage);
             let extra = buffer("column prefilter widths", extra_bytes, storage);
             let texels = buffer("padded columns", texel_bytes, wgpu::BufferUsages::STORAGE);
-            let out = buffer(
-                "reconstructed screen",
-                screen_bytes.max(TEXEL_BYTES),
-                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            );
             (
                 pad,
                 reconstruct,
@@ -287,11 +305,10 @@ impl ResidentPolar {
                 columns,
                 extra,
                 texels,
-                out,
             )
         })
         .and_then(
-            |(pad, reconstruct, pad_uniform, rec_uniform, lut, columns, extra, texels, out)| {
+            |(pad, reconstruct, pad_uniform, rec_uniform, lut, columns, extra, texels)| {
                 let missing = || GpuError::Input("a reconstruction module has no entry".into());
                 let (pad, reconstruct) =
                     (pad.ok_or_else(missing)?, reconstruct.ok_or_else(missing)?);
@@ -305,7 +322,10 @@ impl ResidentPolar {
                             (1, &lut),
                             (2, &columns),
                             (3, &texels),
-                            (4, &out),
+                            (5, screen.color[0]),
+                            (6, screen.color[1]),
+                            (7, screen.color[2]),
+                            (8, screen.depth),
                         ],
                     )
                 })?;
@@ -323,7 +343,6 @@ impl ResidentPolar {
                     columns,
                     extra,
                     texels,
-                    out,
                     rec_bind,
                     pad_bind: None,
                     tables: Tables::default(),
@@ -335,11 +354,6 @@ impl ResidentPolar {
                 })
             },
         )
-    }
-
-    /// The reconstructed screen: `vec4<u32>` a pixel (RGB and depth as f32 bits), row-major.
-    pub fn output(&self) -> &wgpu::Buffer {
-        &self.out
     }
 
     /// What the last [`Self::prepare`] sent up for the tables.
@@ -761,7 +775,7 @@ impl AaStage {
         let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
         let what = "building the resident sample-space AA";
         let (split, luma, main) = ctx.scoped(what, || {
-            let split = SPLIT_SHADER.pipelines(device).pop();
+            let split = SPLIT_SHADER.pipelines_of(device, &["split_screen"]).pop();
             let (luma, main) = match filter {
                 SampleFilter::Fxaa(_) => {
                     let mut p = FXAA_SHADER.pipelines(device);

@@ -9,13 +9,23 @@
 //! |---|---|---|
 //! | `aa` | sample-space FXAA or 3×3 Gaussian on the polar layer (when configured) | `frame_screen_split.wgsl`, `fxaa.wgsl` / `gaussian_aa.wgsl` |
 //! | `columns` | the polar layer padded column by column and angularly prefiltered | `frame_polar_columns.wgsl` |
-//! | `reconstruct` | every pixel's `u(r)`, angle, bilinear or footprint lookup (VaFR Sec. 3.4) | `polar_reconstruct.wgsl` |
-//! | `split` | the screen's `vec4` pixels into planar colour (3 × f32) and depth bits | `frame_screen_split.wgsl` |
+//! | `reconstruct` | every pixel's `u(r)`, angle, bilinear or footprint lookup (VaFR Sec. 3.4), into the colour and depth planes | `polar_reconstruct.wgsl::reconstruct_planes` |
+//! | `split` | full resolution: the sample layer's `vec4` pixels into the colour and depth planes | `frame_screen_split.wgsl::split_planes` |
 //! | `dof` | the eye's CoC map, tile max, tile reach and the scatter-as-gather filter | `dof_coc.wgsl`, `dof_gather.wgsl` |
-//! | `tonemap` | exposure, tone curve, 8-bit sRGB, four codes a word | `tonemap.wgsl` |
+//! | `tonemap` | exposure, tone curve, 8-bit sRGB, four codes a word | `tonemap.wgsl::tonemap_planes` |
 //!
-//! Full resolution (the samples are the screen) skips the first two: `split` reads the sample
-//! layer itself. The DOF runs when the context was built with it and the frame has a focus.
+//! Full resolution (the samples are the screen) skips the first three and runs `split`; a
+//! polar mapping's reconstruction writes the planes itself. The DOF runs when the context was
+//! built with it and the frame has a focus.
+//!
+//! **Every per-pixel buffer holds 4 bytes a pixel** (issue 37): the linear colour as three
+//! planes of f32 (red, green, blue), depth as u32 bits, the DOF's planes (depth bits, radius,
+//! 1/A) and blurred colour likewise, the CoC map f32, the tone-mapped bytes 3 a pixel and the
+//! presenter's RGBA rows 4 a pixel. An 8K screen (7680×4320) is 126.6 MiB a plane, so each
+//! fits one storage binding of lavapipe's 128 MiB; interleaved RGB (12 bytes a pixel, 380 MiB)
+//! did not. [`ScreenSizes`] lists every such binding; [`ScreenContext::new`] checks each
+//! against the adapter and allocates from the same list, so a screen that still does not fit
+//! (retinal, 11520×6480: 285 MiB a plane) is refused naming the binding.
 //!
 //! A [`ScreenContext`] is built for one display, method, filter, DOF and tone settings and for
 //! sample buffers up to its [`ScreenLimits`]; it owns every buffer, bind group and pipeline of
@@ -26,7 +36,7 @@
 
 use bytemuck::Zeroable;
 use fovea_core::display::DisplayProfile;
-use fovea_core::mapping::{FoveationMapping, Method};
+use fovea_core::mapping::{build, FoveationMapping, MappingConfig, Method};
 use fovea_core::units::Metres;
 use fovea_core::Image;
 use fovea_post::dof::coc::CocParams;
@@ -36,9 +46,9 @@ use fovea_post::tonemap::{srgb8_thresholds, ToneCurve};
 use fovea_post::Rgb;
 
 use crate::device::GpuContext;
-use crate::dof::{coc_uniform, CocUniform, GatherUniform, OFFSET_BYTES, PLANE_BYTES};
+use crate::dof::{coc_uniform, CocUniform, GatherUniform, OFFSET_BYTES};
 use crate::error::{GpuError, Result};
-use crate::frame::reconstruct::{PolarCapacity, ResidentPolar, TableUpload};
+use crate::frame::reconstruct::{PolarCapacity, ResidentPolar, ScreenPlanes, TableUpload};
 use crate::frame::samples::DeviceSamples;
 use crate::frame::timing::FrameTimer;
 use crate::sample_aa::SampleFilter;
@@ -46,14 +56,15 @@ use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
 use crate::tonemap::ToneUniform;
 use crate::transfer::{bind_group, read_buffers};
 
-/// The split module: entry point `split_screen`, [`SplitUniform`] at binding 0.
+/// The split module: entry points `split_screen` (interleaved colour, the sample-space AA's
+/// input) and `split_planes` (the screen's planes), [`SplitUniform`] at binding 0.
 pub const SPLIT_SHADER: ShaderSource = ShaderSource {
     file: "frame_screen_split.wgsl",
     source: concat!(
         include_str!("../../shaders/common.wgsl"),
         include_str!("../../shaders/frame_screen_split.wgsl")
     ),
-    entry_points: &["split_screen"],
+    entry_points: &["split_screen", "split_planes"],
     uniform: ("SplitParams", std::mem::size_of::<SplitUniform>()),
 };
 
@@ -163,6 +174,41 @@ pub struct ScreenLimits {
 }
 
 impl ScreenLimits {
+    /// The polar reconstruction's capacity for these limits on a `w × h` screen (what
+    /// [`ScreenContext::new`] builds it with).
+    pub fn polar_capacity(&self, w: u32, h: u32) -> PolarCapacity {
+        PolarCapacity {
+            columns: self.max_columns,
+            rows: self.max_rows,
+            texels: self.max_padded_texels,
+            rect_texels: self.max_texels,
+            lut_entries: PolarCapacity::lut_for_screen(w, h),
+        }
+    }
+
+    /// `method`'s mappings on `display` with the gaze at the screen's four corners and its
+    /// centre (where a screen-covering polar buffer is largest): with the frame's own mapping,
+    /// what [`Self::of`] sizes a context for, so that a moving gaze does not outgrow it.
+    /// Gazes the display or method refuse are left out.
+    pub fn any_gaze_mappings(
+        method: Method,
+        display: &DisplayProfile,
+        config: &MappingConfig,
+    ) -> Vec<Box<dyn FoveationMapping>> {
+        let (w, h) = (f64::from(display.width_px), f64::from(display.height_px));
+        [
+            (0.0, 0.0),
+            (w - 1.0, 0.0),
+            (0.0, h - 1.0),
+            (w - 1.0, h - 1.0),
+            (0.5 * w, 0.5 * h),
+        ]
+        .into_iter()
+        .filter_map(|(x, y)| display.gaze(x, y).ok())
+        .filter_map(|gaze| build(method, display, gaze, config).ok())
+        .collect()
+    }
+
     /// The smallest limits that hold every mapping of `mappings` (e.g. one per gaze at the
     /// screen's centre and corners, where a screen-covering polar buffer is largest).
     pub fn of(mappings: &[&dyn FoveationMapping]) -> Self {
@@ -189,6 +235,90 @@ impl ScreenLimits {
     }
 }
 
+/// The screen side's per-pixel storage bindings for one display and configuration, each
+/// named as [`GpuError::AdapterTooSmall`] names it: what [`ScreenContext::new`] checks
+/// against the adapter before it allocates, and allocates from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ScreenSizes {
+    /// Screen width, pixels.
+    pub width: u32,
+    /// Screen height, pixels.
+    pub height: u32,
+    /// Screen pixels.
+    pub pixels: u64,
+    /// Bytes of one plane (4 a pixel): each colour channel, depth, each DOF plane, the CoC map.
+    pub plane_bytes: u64,
+    /// Words of the tone-mapped screen (3 bytes a pixel, four a word).
+    pub tone_words: u64,
+    /// Bytes of one of the presenter's RGBA rows (4 a pixel, padded to the copy's 256 bytes).
+    pub present_row_bytes: u32,
+    /// Whether the configuration has the depth of field.
+    pub dof: bool,
+    /// Whether it fills the presenter's texture.
+    pub texture: bool,
+}
+
+impl ScreenSizes {
+    /// The sizes of a `width × height` screen with `config`.
+    pub fn new(width: u32, height: u32, config: &ScreenConfig) -> Self {
+        let pixels = u64::from(width) * u64::from(height);
+        let align = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        Self {
+            width,
+            height,
+            pixels,
+            plane_bytes: pixels * crate::dof::PLANE_BYTES,
+            tone_words: (3 * pixels).div_ceil(4),
+            present_row_bytes: (4 * width).div_ceil(align) * align,
+            dof: config.dof.is_some(),
+            texture: config.texture,
+        }
+    }
+
+    /// The sizes of `display`'s screen with `config`.
+    pub fn of(display: &DisplayProfile, config: &ScreenConfig) -> Self {
+        Self::new(display.width_px, display.height_px, config)
+    }
+
+    /// Bytes of the presenter's RGBA rows.
+    pub fn present_bytes(&self) -> u64 {
+        u64::from(self.present_row_bytes) * u64::from(self.height)
+    }
+
+    /// Every per-pixel storage binding, `(what, bytes)`: colour (each of three planes), depth,
+    /// the tone-mapped screen; with the DOF its planes, blurred colour and CoC map
+    /// ([`crate::dof::dof_bindings`]); with the texture the presenter's rows.
+    pub fn per_pixel_bindings(&self) -> Vec<(&'static str, u64)> {
+        let mut b = vec![
+            (
+                "the screen's colour (each of three planes)",
+                self.plane_bytes,
+            ),
+            ("the screen's depth", self.plane_bytes),
+            ("the tone-mapped screen", self.tone_words * 4),
+        ];
+        if self.dof {
+            // The gather reads the screen's colour planes; the disc offsets are checked with
+            // the filter's tables.
+            b.extend([
+                (
+                    "the depth-of-field planes (each of three)",
+                    self.plane_bytes,
+                ),
+                (
+                    "the blurred colour (each of three planes)",
+                    self.plane_bytes,
+                ),
+                ("the CoC map", self.plane_bytes),
+            ]);
+        }
+        if self.texture {
+            b.push(("the presenter's RGBA rows", self.present_bytes()));
+        }
+        b
+    }
+}
+
 /// One frame's input besides its samples.
 pub struct ScreenInput<'a> {
     /// The frame's mapping (its pole is the gaze).
@@ -212,7 +342,8 @@ struct DofPasses {
     reach_bind: wgpu::BindGroup,
     gather_bind: wgpu::BindGroup,
     tiles: (u32, u32),
-    out: wgpu::Buffer,
+    /// The blurred colour, one plane a channel.
+    out: [wgpu::Buffer; 3],
 }
 
 /// The screen side of one eye's resident frame (see the module).
@@ -227,9 +358,11 @@ pub struct ScreenContext {
     polar: Option<ResidentPolar>,
     split: wgpu::ComputePipeline,
     split_uniform: wgpu::Buffer,
-    /// The split pass's bindings and the buffer they read (the polar output, or the samples).
+    /// The split pass's bindings and the sample buffer they read (full resolution only).
     split_bind: Option<(wgpu::Buffer, wgpu::BindGroup)>,
-    color: wgpu::Buffer,
+    /// The linear colour, one plane a channel (f32, 4 bytes a pixel each).
+    color: [wgpu::Buffer; 3],
+    /// The depth's bits.
     depth: wgpu::Buffer,
     dof: Option<DofPasses>,
     tone: wgpu::ComputePipeline,
@@ -276,22 +409,20 @@ impl ScreenContext {
             )));
         }
         let (w, h) = (display.width_px, display.height_px);
-        let n = u64::from(w) * u64::from(h);
         let groups = ctx.limits().max_compute_workgroups_per_dimension;
         if w.div_ceil(WORKGROUP_SIZE) > groups || h > groups {
             return Err(GpuError::Unsupported(format!(
                 "a {w}x{h} screen (more than {groups} workgroups a side)"
             )));
         }
-        let n_values = 3 * n;
-        let n_words = n_values.div_ceil(4);
-        for (what, bytes) in [
-            ("the screen's colour", n * 12),
-            ("the screen's depth", n * 4),
-            ("the tone-mapped screen", n_words * 4),
-        ] {
+        // Every per-pixel binding, checked before anything is allocated and allocated from
+        // the same sizes.
+        let sizes = ScreenSizes::of(display, &config);
+        for (what, bytes) in sizes.per_pixel_bindings() {
             ctx.check_storage_binding(what, bytes)?;
         }
+        let (n, plane_bytes, n_words) = (sizes.pixels, sizes.plane_bytes, sizes.tone_words);
+        let n_values = 3 * n;
         let dof_tables = match &config.dof {
             Some(d) => {
                 if !crate::GpuDof::supports_coc(&d.coc.model) {
@@ -301,47 +432,26 @@ impl ScreenContext {
                         d.coc.model.name()
                     )));
                 }
+                crate::dof::check_gather_stage(ctx)?;
                 let t = d
                     .filter
                     .tables()
                     .map_err(|e| GpuError::Input(e.to_string()))?;
-                for (what, bytes) in [
-                    ("the depth-of-field planes", n * PLANE_BYTES),
-                    ("the blurred colour", n * 12),
-                    (
-                        "the gather's disc offsets",
-                        t.offsets.len() as u64 * OFFSET_BYTES,
-                    ),
-                ] {
-                    ctx.check_storage_binding(what, bytes)?;
-                }
+                ctx.check_storage_binding(
+                    "the gather's disc offsets",
+                    t.offsets.len() as u64 * OFFSET_BYTES,
+                )?;
                 Some(t)
             }
             None => None,
         };
-        let polar = match method {
-            Method::Full if config.aa.is_some() => {
-                return Err(GpuError::Unsupported(
-                    "sample-space AA on the resident screen side at full resolution (it runs \
-                     on polar buffers)"
-                        .into(),
-                ))
-            }
-            Method::Full => None,
-            _ => Some(ResidentPolar::new(
-                ctx,
-                display,
-                config.filter,
-                config.aa,
-                PolarCapacity {
-                    columns: limits.max_columns,
-                    rows: limits.max_rows,
-                    texels: limits.max_padded_texels,
-                    rect_texels: limits.max_texels,
-                    lut_entries: PolarCapacity::lut_for_screen(w, h),
-                },
-            )?),
-        };
+        if method == Method::Full && config.aa.is_some() {
+            return Err(GpuError::Unsupported(
+                "sample-space AA on the resident screen side at full resolution (it runs on \
+                 polar buffers)"
+                    .into(),
+            ));
+        }
         let device = ctx.device();
         let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
             crate::transfer::empty(ctx, label, size, usage)
@@ -353,21 +463,21 @@ impl ScreenContext {
         let what = format!("building the resident screen side at {w}x{h}");
         let (split, tone, split_uniform, color, depth, tone_uniform, thresholds, out) = ctx
             .scoped(&what, || {
-                let split = SPLIT_SHADER.pipelines(device).pop();
-                let tone = crate::tonemap::SHADER.pipelines(device).pop();
+                let split = SPLIT_SHADER.pipelines_of(device, &["split_planes"]).pop();
+                let tone = crate::tonemap::SHADER
+                    .pipelines_of(device, &["tonemap_planes"])
+                    .pop();
                 let split_uniform = buffer(
                     "split parameters",
                     std::mem::size_of::<SplitUniform>() as u64,
                     uniform,
                 );
-                let color = buffer(
-                    "screen colour",
-                    n * 12,
-                    storage | wgpu::BufferUsages::COPY_SRC,
-                );
+                let color = ["screen red", "screen green", "screen blue"].map(|label| {
+                    buffer(label, plane_bytes, storage | wgpu::BufferUsages::COPY_SRC)
+                });
                 let depth = buffer(
                     "screen depth",
-                    n * 4,
+                    plane_bytes,
                     storage | wgpu::BufferUsages::COPY_SRC,
                 );
                 let tone_uniform = buffer(
@@ -398,6 +508,20 @@ impl ScreenContext {
                 )
             })?;
         let (split, tone) = (split.ok_or_else(missing)?, tone.ok_or_else(missing)?);
+        let polar = match method {
+            Method::Full => None,
+            _ => Some(ResidentPolar::new(
+                ctx,
+                display,
+                config.filter,
+                config.aa,
+                limits.polar_capacity(w, h),
+                ScreenPlanes {
+                    color: [&color[0], &color[1], &color[2]],
+                    depth: &depth,
+                },
+            )?),
+        };
         let dof = match (&config.dof, dof_tables) {
             (Some(d), Some(t)) => Some(ctx.scoped(&what, || -> Result<DofPasses> {
                 let mut coc_p = crate::dof::COC_SHADER.pipelines(device);
@@ -464,16 +588,15 @@ impl ScreenContext {
                     storage | copy_dst,
                 );
                 ctx.write_buffer(&offsets_buf, 0, bytemuck::cast_slice(&offsets));
-                let coc_out = buffer("CoC map", n * 4, storage);
-                let planes = buffer("DOF planes", n * PLANE_BYTES, storage);
+                let coc_out = buffer("CoC map", plane_bytes, storage);
+                let planes = ["DOF depth plane", "DOF radius plane", "DOF 1/A plane"]
+                    .map(|label| buffer(label, plane_bytes, storage));
                 let tile_bytes = u64::from(tiles.0) * u64::from(tiles.1) * 4;
                 let tile_max_buf = buffer("tile max", tile_bytes, storage);
                 let reach = buffer("tile reach", tile_bytes, storage);
-                let dof_out = buffer(
-                    "blurred colour",
-                    n * 12,
-                    storage | wgpu::BufferUsages::COPY_SRC,
-                );
+                let dof_out = ["blurred red", "blurred green", "blurred blue"].map(|label| {
+                    buffer(label, plane_bytes, storage | wgpu::BufferUsages::COPY_SRC)
+                });
                 let g = &gather_uniform;
                 let coc_bind = bind_group(
                     ctx,
@@ -485,20 +608,22 @@ impl ScreenContext {
                         (2, &no_map),
                         (3, &area),
                         (4, &coc_out),
-                        (5, &planes),
+                        (5, &planes[0]),
+                        (6, &planes[1]),
+                        (7, &planes[2]),
                     ],
                 );
                 let max_bind = bind_group(
                     ctx,
                     "resident tile max",
                     &tile_max,
-                    &[(0, g), (1, &planes), (4, &tile_max_buf)],
+                    &[(0, g), (2, &planes[1]), (8, &tile_max_buf)],
                 );
                 let reach_bind = bind_group(
                     ctx,
                     "resident tile reach",
                     &tile_reach,
-                    &[(0, g), (4, &tile_max_buf), (5, &reach)],
+                    &[(0, g), (8, &tile_max_buf), (9, &reach)],
                 );
                 let gather_bind = bind_group(
                     ctx,
@@ -506,11 +631,17 @@ impl ScreenContext {
                     &gather,
                     &[
                         (0, g),
-                        (1, &planes),
-                        (2, &color),
-                        (3, &offsets_buf),
-                        (5, &reach),
-                        (6, &dof_out),
+                        (1, &planes[0]),
+                        (2, &planes[1]),
+                        (3, &planes[2]),
+                        (4, &color[0]),
+                        (5, &color[1]),
+                        (6, &color[2]),
+                        (7, &offsets_buf),
+                        (9, &reach),
+                        (10, &dof_out[0]),
+                        (11, &dof_out[1]),
+                        (12, &dof_out[2]),
                     ],
                 );
                 Ok(DofPasses {
@@ -543,18 +674,25 @@ impl ScreenContext {
         };
         let (tone_from_color, tone_from_dof) = ctx.scoped(&what, || {
             ctx.write_buffer(&tone_uniform, 0, bytemuck::bytes_of(&tone_u));
-            let bind = |values: &wgpu::Buffer| {
+            let bind = |planes: &[wgpu::Buffer; 3]| {
                 bind_group(
                     ctx,
                     "resident tone map",
                     &tone,
-                    &[(0, &tone_uniform), (1, values), (2, &thresholds), (3, &out)],
+                    &[
+                        (0, &tone_uniform),
+                        (2, &thresholds),
+                        (3, &out),
+                        (4, &planes[0]),
+                        (5, &planes[1]),
+                        (6, &planes[2]),
+                    ],
                 )
             };
             (bind(&color), dof.as_ref().map(|d| bind(&d.out)))
         })?;
         let present = if config.texture {
-            Some(Present::new(ctx, w, h, &out)?)
+            Some(Present::new(ctx, &sizes, &out)?)
         } else {
             None
         };
@@ -657,11 +795,12 @@ impl ScreenContext {
                 self.method
             )));
         }
-        // The split pass's source: the reconstructed screen, or the samples themselves.
-        let (source, offset) = match &mut self.polar {
+        // Full resolution's split reads the samples themselves (a polar reconstruction writes
+        // the planes).
+        let split_source = match &mut self.polar {
             Some(p) => {
                 p.prepare(mapping, &self.display, samples)?;
-                (p.output().clone(), 0)
+                None
             }
             None => {
                 let fits = samples.layers().len() == 1
@@ -677,7 +816,7 @@ impl ScreenContext {
                         self.height
                     )));
                 }
-                (samples.buffer().clone(), samples.layers()[0].offset)
+                Some((samples.buffer().clone(), samples.layers()[0].offset))
             }
         };
         let dof_coc = match (&self.dof, input.focus) {
@@ -694,43 +833,45 @@ impl ScreenContext {
             }
             _ => None,
         };
-        let split_u = SplitUniform {
-            offset,
-            width: self.width,
-            height: self.height,
-            pad: 0,
-        };
-        let same_source = self.split_bind.as_ref().is_some_and(|(b, _)| *b == source);
         let ctx = &self.ctx;
         ctx.scoped("recording the resident screen side", || {
-            ctx.write_buffer(&self.split_uniform, 0, bytemuck::bytes_of(&split_u));
             if let (Some(d), Some(u)) = (&self.dof, &dof_coc) {
                 ctx.write_buffer(&d.coc_uniform, 0, bytemuck::bytes_of(u));
             }
-            if !same_source {
-                let bind = bind_group(
-                    ctx,
-                    "resident split",
-                    &self.split,
-                    &[
-                        (0, &self.split_uniform),
-                        (1, &source),
-                        (2, &self.color),
-                        (3, &self.depth),
-                    ],
-                );
-                self.split_bind = Some((source.clone(), bind));
+            if let Some((source, offset)) = &split_source {
+                let split_u = SplitUniform {
+                    offset: *offset,
+                    width: self.width,
+                    height: self.height,
+                    pad: 0,
+                };
+                ctx.write_buffer(&self.split_uniform, 0, bytemuck::bytes_of(&split_u));
+                if !self.split_bind.as_ref().is_some_and(|(b, _)| b == source) {
+                    let bind = bind_group(
+                        ctx,
+                        "resident split",
+                        &self.split,
+                        &[
+                            (0, &self.split_uniform),
+                            (1, source),
+                            (3, &self.depth),
+                            (4, &self.color[0]),
+                            (5, &self.color[1]),
+                            (6, &self.color[2]),
+                        ],
+                    );
+                    self.split_bind = Some((source.clone(), bind));
+                }
             }
         })?;
-        let Some((_, split_bind)) = &self.split_bind else {
-            return Err(GpuError::Input("the split pass has no bindings".into()));
-        };
         let (w, h) = (self.width, self.height);
         ctx.scoped("recording the resident screen side", || -> Result<()> {
             if let Some(p) = &self.polar {
                 p.record(encoder, timer.as_deref_mut(), 0)?;
-            }
-            {
+            } else {
+                let Some((_, split_bind)) = &self.split_bind else {
+                    return Err(GpuError::Input("the split pass has no bindings".into()));
+                };
                 let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                     label: Some("split"),
                     timestamp_writes: timer.as_deref_mut().and_then(|t| t.writes(3)),
@@ -851,8 +992,10 @@ impl ScreenContext {
                     .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                         label: Some("linear screen readback"),
                     });
-            let out: Vec<wgpu::Buffer> = [&self.color, &self.depth]
-                .into_iter()
+            let out: Vec<wgpu::Buffer> = self
+                .color
+                .iter()
+                .chain([&self.depth])
                 .map(|b| {
                     let s = ctx.create_buffer(&wgpu::BufferDescriptor {
                         label: Some("linear screen readback"),
@@ -868,21 +1011,19 @@ impl ScreenContext {
             out
         })?;
         let n = self.width as usize * self.height as usize;
-        let (mut color, mut depth) = (Vec::new(), Vec::new());
-        read_buffers(
-            ctx,
-            &[&staging[0], &staging[1]],
-            "the linear screen",
-            |k, b| {
-                if k == 0 {
-                    color = bytemuck::pod_collect_to_vec::<u8, [f32; 3]>(b);
-                    color.truncate(n);
-                } else {
-                    depth = bytemuck::pod_collect_to_vec::<u8, f32>(b);
-                    depth.truncate(n);
+        let (mut color, mut depth) = (vec![[0f32; 3]; n], Vec::new());
+        let staged: Vec<&wgpu::Buffer> = staging.iter().collect();
+        read_buffers(ctx, &staged, "the linear screen", |k, b| {
+            let plane = bytemuck::pod_collect_to_vec::<u8, f32>(b);
+            if k < 3 {
+                for (p, &v) in color.iter_mut().zip(&plane) {
+                    p[k] = v;
                 }
-            },
-        )?;
+            } else {
+                depth = plane;
+                depth.truncate(n);
+            }
+        })?;
         let err = |e: fovea_core::FoveaError| GpuError::Input(e.to_string());
         Ok((
             Image::from_vec(self.width, self.height, color).map_err(err)?,
@@ -905,12 +1046,12 @@ impl ScreenContext {
 
 impl Present {
     /// The pack pipeline, its padded RGBA buffer, the texture and their bindings for a
-    /// `w × h` screen whose tone-mapped words are `rgb`.
-    fn new(ctx: &GpuContext, w: u32, h: u32, rgb: &wgpu::Buffer) -> Result<Self> {
-        let align = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-        let row_bytes = (4 * w).div_ceil(align) * align;
-        let bytes = u64::from(row_bytes) * u64::from(h);
-        ctx.check_storage_binding("the presenter's RGBA rows", bytes)?;
+    /// screen of `sizes` (whose bindings the caller checked) whose tone-mapped words are
+    /// `rgb`.
+    fn new(ctx: &GpuContext, sizes: &ScreenSizes, rgb: &wgpu::Buffer) -> Result<Self> {
+        let (w, h) = (sizes.width, sizes.height);
+        let row_bytes = sizes.present_row_bytes;
+        let bytes = sizes.present_bytes();
         let limits = ctx.limits();
         if w > limits.max_texture_dimension_2d || h > limits.max_texture_dimension_2d {
             return Err(GpuError::Unsupported(format!(
@@ -972,5 +1113,103 @@ impl Present {
                 row_bytes,
             }
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fovea_core::mapping::vafr::VafrRings;
+    use fovea_core::optics::EyeModel;
+
+    /// lavapipe's `max_storage_buffer_binding_size`.
+    const LAVAPIPE_BINDING: u64 = 128 << 20;
+
+    /// Everything the screen side can allocate per pixel: the DOF and the presenter's
+    /// texture on.
+    fn everything(display: &DisplayProfile) -> ScreenConfig {
+        ScreenConfig {
+            aa: None,
+            filter: ReconstructFilter::Footprint,
+            dof: Some(ScreenDof {
+                filter: ScatterAsGather::default(),
+                coc: CocParams::thin_lens(EyeModel::default(), display.focal_y_px()),
+            }),
+            exposure_stops: 0.0,
+            texture: true,
+            curve: ToneCurve::Reinhard,
+        }
+    }
+
+    /// Issue 37: at the 8K display (7680×4320 an eye) every per-pixel binding the screen side
+    /// allocates — by the sizes `ScreenContext::new` checks and allocates from — holds within
+    /// lavapipe's 128 MiB, and so do the polar reconstruction's for VaFR at any gaze (the
+    /// limits `binocular.rs` builds the context with, both ring layouts). The interleaved
+    /// colour this replaced (12 bytes a pixel) would not, and at the retinal display (11520 ×
+    /// 6480) the planes themselves do not: the same sizes name them.
+    #[test]
+    fn every_per_pixel_binding_of_an_8k_screen_fits_128_mib() {
+        let display = DisplayProfile::preset("8k").unwrap();
+        assert_eq!((display.width_px, display.height_px), (7680, 4320));
+        let sizes = ScreenSizes::of(&display, &everything(&display));
+        let n = 7680u64 * 4320;
+        assert_eq!(sizes.pixels, n);
+        let bindings = sizes.per_pixel_bindings();
+        let names: Vec<&str> = bindings.iter().map(|b| b.0).collect();
+        assert_eq!(
+            names,
+            [
+                "the screen's colour (each of three planes)",
+                "the screen's depth",
+                "the tone-mapped screen",
+                "the depth-of-field planes (each of three)",
+                "the blurred colour (each of three planes)",
+                "the CoC map",
+                "the presenter's RGBA rows",
+            ]
+        );
+        for (what, bytes) in &bindings {
+            assert!(
+                *bytes <= LAVAPIPE_BINDING,
+                "{what}: {bytes} B > {LAVAPIPE_BINDING} B at 8K"
+            );
+            // Each is at most 4 bytes a pixel (the presenter's rows are exactly 4: 7680 × 4
+            // is a multiple of 256).
+            assert!(*bytes <= 4 * n, "{what}: {bytes} B");
+        }
+        assert_eq!(sizes.plane_bytes, 132_710_400);
+        assert_eq!(sizes.tone_words * 4, 99_532_800);
+        assert_eq!(sizes.present_bytes(), 132_710_400);
+        // The layout this replaced: interleaved RGB, 380 MiB.
+        assert!(n * 12 > LAVAPIPE_BINDING);
+
+        for rings in [VafrRings::default(), VafrRings::Eq3AnyGaze] {
+            let mut config = MappingConfig::default();
+            config.vafr.rings = rings;
+            let maps = ScreenLimits::any_gaze_mappings(Method::Vafr, &display, &config);
+            assert_eq!(maps.len(), 5, "{rings:?}");
+            let refs: Vec<&dyn FoveationMapping> = maps.iter().map(|m| m.as_ref()).collect();
+            let limits = ScreenLimits::of(&refs);
+            let capacity = limits.polar_capacity(display.width_px, display.height_px);
+            for (what, bytes) in capacity.bindings() {
+                assert!(
+                    bytes <= LAVAPIPE_BINDING,
+                    "VaFR {rings:?}: {what}: {bytes} B > {LAVAPIPE_BINDING} B at 8K"
+                );
+            }
+        }
+
+        let retinal = DisplayProfile::preset("retinal").unwrap();
+        let over: Vec<&str> = ScreenSizes::of(&retinal, &everything(&retinal))
+            .per_pixel_bindings()
+            .into_iter()
+            .filter(|&(_, bytes)| bytes > LAVAPIPE_BINDING)
+            .map(|(what, _)| what)
+            .collect();
+        assert_eq!(
+            over.first(),
+            Some(&"the screen's colour (each of three planes)")
+        );
+        assert!(over.contains(&"the screen's depth"), "{over:?}");
     }
 }

@@ -15,6 +15,7 @@ use fovea_render::world::World;
 
 /// The built-in scene at the Vive Pro Eye, and both eyes' cameras (the right eye 63 mm to the
 /// right of the file camera).
+#[allow(dead_code)] // `frame_8k.rs` sets its own display
 pub fn setup() -> (World, [EyeCamera; 2]) {
     let scene = builtin::depth_range().unwrap();
     let desc = scene.cameras[0].clone();
