@@ -1,7 +1,7 @@
 //! The whole binocular resident frame (`fovea_gpu::frame::ResidentFrame`, issue 37) against
 //! the CPU's frame, and its traffic:
 //!
-//! * VaFR and full resolution at the Vive Pro Eye, both eyes (the right eye 63 mm to the right
+//! * VaFR, Guenter's layers and full resolution at the Vive Pro Eye, both eyes (the right eye 63 mm to the right
 //!   with its own gaze, frame and eye in the random keys), the built-in scene with direct
 //!   shading, one ray per texel, the method's own AA (FXAA for VaFR, none at full resolution),
 //!   the footprint reconstruction: each eye's tone-mapped 8-bit image (`ResidentFrame::image`)
@@ -24,7 +24,7 @@
 //!   against `render_planned` with the same settings (the CPU's `fovea_post::denoise`),
 //!   ≥ 40 dB, and nearer to it than to the CPU's frame without denoising (so the GPU did
 //!   denoise); the steady frames' counters as above; the denoiser's GPU ms from the timers;
-//! * what the resident frame does not serve (indirect light, Guenter's layers, peripheral
+//! * what the resident frame does not serve (indirect light, the inset, peripheral
 //!   contrast) is refused with `GpuError::Unsupported` naming it, with nothing uploaded,
 //!   created or submitted.
 //!
@@ -325,6 +325,16 @@ fn vafr_any_gaze_frame_is_the_cpus_while_the_gaze_wanders() {
 }
 
 #[test]
+fn guenter_binocular_frame_is_the_cpus() {
+    // Guenter et al. 2012's three layers: each layer shaded by the resident kernels (one
+    // dispatch per layer), reconstructed and composited on the device.
+    let Some(ctx) = gpu_or_skip("guenter_binocular_frame_is_the_cpus") else {
+        return;
+    };
+    the_binocular_frame_is_the_cpus(&ctx, Method::Guenter);
+}
+
+#[test]
 fn full_resolution_binocular_frame_is_the_cpus() {
     let Some(ctx) = gpu_or_skip("full_resolution_binocular_frame_is_the_cpus") else {
         return;
@@ -359,7 +369,7 @@ fn what_the_frame_does_not_serve_is_refused_before_anything_is_sent() {
             with(&|s: &mut FrameSettings| s.shading = ShadingMode::DEFAULT),
             "indirect",
         ),
-        (settings(Method::Guenter), "sample layers"),
+        (settings(Method::Inset), "inset"),
         (
             with(&|s: &mut FrameSettings| {
                 s.contrast = Some(Default::default());

@@ -109,7 +109,7 @@ fn served() -> Vec<Case> {
 }
 
 /// Golden cases the resident frame must refuse, with what refuses them (a sample of the
-/// others: offline shading, contrast, another DOF filter, Guenter, Weier). The denoiser is
+/// others: offline shading, contrast, another DOF filter, the inset, Weier). The denoiser is
 /// served since it runs in the resident frame (checked against the CPU in
 /// `frame_binocular.rs`).
 fn refused() -> Vec<(&'static str, FrameSettings)> {
@@ -124,7 +124,7 @@ fn refused() -> Vec<(&'static str, FrameSettings)> {
         ("indirect", FrameSettings::new(Method::Vafr)),
         ("contrast", contrast),
         ("bokeh", bokeh),
-        ("guenter", realtime(Method::Guenter)),
+        ("inset", realtime(Method::Inset)),
         ("weier", realtime(Method::Weier)),
     ]
 }

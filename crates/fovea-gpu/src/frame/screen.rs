@@ -38,6 +38,7 @@ use fovea_post::Rgb;
 use crate::device::GpuContext;
 use crate::dof::{coc_uniform, CocUniform, GatherUniform, OFFSET_BYTES, PLANE_BYTES};
 use crate::error::{GpuError, Result};
+use crate::frame::layers::ResidentLayers;
 use crate::frame::reconstruct::{PolarCapacity, ResidentPolar, TableUpload};
 use crate::frame::samples::DeviceSamples;
 use crate::frame::timing::FrameTimer;
@@ -225,6 +226,8 @@ pub struct ScreenContext {
     width: u32,
     height: u32,
     polar: Option<ResidentPolar>,
+    /// Guenter's layers' reconstruction (`crate::frame::layers`).
+    layers: Option<ResidentLayers>,
     split: wgpu::ComputePipeline,
     split_uniform: wgpu::Buffer,
     /// The split pass's bindings and the buffer they read (the polar output, or the samples).
@@ -245,11 +248,17 @@ pub struct ScreenContext {
 
 impl ScreenContext {
     /// Whether the screen side runs `method`: the polar mappings (VaFR, KFR/LMFR, LaFR,
-    /// visual-polar) and full resolution. Guenter, the insets and Weier are not resident yet.
+    /// visual-polar), Guenter's layers and full resolution. The insets and Weier are not
+    /// resident yet.
     pub fn supports(method: Method) -> bool {
         matches!(
             method,
-            Method::Vafr | Method::Kfr | Method::Lafr | Method::VisualPolar | Method::Full
+            Method::Vafr
+                | Method::Kfr
+                | Method::Lafr
+                | Method::VisualPolar
+                | Method::Guenter
+                | Method::Full
         )
     }
 
@@ -265,8 +274,8 @@ impl ScreenContext {
     ) -> Result<Self> {
         if !Self::supports(method) {
             return Err(GpuError::Unsupported(format!(
-                "the resident screen side for {method} (it runs vafr, kfr, lafr, visual-polar \
-                 and full; use the per-stage GPU path or --backend cpu)"
+                "the resident screen side for {method} (it runs vafr, kfr, lafr, visual-polar, \
+                 guenter and full; use the per-stage GPU path or --backend cpu)"
             )));
         }
         if !config.exposure_stops.is_finite() {
@@ -328,6 +337,14 @@ impl ScreenContext {
                 ))
             }
             Method::Full => None,
+            Method::Guenter if config.aa.is_some() => {
+                return Err(GpuError::Unsupported(
+                    "sample-space AA on the resident screen side on Guenter's layers (it runs \
+                     on polar buffers)"
+                        .into(),
+                ))
+            }
+            Method::Guenter => None,
             _ => Some(ResidentPolar::new(
                 ctx,
                 display,
@@ -341,6 +358,10 @@ impl ScreenContext {
                     lut_entries: PolarCapacity::lut_for_screen(w, h),
                 },
             )?),
+        };
+        let layers = match method {
+            Method::Guenter => Some(ResidentLayers::new(ctx, w, h)?),
+            _ => None,
         };
         let device = ctx.device();
         let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
@@ -567,6 +588,7 @@ impl ScreenContext {
             width: w,
             height: h,
             polar,
+            layers,
             split,
             split_uniform,
             split_bind: None,
@@ -604,9 +626,10 @@ impl ScreenContext {
     /// Whether `mapping`'s buffers fit this context (its method and limits).
     pub fn fits(&self, mapping: &dyn FoveationMapping) -> bool {
         mapping.method() == self.method
-            && match &self.polar {
-                Some(p) => p.fits(mapping),
-                None => mapping
+            && match (&self.polar, &self.layers) {
+                (Some(p), _) => p.fits(mapping),
+                (None, Some(_)) => ResidentLayers::fits(mapping),
+                (None, None) => mapping
                     .buffers()
                     .first()
                     .is_some_and(|b| (b.width, b.height) == (self.width, self.height)),
@@ -658,12 +681,16 @@ impl ScreenContext {
             )));
         }
         // The split pass's source: the reconstructed screen, or the samples themselves.
-        let (source, offset) = match &mut self.polar {
-            Some(p) => {
+        let (source, offset) = match (&mut self.polar, &mut self.layers) {
+            (Some(p), _) => {
                 p.prepare(mapping, &self.display, samples)?;
                 (p.output().clone(), 0)
             }
-            None => {
+            (None, Some(l)) => {
+                l.prepare(mapping, samples)?;
+                (l.output().clone(), 0)
+            }
+            (None, None) => {
                 let fits = samples.layers().len() == 1
                     && samples
                         .layers()
@@ -729,6 +756,9 @@ impl ScreenContext {
         ctx.scoped("recording the resident screen side", || -> Result<()> {
             if let Some(p) = &self.polar {
                 p.record(encoder, timer.as_deref_mut(), 0)?;
+            }
+            if let Some(l) = &self.layers {
+                l.record(encoder, timer.as_deref_mut())?;
             }
             {
                 let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
