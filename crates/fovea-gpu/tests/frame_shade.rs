@@ -13,7 +13,8 @@
 //! * a steady-state binocular frame (the second, the gaze moved by a saccade-sized step): one
 //!   submission, no blocking wait, at most 256 KiB uploaded, nothing read back, no buffer or
 //!   bind group created;
-//! * what the kernel does not serve (indirect bounces, periphery rays, the inset) is
+//! * what the kernel does not serve (indirect bounces, periphery rays, the inset's Laplacian
+//!   blend) is
 //!   refused with `GpuError::Unsupported` naming it, before anything is recorded.
 //!
 //! Needs a GPU adapter (lavapipe will do); without one each test says SKIPPED on stderr, and
@@ -181,6 +182,14 @@ fn guenter_layers_of_both_eyes_are_the_cpus() {
 }
 
 #[test]
+fn inset_layers_of_both_eyes_are_the_cpus() {
+    let Some(ctx) = gpu_or_skip("inset_layers_of_both_eyes_are_the_cpus") else {
+        return;
+    };
+    both_eyes_match_the_cpu(&ctx, Method::Inset);
+}
+
+#[test]
 fn full_resolution_samples_of_both_eyes_are_the_cpus() {
     let Some(ctx) = gpu_or_skip("full_resolution_samples_of_both_eyes_are_the_cpus") else {
         return;
@@ -207,7 +216,14 @@ fn what_the_kernel_does_not_serve_is_refused_before_recording() {
             },
             "rays per texel",
         ),
-        (settings(Method::Inset, ShadingMode::DIRECT), "inset"),
+        (
+            {
+                let mut s = settings(Method::Inset, ShadingMode::DIRECT);
+                s.inset_smoothing = fovea_post::inset_smoothing::Smoothing::LAPLACIAN;
+                s
+            },
+            "boundary smoothing",
+        ),
     ];
     for (s, what) in cases {
         let p = plan(&world, &cams[0], &s, gaze, 0, 0);

@@ -20,16 +20,22 @@
 //! that layer clamped to its shaded rectangle and the nearest texel's depth —
 //! `fovea_post::inverse_map`'s `layered` step for step — into the screen's `vec4<u32>`
 //! pixels, which the screen side's split, DOF and tone map read as they read the polar
-//! reconstruction's. The layers' records go up only when the mapping changed (112 B a layer).
+//! reconstruction's. The layers' records go up only when the mapping changed (304 B).
 //!
-//! Guenter's composite has hard boundaries on the CPU too (each pixel reads its own layer);
-//! the inset's boundary smoothing (`fovea_post::inset_smoothing`) is not resident: an inset
-//! plan is refused by [`supports`].
+//! Guenter's composite has hard boundaries on the CPU too (each pixel reads its own layer).
+//! The inset's boundary is smoothed as the CPU's `fovea_post::inset_smoothing::composite`
+//! does with the naive alpha blend (Liu et al. Sec. 3.1, the default): inside the inset,
+//! within `S` pixels of a boundary edge that is not the screen's, the periphery's bilinear
+//! upsampling (pixel centres aligned: the layered lookup of the periphery, bit for bit where
+//! the periphery is an exact 2× or 4× subsampling) blended in with weight `1 − (d + ½)/S`;
+//! an inexact periphery keeps the hard boundary, as on the CPU. The Gaussian and Laplacian
+//! smoothings are refused ([`supports`]).
 
 use bytemuck::{Pod, Zeroable};
 use fovea_core::display::eccentricity_deg;
 use fovea_core::mapping::footprint::MAX_SPREAD_DEG;
-use fovea_core::mapping::{FoveationMapping, Method, ScreenLayer};
+use fovea_core::mapping::{FoveationMapping, Method, SamplePoint, ScreenLayer};
+use fovea_post::inset_smoothing::Smoothing;
 use fovea_render::camera::EyeCamera;
 use fovea_render::plan::FramePlan;
 use fovea_render::shade::frame_noise::with_frame;
@@ -123,6 +129,12 @@ pub struct LayersUniform {
     pub count: u32,
     /// `f32::INFINITY.to_bits()`.
     pub inf_bits: u32,
+    /// The inset's rectangle on the screen, inclusive: `x0, y0, x1, y1`.
+    pub inset: [u32; 4],
+    /// The inset's alpha-blend strip, pixels (0: a hard boundary).
+    pub strip: u32,
+    /// Padding.
+    pub pad: [u32; 3],
     /// The layers, finest first.
     pub layers: [LayerRecordGpu; MAX_LAYERS],
 }
@@ -140,15 +152,26 @@ pub const RECORD_STRUCTS: [(&str, usize); 2] = [
 ];
 
 /// Whether the resident frame serves `plan`'s layered mapping: at most [`MAX_LAYERS`] layers,
-/// one buffer each, and not the inset (its boundary smoothing is not resident).
+/// one buffer each, and for the inset a hard boundary or the alpha blend.
 pub fn supports(plan: &FramePlan) -> Result<()> {
     let layers = plan.mapping().screen_layers();
     if plan.method() == Method::Inset {
-        return Err(GpuError::Unsupported(
-            "the inset's boundary smoothing in the resident frame (use the staged --backend \
-             gpu or --backend cpu)"
-                .into(),
-        ));
+        match plan.settings.inset_smoothing {
+            Smoothing::None => {}
+            Smoothing::AlphaBlend { strip_px } if strip_px > 0 => {}
+            Smoothing::AlphaBlend { .. } => {
+                return Err(GpuError::Input(
+                    "an inset alpha blend over a strip of 0 pixels (at least 1)".into(),
+                ))
+            }
+            other => {
+                return Err(GpuError::Unsupported(format!(
+                    "the inset's {} boundary smoothing in the resident frame (it runs \
+                     alpha-blend and none; use the staged --backend gpu or --backend cpu)",
+                    other.name()
+                )))
+            }
+        }
     }
     if layers.len() > MAX_LAYERS || layers.len() != plan.buffers.len() {
         return Err(GpuError::Unsupported(format!(
@@ -450,11 +473,68 @@ pub struct ResidentLayers {
     last: Option<LayersUniform>,
     /// The bind group and the sample buffer it names.
     bind: Option<(wgpu::Buffer, wgpu::BindGroup)>,
+    /// The inset's boundary smoothing (none or the alpha blend).
+    smoothing: Smoothing,
+}
+
+/// The inset's rectangle and alpha-blend strip as the CPU's `reconstruct` composites them
+/// (`[0; 4], 0`: a hard boundary): layer 0's first texel centre through the inverse mapping
+/// and the layer's size, blended only where the periphery (layer 1) is an exact 2× or 4×
+/// subsampling of the screen.
+fn inset_blend(
+    mapping: &dyn FoveationMapping,
+    samples: &DeviceSamples,
+    smoothing: Smoothing,
+    (w, h): (u32, u32),
+) -> ([u32; 4], u32) {
+    let hard = ([0; 4], 0);
+    let Smoothing::AlphaBlend { strip_px } = smoothing else {
+        return hard;
+    };
+    let layers = samples.layers();
+    if mapping.method() != Method::Inset || layers.len() < 2 {
+        return hard;
+    }
+    let (inset, periphery) = (layers[0], layers[1]);
+    let factor = w / periphery.width.max(1);
+    let exact =
+        matches!(factor, 2 | 4) && periphery.width * factor == w && periphery.height * factor == h;
+    let first = mapping.inverse(SamplePoint {
+        layer: 0,
+        u: 0.5,
+        v: 0.5,
+    });
+    let Some(p) = first.filter(|_| exact) else {
+        return hard;
+    };
+    let (x0, y0) = ((p.x_px - 0.5).round(), (p.y_px - 0.5).round());
+    let fits = x0 >= 0.0
+        && y0 >= 0.0
+        && inset.width > 0
+        && inset.height > 0
+        && x0 as u64 + u64::from(inset.width) <= u64::from(w)
+        && y0 as u64 + u64::from(inset.height) <= u64::from(h);
+    if !fits {
+        return hard;
+    }
+    let (x0, y0) = (x0 as u32, y0 as u32);
+    (
+        [x0, y0, x0 + inset.width - 1, y0 + inset.height - 1],
+        strip_px,
+    )
 }
 
 impl ResidentLayers {
-    /// Everything for a `display`-sized screen, checked against the adapter first.
-    pub fn new(ctx: &GpuContext, width: u32, height: u32) -> Result<Self> {
+    /// Everything for a `width × height` screen, the inset's boundary smoothed with
+    /// `smoothing` (none or the alpha blend; others [`GpuError::Unsupported`]), checked
+    /// against the adapter first.
+    pub fn new(ctx: &GpuContext, width: u32, height: u32, smoothing: Smoothing) -> Result<Self> {
+        if !matches!(smoothing, Smoothing::None | Smoothing::AlphaBlend { .. }) {
+            return Err(GpuError::Unsupported(format!(
+                "the inset's {} boundary smoothing on the resident screen side",
+                smoothing.name()
+            )));
+        }
         let bytes = u64::from(width) * u64::from(height) * 16;
         ctx.check_storage_binding("the layered reconstruction's screen", bytes)?;
         let what = "building the resident layered reconstruction";
@@ -484,6 +564,7 @@ impl ResidentLayers {
             out,
             last: None,
             bind: None,
+            smoothing,
         })
     }
 
@@ -506,11 +587,16 @@ impl ResidentLayers {
         samples: &DeviceSamples,
     ) -> Result<()> {
         let layers = records(mapping, samples)?;
+        let (inset, strip) =
+            inset_blend(mapping, samples, self.smoothing, (self.width, self.height));
         let u = LayersUniform {
             width: self.width,
             height: self.height,
             count: mapping.screen_layers().len() as u32,
             inf_bits: f32::INFINITY.to_bits(),
+            inset,
+            strip,
+            pad: [0; 3],
             layers,
         };
         let ctx = &self.ctx;

@@ -31,6 +31,7 @@ use fovea_core::units::Metres;
 use fovea_core::Image;
 use fovea_post::dof::coc::CocParams;
 use fovea_post::dof::gather::ScatterAsGather;
+use fovea_post::inset_smoothing::Smoothing;
 use fovea_post::inverse_map::{PolarColumns, ReconstructFilter};
 use fovea_post::tonemap::{srgb8_thresholds, ToneCurve};
 use fovea_post::Rgb;
@@ -146,6 +147,8 @@ pub struct ScreenConfig {
     pub texture: bool,
     /// Tone curve.
     pub curve: ToneCurve,
+    /// The inset's boundary smoothing (none or the alpha blend; other methods ignore it).
+    pub inset_smoothing: Smoothing,
 }
 
 /// The largest sample buffer a context serves (a polar buffer's columns and rows); beyond them
@@ -248,8 +251,8 @@ pub struct ScreenContext {
 
 impl ScreenContext {
     /// Whether the screen side runs `method`: the polar mappings (VaFR, KFR/LMFR, LaFR,
-    /// visual-polar), Guenter's layers and full resolution. The insets and Weier are not
-    /// resident yet.
+    /// visual-polar), Guenter's layers, the inset and full resolution. Weier is not resident
+    /// yet.
     pub fn supports(method: Method) -> bool {
         matches!(
             method,
@@ -258,6 +261,7 @@ impl ScreenContext {
                 | Method::Lafr
                 | Method::VisualPolar
                 | Method::Guenter
+                | Method::Inset
                 | Method::Full
         )
     }
@@ -275,7 +279,7 @@ impl ScreenContext {
         if !Self::supports(method) {
             return Err(GpuError::Unsupported(format!(
                 "the resident screen side for {method} (it runs vafr, kfr, lafr, visual-polar, \
-                 guenter and full; use the per-stage GPU path or --backend cpu)"
+                 guenter, inset and full; use the per-stage GPU path or --backend cpu)"
             )));
         }
         if !config.exposure_stops.is_finite() {
@@ -337,14 +341,13 @@ impl ScreenContext {
                 ))
             }
             Method::Full => None,
-            Method::Guenter if config.aa.is_some() => {
-                return Err(GpuError::Unsupported(
-                    "sample-space AA on the resident screen side on Guenter's layers (it runs \
+            Method::Guenter | Method::Inset if config.aa.is_some() => {
+                return Err(GpuError::Unsupported(format!(
+                    "sample-space AA on the resident screen side on {method}'s layers (it runs \
                      on polar buffers)"
-                        .into(),
-                ))
+                )))
             }
-            Method::Guenter => None,
+            Method::Guenter | Method::Inset => None,
             _ => Some(ResidentPolar::new(
                 ctx,
                 display,
@@ -360,7 +363,9 @@ impl ScreenContext {
             )?),
         };
         let layers = match method {
-            Method::Guenter => Some(ResidentLayers::new(ctx, w, h)?),
+            Method::Guenter | Method::Inset => {
+                Some(ResidentLayers::new(ctx, w, h, config.inset_smoothing)?)
+            }
             _ => None,
         };
         let device = ctx.device();
