@@ -81,6 +81,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         exposure_stops: 0.0,
         texture: true,
         curve: ToneCurve::Reinhard,
+        inset_smoothing: fovea_post::inset_smoothing::Smoothing::ALPHA_BLEND,
     };
     let t = Instant::now();
     let mut screen = ScreenContext::new(&ctx, &display, method, config, limits)?;

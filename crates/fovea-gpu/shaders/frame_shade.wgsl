@@ -142,6 +142,10 @@ fn frame_texel(id: vec3<u32>) -> u32 {
 // Texel (i, j)'s ray: its screen point relative to the principal point (xy), its cone (z),
 // and whether the plan shades the texel (w: 1 or 0).
 fn frame_point(i: u32, j: u32) -> vec4<f32> {
+    if frame.kind == FRAME_LAYERED {
+        // Guenter's layers, the inset: frame_shade_layers.wgsl.
+        return frame_layer_point(i, j);
+    }
     if frame.kind != FRAME_POLAR {
         let p = camera.centre + vec2<f32>(f32(i) + frame.offset.x, f32(j) + frame.offset.y);
         return vec4<f32>(p, frame.pixel_spread, 1.0);

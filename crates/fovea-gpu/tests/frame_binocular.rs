@@ -1,7 +1,7 @@
 //! The whole binocular resident frame (`fovea_gpu::frame::ResidentFrame`, issue 37) against
 //! the CPU's frame, and its traffic:
 //!
-//! * VaFR and full resolution at the Vive Pro Eye, both eyes (the right eye 63 mm to the right
+//! * VaFR, Guenter's layers and full resolution at the Vive Pro Eye, both eyes (the right eye 63 mm to the right
 //!   with its own gaze, frame and eye in the random keys), the built-in scene with direct
 //!   shading, one ray per texel, the method's own AA (FXAA for VaFR, none at full resolution),
 //!   the footprint reconstruction: each eye's tone-mapped 8-bit image (`ResidentFrame::image`)
@@ -24,8 +24,11 @@
 //!   against `render_planned` with the same settings (the CPU's `fovea_post::denoise`),
 //!   ≥ 40 dB, and nearer to it than to the CPU's frame without denoising (so the GPU did
 //!   denoise); the steady frames' counters as above; the denoiser's GPU ms from the timers;
-//! * what the resident frame does not serve (indirect light, Guenter's layers, peripheral
-//!   contrast) is refused with `GpuError::Unsupported` naming it, with nothing uploaded,
+//! * the inset (Liu et al.'s, following the gaze) with the alpha-blended boundary the same,
+//!   on the mirrored gazes and with the inset against the screen's corners (edges that are the
+//!   screen's are not blended);
+//! * what the resident frame does not serve (indirect light, the inset's Laplacian blend,
+//!   peripheral contrast) is refused with `GpuError::Unsupported` naming it, with nothing uploaded,
 //!   created or submitted.
 //!
 //! Needs a GPU adapter (lavapipe will do); without one each test says SKIPPED on stderr, and
@@ -325,6 +328,62 @@ fn vafr_any_gaze_frame_is_the_cpus_while_the_gaze_wanders() {
 }
 
 #[test]
+fn guenter_binocular_frame_is_the_cpus() {
+    // Guenter et al. 2012's three layers: each layer shaded by the resident kernels (one
+    // dispatch per layer), reconstructed and composited on the device.
+    let Some(ctx) = gpu_or_skip("guenter_binocular_frame_is_the_cpus") else {
+        return;
+    };
+    the_binocular_frame_is_the_cpus(&ctx, Method::Guenter);
+}
+
+#[test]
+fn inset_binocular_frame_is_the_cpus() {
+    // The inset over the ¼-resolution periphery, its boundary alpha-blended (the default),
+    // composited on the device.
+    let Some(ctx) = gpu_or_skip("inset_binocular_frame_is_the_cpus") else {
+        return;
+    };
+    the_binocular_frame_is_the_cpus(&ctx, Method::Inset);
+    // The boundary was blended: the image is nearer the CPU's blended frame than its hard one.
+    let (world, cams) = setup();
+    let p = plans(&world, &cams, &settings(Method::Inset), MIRRORED[0], 0);
+    let mut frame =
+        ResidentFrame::new(&ctx, &world, [&p[0], &p[1]], [&cams[0], &cams[1]], TONE).unwrap();
+    frame
+        .render(&world, [&p[0], &p[1]], [&cams[0], &cams[1]])
+        .unwrap();
+    for e in 0..2 {
+        let gpu = frame.image(e).unwrap();
+        let blended = luma_psnr(&cpu_image(&world, &cams[e], &p[e]), &gpu);
+        let mut hard = p[e].clone();
+        hard.settings.inset_smoothing = fovea_post::inset_smoothing::Smoothing::None;
+        let to_hard = luma_psnr(&cpu_image(&world, &cams[e], &hard), &gpu);
+        shout(&format!(
+            "[fovea-gpu] resident binocular inset eye {e}: {blended:.2} dB to the CPU's \
+             alpha-blended frame, {to_hard:.2} dB to its hard boundary"
+        ));
+        assert!(
+            blended > to_hard,
+            "eye {e}: {blended:.2} <= {to_hard:.2} dB"
+        );
+    }
+}
+
+#[test]
+fn inset_against_the_screens_corners_is_the_cpus() {
+    // Gazes near the corners push the inset against the screen's edges, which are not blended.
+    let Some(ctx) = gpu_or_skip("inset_against_the_screens_corners_is_the_cpus") else {
+        return;
+    };
+    let corners = [
+        [(100.0, 100.0), (1400.0, 1550.0)],
+        [(1400.0, 120.0), (60.0, 1500.0)],
+    ];
+    binocular_frame_on_a_path(&ctx, &settings(Method::Inset), "inset at corners", &corners);
+}
+
+#[test]
 fn full_resolution_binocular_frame_is_the_cpus() {
     let Some(ctx) = gpu_or_skip("full_resolution_binocular_frame_is_the_cpus") else {
         return;
@@ -359,7 +418,14 @@ fn what_the_frame_does_not_serve_is_refused_before_anything_is_sent() {
             with(&|s: &mut FrameSettings| s.shading = ShadingMode::DEFAULT),
             "indirect",
         ),
-        (settings(Method::Guenter), "sample layers"),
+        (
+            {
+                let mut s = settings(Method::Inset);
+                s.inset_smoothing = fovea_post::inset_smoothing::Smoothing::LAPLACIAN;
+                s
+            },
+            "boundary smoothing",
+        ),
         (
             with(&|s: &mut FrameSettings| {
                 s.contrast = Some(Default::default());

@@ -109,7 +109,7 @@ fn served() -> Vec<Case> {
 }
 
 /// Golden cases the resident frame must refuse, with what refuses them (a sample of the
-/// others: offline shading, contrast, another DOF filter, Guenter, Weier). The denoiser is
+/// others: offline shading, contrast, another DOF filter, the inset's Laplacian blend, Weier). The denoiser is
 /// served since it runs in the resident frame (checked against the CPU in
 /// `frame_binocular.rs`).
 fn refused() -> Vec<(&'static str, FrameSettings)> {
@@ -120,11 +120,13 @@ fn refused() -> Vec<(&'static str, FrameSettings)> {
         Some(FilterKind::BokehLca),
         FocusMode::Auto,
     ));
+    let mut inset_laplacian = realtime(Method::Inset);
+    inset_laplacian.inset_smoothing = fovea_post::inset_smoothing::Smoothing::LAPLACIAN;
     vec![
         ("indirect", FrameSettings::new(Method::Vafr)),
         ("contrast", contrast),
         ("bokeh", bokeh),
-        ("guenter", realtime(Method::Guenter)),
+        ("inset-laplacian", inset_laplacian),
         ("weier", realtime(Method::Weier)),
     ]
 }

@@ -1,8 +1,9 @@
 //! The resident frame's sample side (`fovea_gpu::frame::ResidentSamples`, issue 37) against
 //! the CPU's `trace_and_shade` of the same plans, and its traffic:
 //!
-//! * VaFR (exact rings, the default) and full resolution at the Vive Pro Eye, both eyes (the
-//!   right eye 63 mm to the right with its own gaze, frame and eye in the random keys), the
+//! * VaFR (exact rings, the default), Guenter's three layers and full resolution at the Vive
+//!   Pro Eye, both eyes (the right eye 63 mm to the right with its own gaze, frame and eye in
+//!   the random keys), the
 //!   built-in scene with direct shading (one light; the environment through 4 occluded rays, a
 //!   second frame with the unshadowed ambient term), one ray per texel: the resident sample
 //!   buffers, read back here only, match the CPU's with display-encoded luma PSNR ≥ 40 dB
@@ -12,7 +13,8 @@
 //! * a steady-state binocular frame (the second, the gaze moved by a saccade-sized step): one
 //!   submission, no blocking wait, at most 256 KiB uploaded, nothing read back, no buffer or
 //!   bind group created;
-//! * what the kernel does not serve (indirect bounces, periphery rays, Guenter's layers) is
+//! * what the kernel does not serve (indirect bounces, periphery rays, the inset's Laplacian
+//!   blend) is
 //!   refused with `GpuError::Unsupported` naming it, before anything is recorded.
 //!
 //! Needs a GPU adapter (lavapipe will do); without one each test says SKIPPED on stderr, and
@@ -170,6 +172,24 @@ fn vafr_samples_of_both_eyes_are_the_cpus() {
 }
 
 #[test]
+fn guenter_layers_of_both_eyes_are_the_cpus() {
+    // Every layer of Guenter's three (one dispatch of each kernel per layer, each with its
+    // own uniforms), against the CPU's layers texel by texel.
+    let Some(ctx) = gpu_or_skip("guenter_layers_of_both_eyes_are_the_cpus") else {
+        return;
+    };
+    both_eyes_match_the_cpu(&ctx, Method::Guenter);
+}
+
+#[test]
+fn inset_layers_of_both_eyes_are_the_cpus() {
+    let Some(ctx) = gpu_or_skip("inset_layers_of_both_eyes_are_the_cpus") else {
+        return;
+    };
+    both_eyes_match_the_cpu(&ctx, Method::Inset);
+}
+
+#[test]
 fn full_resolution_samples_of_both_eyes_are_the_cpus() {
     let Some(ctx) = gpu_or_skip("full_resolution_samples_of_both_eyes_are_the_cpus") else {
         return;
@@ -197,8 +217,12 @@ fn what_the_kernel_does_not_serve_is_refused_before_recording() {
             "rays per texel",
         ),
         (
-            settings(Method::Guenter, ShadingMode::DIRECT),
-            "sample layers",
+            {
+                let mut s = settings(Method::Inset, ShadingMode::DIRECT);
+                s.inset_smoothing = fovea_post::inset_smoothing::Smoothing::LAPLACIAN;
+                s
+            },
+            "boundary smoothing",
         ),
     ];
     for (s, what) in cases {

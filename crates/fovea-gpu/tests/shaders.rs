@@ -240,4 +240,12 @@ fn the_resident_frame_records_match_their_rust_structs() {
         &fovea_gpu::frame::shade::SHADER,
         &fovea_gpu::frame::shade::RECORD_STRUCTS,
     );
+    assert_struct_sizes(
+        &fovea_gpu::frame::shade::SHADER,
+        &fovea_gpu::frame::layers::SHADE_RECORD_STRUCTS,
+    );
+    assert_struct_sizes(
+        &fovea_gpu::frame::layers::SHADER,
+        &fovea_gpu::frame::layers::RECORD_STRUCTS,
+    );
 }

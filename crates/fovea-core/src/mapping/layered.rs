@@ -19,6 +19,61 @@ pub(crate) enum Region {
     Rect,
 }
 
+/// One layer of a screen-aligned layered mapping as [`super::FoveationMapping::screen_layers`]
+/// reports it: the screen rectangle `[x₀, x₀ + w) × [y₀, y₀ + h)` rendered at `1/scale`
+/// (buffer texel `(i, j)` covers screen `x₀ + [i, i+1)·scale`), owning the points of the
+/// rectangle that also lie in `disc` (centre, radius in pixels) where it has one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScreenLayer {
+    /// The rectangle's top-left corner, screen pixels.
+    pub origin: ScreenPoint,
+    /// The rectangle's width, screen pixels.
+    pub width_px: f64,
+    /// The rectangle's height, screen pixels.
+    pub height_px: f64,
+    /// Screen pixels per layer texel along each axis (≥ 1).
+    pub scale: f64,
+    /// Guenter's eccentricity disc (centre, radius in pixels); `None`: the whole rectangle.
+    pub disc: Option<(ScreenPoint, f64)>,
+}
+
+impl ScreenLayer {
+    /// Whether the layer owns `p` (its rectangle, and its disc where it has one).
+    pub fn contains(&self, p: ScreenPoint) -> bool {
+        Layer::from(*self).contains(p)
+    }
+}
+
+impl From<ScreenLayer> for Layer {
+    fn from(l: ScreenLayer) -> Self {
+        Self {
+            origin: l.origin,
+            width_px: l.width_px,
+            height_px: l.height_px,
+            scale: l.scale,
+            region: match l.disc {
+                Some((centre, radius_px)) => Region::Disc { centre, radius_px },
+                None => Region::Rect,
+            },
+        }
+    }
+}
+
+impl From<&Layer> for ScreenLayer {
+    fn from(l: &Layer) -> Self {
+        Self {
+            origin: l.origin,
+            width_px: l.width_px,
+            height_px: l.height_px,
+            scale: l.scale,
+            disc: match l.region {
+                Region::Disc { centre, radius_px } => Some((centre, radius_px)),
+                Region::Rect => None,
+            },
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Layer {
     pub origin: ScreenPoint,
@@ -207,6 +262,58 @@ macro_rules! delegate_to_layers {
         fn tangential_rate_cpd(&self, e_deg: f64) -> f64 {
             self.radial_rate_cpd(e_deg)
         }
+        fn screen_layers(&self) -> Vec<super::ScreenLayer> {
+            self.layers.layers.iter().map(Into::into).collect()
+        }
     };
 }
 pub(crate) use delegate_to_layers;
+
+#[cfg(test)]
+mod tests {
+    use crate::display::DisplayProfile;
+    use crate::mapping::{
+        FoveationMapping, GuenterLayers, GuenterParams, Inset, InsetParams, SamplePoint,
+    };
+    use crate::units::ScreenPoint;
+
+    /// `screen_layers` is what `forward` and `inverse` read: the first layer containing a
+    /// point is `forward`'s layer, and `forward`'s coordinates are `(p − origin) / scale`.
+    #[test]
+    fn screen_layers_are_what_forward_and_inverse_read() {
+        let d = DisplayProfile::preset("2k").unwrap();
+        for (gx, gy) in [(1280.0, 720.0), (100.0, 1300.0), (2500.0, 30.0)] {
+            let g = d.gaze(gx, gy).unwrap();
+            let maps: [Box<dyn FoveationMapping>; 2] = [
+                Box::new(GuenterLayers::new(&d, g, GuenterParams::default()).unwrap()),
+                Box::new(Inset::new(&d, g, InsetParams::default()).unwrap()),
+            ];
+            for m in &maps {
+                let layers = m.screen_layers();
+                assert_eq!(layers.len(), m.buffers().len());
+                for y in (0..d.height_px).step_by(7) {
+                    for x in (0..d.width_px).step_by(5) {
+                        let p = ScreenPoint::new(x as f64 + 0.5, y as f64 + 0.5);
+                        let s = m.forward(p).unwrap();
+                        let k = layers.iter().position(|l| l.contains(p)).unwrap();
+                        assert_eq!(s.layer as usize, k, "{p:?}");
+                        let l = &layers[k];
+                        assert_eq!(s.u, (p.x_px - l.origin.x_px) / l.scale);
+                        assert_eq!(s.v, (p.y_px - l.origin.y_px) / l.scale);
+                    }
+                }
+                for (k, l) in layers.iter().enumerate() {
+                    let q = m
+                        .inverse(SamplePoint {
+                            layer: k as u32,
+                            u: 1.5,
+                            v: 2.5,
+                        })
+                        .unwrap();
+                    assert_eq!(q.x_px, l.origin.x_px + 1.5 * l.scale);
+                    assert_eq!(q.y_px, l.origin.y_px + 2.5 * l.scale);
+                }
+            }
+        }
+    }
+}

@@ -40,6 +40,7 @@ pub use guenter::{GuenterLayers, GuenterParams};
 pub use inset::{Inset, InsetParams};
 pub use kfr::{Kfr, KfrParams};
 pub use lafr::{Lafr, LafrKernelConstants, LafrParams};
+pub use layered::ScreenLayer;
 pub use log_polar::LogPolarGeometry;
 pub use vafr::{Vafr, VafrParams, VafrRings};
 pub use vafr_rings::RingTable;
@@ -222,6 +223,15 @@ pub trait FoveationMapping: Send + Sync {
     /// `VafrRings::Eq3AnyGaze`, or Eq. 3's rings at a fixed `e_max`).
     fn layout_is_gaze_free(&self) -> bool {
         false
+    }
+
+    /// For screen-aligned layered mappings (Guenter's layers, the inset): each layer's
+    /// screen rectangle, resolution and region, finest first, exactly as
+    /// [`Self::forward`] and [`Self::inverse`] read them (a screen point belongs to the first
+    /// layer that [`ScreenLayer::contains`] it). Empty for every other mapping. What another
+    /// executor needs to reconstruct the layers itself (the GPU's resident frame).
+    fn screen_layers(&self) -> Vec<ScreenLayer> {
+        Vec::new()
     }
 }
 

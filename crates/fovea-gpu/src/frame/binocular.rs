@@ -146,7 +146,7 @@ fn screen_config(plan: &FramePlan, camera: &EyeCamera, tone: ToneSettings) -> Re
     if !ScreenContext::supports(method) {
         return Err(GpuError::Unsupported(format!(
             "the {method} mapping in the resident frame (it runs vafr, kfr, lafr, \
-             visual-polar and full; use the staged --backend gpu or --backend cpu)"
+             visual-polar, guenter, inset and full; use the staged --backend gpu or --backend cpu)"
         )));
     }
     if let Some(d) = &plan.settings.denoise {
@@ -187,6 +187,7 @@ fn screen_config(plan: &FramePlan, camera: &EyeCamera, tone: ToneSettings) -> Re
         dof,
         exposure_stops: tone.exposure_stops,
         curve: tone.curve,
+        inset_smoothing: plan.settings.inset_smoothing,
         // Set by `ResidentFrame::set_presenting` (`fovea view` draws the texture).
         texture: false,
     })

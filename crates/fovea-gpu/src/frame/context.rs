@@ -33,10 +33,11 @@ use fovea_render::shade::frame_noise::with_frame;
 use fovea_render::shade::{texel_key, EnvLight, ShadingMode};
 use fovea_render::world::World;
 
+use super::layers::{self, LayerPass, ShadeLayerGpu};
 use super::samples::DeviceSamples;
 use super::shade::{
     supports, FrameColumnGpu, FrameLayerGpu, FrameUniform, RayLayout, ShadeScene,
-    GBUFFER_TEXEL_BYTES, KIND_POLAR, KIND_SCREEN,
+    GBUFFER_TEXEL_BYTES, KIND_LAYERED, KIND_POLAR, KIND_SCREEN,
 };
 use crate::denoise::{DeviceGuides, GpuDenoiser};
 use crate::environment_light::EnvUniform;
@@ -70,6 +71,10 @@ pub struct EyeShade {
     _no_guides: Option<[wgpu::Buffer; 3]>,
     bind_group: wgpu::BindGroup,
     groups: [u32; 2],
+    /// The first layer's `FrameScreenLayer` (binding 30; a stand-in unless layered).
+    layer_block: wgpu::Buffer,
+    /// Layers past the first of a layered buffer, each dispatched with its own uniforms.
+    more: Vec<LayerPass>,
 }
 
 /// The per-frame tables of one eye's plan: each column's record (and one past the last), the
@@ -299,7 +304,12 @@ impl EyeShade {
         let sizes = plan.buffers.clone();
         let texels: u64 = sizes.iter().map(|s| s.pixels()).sum();
         let capacity = capacity.max(texels);
-        let groups = dispatch(&sizes)?;
+        // One dispatch per layer (a layered buffer's; every other buffer has one).
+        let layer_groups = sizes
+            .iter()
+            .map(|s| dispatch(std::slice::from_ref(s)))
+            .collect::<Result<Vec<_>>>()?;
+        let groups = layer_groups.first().copied().unwrap_or([1, 1]);
         let column_bytes = columns * std::mem::size_of::<FrameColumnGpu>();
         let run_bytes = runs * std::mem::size_of::<[u32; 2]>();
         ctx.check_storage_binding("the frame's column table", column_bytes as u64)?;
@@ -334,6 +344,12 @@ impl EyeShade {
                 scene,
                 "frame parameters",
                 std::mem::size_of::<FrameUniform>(),
+                uniform,
+            );
+            let layer_block = buffer(
+                scene,
+                "frame layer rays",
+                std::mem::size_of::<ShadeLayerGpu>(),
                 uniform,
             );
             let columns_buf = buffer(scene, "frame columns", column_bytes, storage);
@@ -379,9 +395,11 @@ impl EyeShade {
                 (27, guide_buffers[0]),
                 (28, guide_buffers[1]),
                 (29, guide_buffers[2]),
+                (30, &layer_block),
             ];
             let bind_group =
                 crate::transfer::bind_group(ctx, "resident frame", &scene.pipelines[0], &entries);
+            let more = layers::more_passes(ctx, &scene.pipelines[0], &entries, &layer_groups);
             (
                 camera,
                 env,
@@ -391,9 +409,11 @@ impl EyeShade {
                 gbuffer,
                 no_guides,
                 bind_group,
+                (layer_block, more),
             )
         })?;
-        let (camera, env, frame, columns_buf, runs_buf, gbuffer, no_guides, bind_group) = built;
+        let (camera, env, frame, columns_buf, runs_buf, gbuffer, no_guides, bind_group, layered) =
+            built;
         Ok(Self {
             layout,
             sizes,
@@ -411,6 +431,8 @@ impl EyeShade {
             _no_guides: no_guides,
             bind_group,
             groups,
+            layer_block: layered.0,
+            more: layered.1,
         })
     }
 
@@ -422,7 +444,8 @@ impl EyeShade {
             && self.guides.is_some() == plan.settings.denoise.is_some()
             && texels <= self.texel_capacity
             && tables.columns.len() <= self.columns_capacity
-            && tables.runs.len() <= self.runs_capacity;
+            && tables.runs.len() <= self.runs_capacity
+            && (plan.buffers.len() == 1 || self.sizes == plan.buffers);
         if !fits {
             return false;
         }
@@ -452,6 +475,7 @@ impl EyeShade {
         camera: &EyeCamera,
         plan: &FramePlan,
         tables: &Tables,
+        layered: &[ShadeLayerGpu],
     ) {
         let ctx = &scene.ctx;
         let cam = RayGenCamera::new(
@@ -484,6 +508,7 @@ impl EyeShade {
             kind: match self.layout {
                 RayLayout::Polar => KIND_POLAR,
                 RayLayout::Screen => KIND_SCREEN,
+                RayLayout::Layered => KIND_LAYERED,
             },
             inf_bits: f32::INFINITY.to_bits(),
             unshadowed: u32::from(env_light == EnvLight::Unshadowed),
@@ -507,6 +532,15 @@ impl EyeShade {
         ctx.write_buffer(&self.camera, 0, bytemuck::bytes_of(&cam));
         ctx.write_buffer(&self.env, 0, bytemuck::bytes_of(&env));
         ctx.write_buffer(&self.frame, 0, bytemuck::bytes_of(&frame));
+        layers::write_layers(
+            ctx,
+            plan,
+            &frame,
+            &self.layer_block,
+            &self.more,
+            &self.samples,
+            layered,
+        );
         if self.layout == RayLayout::Polar {
             ctx.write_buffer(&self.columns, 0, bytemuck::cast_slice(&tables.columns));
             ctx.write_buffer(&self.runs, 0, bytemuck::cast_slice(&tables.runs));
@@ -535,6 +569,15 @@ impl EyeShade {
         for pipeline in &scene.pipelines {
             pass.set_pipeline(pipeline);
             pass.dispatch_workgroups(self.groups[0], self.groups[1], 1);
+        }
+        // A layered buffer's other layers, each with its own uniforms (the G-buffer between
+        // the kernels is the layer's).
+        for layer in &self.more {
+            pass.set_bind_group(0, &layer.bind_group, &[]);
+            for pipeline in &scene.pipelines {
+                pass.set_pipeline(pipeline);
+                pass.dispatch_workgroups(layer.groups[0], layer.groups[1], 1);
+            }
         }
     }
 
@@ -654,6 +697,10 @@ impl ResidentSamples {
             ));
         }
         self.scene.update_lights(world)?;
+        let layered = match layout {
+            RayLayout::Layered => layers::shade_blocks(plan, camera)?,
+            _ => Vec::new(),
+        };
         let t = std::time::Instant::now();
         let tables = tables(plan, layout);
         self.tables_ms += t.elapsed().as_secs_f64() * 1e3;
@@ -676,7 +723,9 @@ impl ResidentSamples {
                         texels.max(worst_texels).min(most),
                     )
                 }
-                RayLayout::Screen => (tables.columns.len(), tables.runs.len(), texels),
+                RayLayout::Screen | RayLayout::Layered => {
+                    (tables.columns.len(), tables.runs.len(), texels)
+                }
             };
             self.eyes[eye] = Some(EyeShade::new(
                 &self.scene,
@@ -686,7 +735,7 @@ impl ResidentSamples {
             )?);
         }
         if let Some(e) = &self.eyes[eye] {
-            e.write(&self.scene, world, camera, plan, &tables);
+            e.write(&self.scene, world, camera, plan, &tables, &layered);
             if plan.settings.denoise.is_some() {
                 let (texels, columns) = e.capacity();
                 let denoiser = match &mut self.denoisers[eye] {

@@ -10,6 +10,8 @@
 //!   encoder and submitted once ([`ResidentSamples`]).
 //! * [`screen`]: the screen side — reconstruction, depth of field and tone map of one eye's
 //!   [`DeviceSamples`] recorded into the caller's encoder ([`ScreenContext`]).
+//! * [`layers`]: screen-aligned layered buffers (Guenter's layers) on both sides
+//!   ([`ResidentLayers`]).
 //! * [`reconstruct`]: the polar reconstruction the screen side records ([`ResidentPolar`]).
 //! * [`binocular`]: both eyes' sample and screen sides in one encoder, one submission
 //!   ([`ResidentFrame`]).
@@ -26,6 +28,7 @@ pub mod binocular;
 pub mod compare;
 pub mod context;
 pub mod gaze_path;
+pub mod layers;
 pub mod reconstruct;
 pub mod run;
 // The sample buffers live beside the frame (`crate::samples`): the denoiser reads them too,
@@ -42,6 +45,7 @@ pub use binocular::{
 pub use compare::{compare_binocular, BinocularComparison, CompareParams, PathSummary};
 pub use context::{EyeShade, RecordTimes, ResidentSamples};
 pub use gaze_path::{GazePath, SACCADE_STEP_DEG};
+pub use layers::ResidentLayers;
 pub use reconstruct::{PolarCapacity, ResidentPolar, ScreenPlanes, TableUpload};
 pub use run::{refusal, FrameCounts, ResidentRun, Route};
 pub use samples::{DeviceSamples, SampleLayer};

@@ -41,6 +41,7 @@ use fovea_core::units::Metres;
 use fovea_core::Image;
 use fovea_post::dof::coc::CocParams;
 use fovea_post::dof::gather::ScatterAsGather;
+use fovea_post::inset_smoothing::Smoothing;
 use fovea_post::inverse_map::{PolarColumns, ReconstructFilter};
 use fovea_post::tonemap::{srgb8_thresholds, ToneCurve};
 use fovea_post::Rgb;
@@ -48,6 +49,7 @@ use fovea_post::Rgb;
 use crate::device::GpuContext;
 use crate::dof::{coc_uniform, CocUniform, GatherUniform, OFFSET_BYTES};
 use crate::error::{GpuError, Result};
+use crate::frame::layers::ResidentLayers;
 use crate::frame::reconstruct::{PolarCapacity, ResidentPolar, ScreenPlanes, TableUpload};
 use crate::frame::samples::DeviceSamples;
 use crate::frame::timing::FrameTimer;
@@ -156,6 +158,8 @@ pub struct ScreenConfig {
     pub texture: bool,
     /// Tone curve.
     pub curve: ToneCurve,
+    /// The inset's boundary smoothing (none or the alpha blend; other methods ignore it).
+    pub inset_smoothing: Smoothing,
 }
 
 /// The largest sample buffer a context serves (a polar buffer's columns and rows); beyond them
@@ -356,6 +360,8 @@ pub struct ScreenContext {
     width: u32,
     height: u32,
     polar: Option<ResidentPolar>,
+    /// Guenter's layers' reconstruction (`crate::frame::layers`).
+    layers: Option<ResidentLayers>,
     split: wgpu::ComputePipeline,
     split_uniform: wgpu::Buffer,
     /// The split pass's bindings and the sample buffer they read (full resolution only).
@@ -378,11 +384,18 @@ pub struct ScreenContext {
 
 impl ScreenContext {
     /// Whether the screen side runs `method`: the polar mappings (VaFR, KFR/LMFR, LaFR,
-    /// visual-polar) and full resolution. Guenter, the insets and Weier are not resident yet.
+    /// visual-polar), Guenter's layers, the inset and full resolution. Weier is not resident
+    /// yet.
     pub fn supports(method: Method) -> bool {
         matches!(
             method,
-            Method::Vafr | Method::Kfr | Method::Lafr | Method::VisualPolar | Method::Full
+            Method::Vafr
+                | Method::Kfr
+                | Method::Lafr
+                | Method::VisualPolar
+                | Method::Guenter
+                | Method::Inset
+                | Method::Full
         )
     }
 
@@ -398,8 +411,8 @@ impl ScreenContext {
     ) -> Result<Self> {
         if !Self::supports(method) {
             return Err(GpuError::Unsupported(format!(
-                "the resident screen side for {method} (it runs vafr, kfr, lafr, visual-polar \
-                 and full; use the per-stage GPU path or --backend cpu)"
+                "the resident screen side for {method} (it runs vafr, kfr, lafr, visual-polar, \
+                 guenter, inset and full; use the per-stage GPU path or --backend cpu)"
             )));
         }
         if !config.exposure_stops.is_finite() {
@@ -452,6 +465,18 @@ impl ScreenContext {
                     .into(),
             ));
         }
+        if matches!(method, Method::Guenter | Method::Inset) && config.aa.is_some() {
+            return Err(GpuError::Unsupported(format!(
+                "sample-space AA on the resident screen side on {method}'s layers (it runs on \
+                 polar buffers)"
+            )));
+        }
+        let layers = match method {
+            Method::Guenter | Method::Inset => {
+                Some(ResidentLayers::new(ctx, w, h, config.inset_smoothing)?)
+            }
+            _ => None,
+        };
         let device = ctx.device();
         let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
             crate::transfer::empty(ctx, label, size, usage)
@@ -509,7 +534,7 @@ impl ScreenContext {
             })?;
         let (split, tone) = (split.ok_or_else(missing)?, tone.ok_or_else(missing)?);
         let polar = match method {
-            Method::Full => None,
+            Method::Full | Method::Guenter | Method::Inset => None,
             _ => Some(ResidentPolar::new(
                 ctx,
                 display,
@@ -705,6 +730,7 @@ impl ScreenContext {
             width: w,
             height: h,
             polar,
+            layers,
             split,
             split_uniform,
             split_bind: None,
@@ -742,9 +768,10 @@ impl ScreenContext {
     /// Whether `mapping`'s buffers fit this context (its method and limits).
     pub fn fits(&self, mapping: &dyn FoveationMapping) -> bool {
         mapping.method() == self.method
-            && match &self.polar {
-                Some(p) => p.fits(mapping),
-                None => mapping
+            && match (&self.polar, &self.layers) {
+                (Some(p), _) => p.fits(mapping),
+                (None, Some(_)) => ResidentLayers::fits(mapping),
+                (None, None) => mapping
                     .buffers()
                     .first()
                     .is_some_and(|b| (b.width, b.height) == (self.width, self.height)),
@@ -795,14 +822,18 @@ impl ScreenContext {
                 self.method
             )));
         }
-        // Full resolution's split reads the samples themselves (a polar reconstruction writes
-        // the planes).
-        let split_source = match &mut self.polar {
-            Some(p) => {
+        // The split pass's source: Guenter's or the inset's composited layers, or full
+        // resolution's samples themselves (a polar reconstruction writes the planes).
+        let split_source = match (&mut self.polar, &mut self.layers) {
+            (Some(p), _) => {
                 p.prepare(mapping, &self.display, samples)?;
                 None
             }
-            None => {
+            (None, Some(l)) => {
+                l.prepare(mapping, samples)?;
+                Some((l.output().clone(), 0))
+            }
+            (None, None) => {
                 let fits = samples.layers().len() == 1
                     && samples
                         .layers()
@@ -869,6 +900,9 @@ impl ScreenContext {
             if let Some(p) = &self.polar {
                 p.record(encoder, timer.as_deref_mut(), 0)?;
             } else {
+                if let Some(l) = &self.layers {
+                    l.record(encoder, timer.as_deref_mut())?;
+                }
                 let Some((_, split_bind)) = &self.split_bind else {
                     return Err(GpuError::Input("the split pass has no bindings".into()));
                 };

@@ -44,6 +44,7 @@ pub const SHADER: ShaderSource = ShaderSource {
         include_str!("../../shaders/ray_generation.wgsl"),
         include_str!("../../shaders/surface.wgsl"),
         include_str!("../../shaders/environment_light.wgsl"),
+        include_str!("../../shaders/frame_shade_layers.wgsl"),
         include_str!("../../shaders/frame_shade.wgsl")
     ),
     entry_points: &[
@@ -81,6 +82,9 @@ pub const GBUFFER_TEXEL_BYTES: u64 = 32;
 pub const KIND_POLAR: u32 = 0;
 /// `FrameParams.kind` of a screen-aligned (full-resolution) buffer.
 pub const KIND_SCREEN: u32 = 1;
+/// `FrameParams.kind` of a layer of a screen-aligned layered buffer (Guenter's layers;
+/// `super::layers`).
+pub const KIND_LAYERED: u32 = 2;
 
 /// `FrameLayer` of `frame_shade.wgsl`.
 #[repr(C)]
@@ -155,6 +159,9 @@ pub enum RayLayout {
     Polar,
     /// Through the screen point of the texel (full resolution).
     Screen,
+    /// Through the screen point of the texel in its layer, one dispatch per layer
+    /// (Guenter's layers; [`super::layers`]).
+    Layered,
 }
 
 /// Whether the resident kernel renders `plan`'s samples exactly as the CPU's
@@ -188,6 +195,10 @@ pub fn supports(plan: &FramePlan) -> Result<RayLayout> {
         return unsupported("DOF-aware culling in the resident frame".into());
     }
     let mapping = plan.mapping();
+    if !mapping.screen_layers().is_empty() {
+        super::layers::supports(plan)?;
+        return Ok(RayLayout::Layered);
+    }
     if plan.buffers.len() != 1 {
         return unsupported(format!(
             "{} sample layers ({}) in the resident frame",
@@ -236,7 +247,7 @@ fn light_is_finite(l: &GpuLight) -> bool {
 /// The kernel's bindings in group 0: `(binding, uniform, read-only)` (uniform blocks, then
 /// storage buffers), declared rather than derived from what the entry point reads, so the
 /// layout does not change with the code.
-pub const BINDINGS: [(u32, bool, bool); 24] = [
+pub const BINDINGS: [(u32, bool, bool); 25] = [
     (0, true, true),    // TraceParams
     (1, false, true),   // BVH nodes
     (2, false, true),   // triangles
@@ -261,6 +272,7 @@ pub const BINDINGS: [(u32, bool, bool); 24] = [
     (27, false, false), // the denoiser's albedo guide
     (28, false, false), // the denoiser's normal guide
     (29, false, false), // the denoiser's Monte Carlo part
+    (30, true, true),   // FrameScreenLayer (a layered buffer's layer)
 ];
 
 /// The kernels' pipelines with their declared layout ([`BINDINGS`]), in the order of

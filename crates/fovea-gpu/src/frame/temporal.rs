@@ -384,6 +384,13 @@ impl ResidentTemporal {
         if eye > 1 {
             return Err(GpuError::Input(format!("eye {eye} (0 left, 1 right)")));
         }
+        if plan.buffers.len() != 1 {
+            return Err(GpuError::Unsupported(format!(
+                "temporal accumulation of {} sample layers ({}) in the resident frame",
+                plan.buffers.len(),
+                plan.method()
+            )));
+        }
         let (columns, n_columns, spacing) = frame_table(plan);
         let size = plan.buffers[0];
         let texels = u64::from(size.width) * u64::from(size.height);
