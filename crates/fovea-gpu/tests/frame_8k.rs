@@ -162,6 +162,7 @@ fn a_retinal_screen_is_refused_naming_the_binding() {
         exposure_stops: 0.0,
         texture: false,
         curve: ToneCurve::Reinhard,
+        inset_smoothing: fovea_post::inset_smoothing::Smoothing::ALPHA_BLEND,
     };
     let sizes = ScreenSizes::of(&display, &config);
     let binding = ctx.max_binding_bytes();

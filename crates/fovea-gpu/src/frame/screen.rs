@@ -1172,6 +1172,7 @@ mod tests {
             exposure_stops: 0.0,
             texture: true,
             curve: ToneCurve::Reinhard,
+            inset_smoothing: Smoothing::ALPHA_BLEND,
         }
     }
 
