@@ -132,4 +132,5 @@ pub const ALL_SHADERS: &[shaders::ShaderSource] = &[
     denoise::SHADER,
     frame::shade::SHADER,
     frame::temporal::SHADER,
+    frame::pull_push::MASK_SHADER,
 ];

@@ -814,7 +814,7 @@ fn unsupported_methods_and_mismatched_frames_are_refused_before_recording() {
     let display = display();
     let limits = limits(&display);
     let cfg = config(ReconstructFilter::Footprint, None);
-    for method in [Method::Guenter, Method::Weier, Method::Inset] {
+    for method in [Method::Guenter, Method::Inset] {
         let e = ScreenContext::new(&ctx, &display, method, cfg.clone(), limits)
             .err()
             .unwrap();

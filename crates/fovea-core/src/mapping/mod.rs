@@ -223,6 +223,12 @@ pub trait FoveationMapping: Send + Sync {
     fn layout_is_gaze_free(&self) -> bool {
         false
     }
+
+    /// Weier's sparse screen pattern behind this mapping, for an executor that evaluates
+    /// its tables itself (the resident GPU frame); `None` for every other mapping.
+    fn weier_sparse(&self) -> Option<&WeierSparse> {
+        None
+    }
 }
 
 /// One column of a polar buffer: the circle of radius `r_px` around `centre`, turned once

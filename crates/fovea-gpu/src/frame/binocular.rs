@@ -24,7 +24,7 @@
 
 use std::time::Instant;
 
-use fovea_core::mapping::{build, FoveationMapping};
+use fovea_core::mapping::{build, FoveationMapping, Method};
 use fovea_core::units::Metres;
 use fovea_post::dof::gather::ScatterAsGather;
 use fovea_post::dof::FilterKind;
@@ -146,7 +146,7 @@ fn screen_config(plan: &FramePlan, camera: &EyeCamera, tone: ToneSettings) -> Re
     if !ScreenContext::supports(method) {
         return Err(GpuError::Unsupported(format!(
             "the {method} mapping in the resident frame (it runs vafr, kfr, lafr, \
-             visual-polar and full; use the staged --backend gpu or --backend cpu)"
+             visual-polar, full and weier; use the staged --backend gpu or --backend cpu)"
         )));
     }
     if let Some(d) = &plan.settings.denoise {
@@ -402,6 +402,18 @@ impl ResidentFrame {
         let t = Instant::now();
         for e in 0..2 {
             Self::supports(plans[e], cameras[e])?;
+        }
+        if self.temporal.is_some() {
+            if let Some(p) = plans.iter().find(|p| p.method() == Method::Weier) {
+                // The CPU accumulates Weier's frames in screen space (`temporal::weier_taa`:
+                // the reconstructed frame kept as a pyramid history), not in sample space.
+                return Err(GpuError::Unsupported(format!(
+                    "temporal accumulation of the {} method in the resident frame (its \
+                     screen-space pyramid history is CPU-only; turn temporal off or use \
+                     --backend cpu)",
+                    p.method()
+                )));
+            }
         }
         for e in 0..2 {
             self.ensure_screen(e, plans[e], cameras[e])?;

@@ -36,8 +36,9 @@ use fovea_render::world::World;
 use super::samples::DeviceSamples;
 use super::shade::{
     supports, FrameColumnGpu, FrameLayerGpu, FrameUniform, RayLayout, ShadeScene,
-    GBUFFER_TEXEL_BYTES, KIND_POLAR, KIND_SCREEN,
+    GBUFFER_TEXEL_BYTES, KIND_POLAR, KIND_SCREEN, KIND_SPARSE,
 };
+use super::weier_pattern::{self, DevicePattern};
 use crate::denoise::{DeviceGuides, GpuDenoiser};
 use crate::environment_light::EnvUniform;
 use crate::error::{GpuError, Result};
@@ -70,6 +71,9 @@ pub struct EyeShade {
     _no_guides: Option<[wgpu::Buffer; 3]>,
     bind_group: wgpu::BindGroup,
     groups: [u32; 2],
+    /// Weier's pattern in the runs buffer (a sparse layout's), written whole only when it
+    /// changes.
+    sparse: DevicePattern,
 }
 
 /// The per-frame tables of one eye's plan: each column's record (and one past the last), the
@@ -227,6 +231,14 @@ fn tables(plan: &FramePlan, layout: RayLayout) -> Tables {
         runs,
         centre: [polar.centre.x_px, polar.centre.y_px],
     }
+}
+
+/// Run records (two words each) Weier's pattern takes in the runs buffer, with its cone table
+/// (1 for another mapping).
+fn sparse_pairs(plan: &FramePlan) -> usize {
+    plan.mapping()
+        .weier_sparse()
+        .map_or(1, |m| weier_pattern::words_len(m, true).div_ceil(2))
 }
 
 /// The largest buffer (texels) and the most columns of `plan`'s mapping over gazes at the
@@ -411,6 +423,7 @@ impl EyeShade {
             _no_guides: no_guides,
             bind_group,
             groups,
+            sparse: DevicePattern::default(),
         })
     }
 
@@ -422,7 +435,8 @@ impl EyeShade {
             && self.guides.is_some() == plan.settings.denoise.is_some()
             && texels <= self.texel_capacity
             && tables.columns.len() <= self.columns_capacity
-            && tables.runs.len() <= self.runs_capacity;
+            && tables.runs.len() <= self.runs_capacity
+            && (layout != RayLayout::Sparse || sparse_pairs(plan) <= self.runs_capacity);
         if !fits {
             return false;
         }
@@ -484,6 +498,7 @@ impl EyeShade {
             kind: match self.layout {
                 RayLayout::Polar => KIND_POLAR,
                 RayLayout::Screen => KIND_SCREEN,
+                RayLayout::Sparse => KIND_SPARSE,
             },
             inf_bits: f32::INFINITY.to_bits(),
             unshadowed: u32::from(env_light == EnvLight::Unshadowed),
@@ -510,6 +525,19 @@ impl EyeShade {
         if self.layout == RayLayout::Polar {
             ctx.write_buffer(&self.columns, 0, bytemuck::cast_slice(&tables.columns));
             ctx.write_buffer(&self.runs, 0, bytemuck::cast_slice(&tables.runs));
+        }
+        if let (RayLayout::Sparse, Some(m)) = (self.layout, plan.mapping().weier_sparse()) {
+            // Weier's pattern where the runs would be: its four per-frame words, or every
+            // word (tables and cones) with the eye's first frame.
+            let gaze = plan.eye.gaze;
+            let spread = weier_pattern::Spread {
+                mapping: plan.mapping(),
+                display: &plan.display,
+                gaze,
+                floor_rad: plan.footprint.floor_rad,
+            };
+            let at = [gaze.point.x_px, gaze.point.y_px];
+            self.sparse.write(ctx, &self.runs, m, at, Some(&spread));
         }
     }
 
@@ -677,6 +705,7 @@ impl ResidentSamples {
                     )
                 }
                 RayLayout::Screen => (tables.columns.len(), tables.runs.len(), texels),
+                RayLayout::Sparse => (tables.columns.len(), sparse_pairs(plan), texels),
             };
             self.eyes[eye] = Some(EyeShade::new(
                 &self.scene,

@@ -11,6 +11,9 @@
 //! * [`screen`]: the screen side — reconstruction, depth of field and tone map of one eye's
 //!   [`DeviceSamples`] recorded into the caller's encoder ([`ScreenContext`]).
 //! * [`reconstruct`]: the polar reconstruction the screen side records ([`ResidentPolar`]).
+//! * [`pull_push`]: Weier's pull-push reconstruction the screen side records
+//!   ([`ResidentPullPush`]); [`weier_pattern`]: Weier's sparse pattern as device tables, read
+//!   by the shade kernels and the pull-push's mask.
 //! * [`binocular`]: both eyes' sample and screen sides in one encoder, one submission
 //!   ([`ResidentFrame`]).
 //! * [`temporal`]: temporal accumulation in sample space between the shading and the screen
@@ -26,6 +29,7 @@ pub mod binocular;
 pub mod compare;
 pub mod context;
 pub mod gaze_path;
+pub mod pull_push;
 pub mod reconstruct;
 pub mod run;
 // The sample buffers live beside the frame (`crate::samples`): the denoiser reads them too,
@@ -35,6 +39,7 @@ pub mod screen;
 pub mod shade;
 pub mod temporal;
 pub mod timing;
+pub mod weier_pattern;
 
 pub use binocular::{
     BinocularTimes, ResidentFrame, ToneSettings, BINOCULAR_PASSES, DENOISE_PASSES,
@@ -42,6 +47,7 @@ pub use binocular::{
 pub use compare::{compare_binocular, BinocularComparison, CompareParams, PathSummary};
 pub use context::{EyeShade, RecordTimes, ResidentSamples};
 pub use gaze_path::{GazePath, SACCADE_STEP_DEG};
+pub use pull_push::ResidentPullPush;
 pub use reconstruct::{PolarCapacity, ResidentPolar, TableUpload};
 pub use run::{refusal, FrameCounts, ResidentRun, Route};
 pub use samples::{DeviceSamples, SampleLayer};

@@ -15,7 +15,9 @@
 //! | `tonemap` | exposure, tone curve, 8-bit sRGB, four codes a word | `tonemap.wgsl` |
 //!
 //! Full resolution (the samples are the screen) skips the first two: `split` reads the sample
-//! layer itself. The DOF runs when the context was built with it and the frame has a focus.
+//! layer itself. So does Weier's sparse pattern (its samples are the screen's shaded pixels),
+//! whose pull-push reconstruction ([`ResidentPullPush`]) follows `split`, timed as
+//! `reconstruct`. The DOF runs when the context was built with it and the frame has a focus.
 //!
 //! A [`ScreenContext`] is built for one display, method, filter, DOF and tone settings and for
 //! sample buffers up to its [`ScreenLimits`]; it owns every buffer, bind group and pipeline of
@@ -38,6 +40,7 @@ use fovea_post::Rgb;
 use crate::device::GpuContext;
 use crate::dof::{coc_uniform, CocUniform, GatherUniform, OFFSET_BYTES, PLANE_BYTES};
 use crate::error::{GpuError, Result};
+use crate::frame::pull_push::{colour_bytes as pull_push_colour_bytes, ResidentPullPush};
 use crate::frame::reconstruct::{PolarCapacity, ResidentPolar, TableUpload};
 use crate::frame::samples::DeviceSamples;
 use crate::frame::timing::FrameTimer;
@@ -225,6 +228,8 @@ pub struct ScreenContext {
     width: u32,
     height: u32,
     polar: Option<ResidentPolar>,
+    /// Weier's reconstruction, after the split pass over the screen's colour and depth.
+    pull_push: Option<ResidentPullPush>,
     split: wgpu::ComputePipeline,
     split_uniform: wgpu::Buffer,
     /// The split pass's bindings and the buffer they read (the polar output, or the samples).
@@ -245,11 +250,17 @@ pub struct ScreenContext {
 
 impl ScreenContext {
     /// Whether the screen side runs `method`: the polar mappings (VaFR, KFR/LMFR, LaFR,
-    /// visual-polar) and full resolution. Guenter, the insets and Weier are not resident yet.
+    /// visual-polar), full resolution and Weier's sparse pattern (pull-push,
+    /// [`ResidentPullPush`]). Guenter and the insets are not resident yet.
     pub fn supports(method: Method) -> bool {
         matches!(
             method,
-            Method::Vafr | Method::Kfr | Method::Lafr | Method::VisualPolar | Method::Full
+            Method::Vafr
+                | Method::Kfr
+                | Method::Lafr
+                | Method::VisualPolar
+                | Method::Full
+                | Method::Weier
         )
     }
 
@@ -265,8 +276,8 @@ impl ScreenContext {
     ) -> Result<Self> {
         if !Self::supports(method) {
             return Err(GpuError::Unsupported(format!(
-                "the resident screen side for {method} (it runs vafr, kfr, lafr, visual-polar \
-                 and full; use the per-stage GPU path or --backend cpu)"
+                "the resident screen side for {method} (it runs vafr, kfr, lafr, visual-polar, \
+                 full and weier; use the per-stage GPU path or --backend cpu)"
             )));
         }
         if !config.exposure_stops.is_finite() {
@@ -285,8 +296,13 @@ impl ScreenContext {
         }
         let n_values = 3 * n;
         let n_words = n_values.div_ceil(4);
+        // Weier's screen colour is the pull-push pyramid's (level 0 the screen).
+        let color_bytes = match method {
+            Method::Weier => pull_push_colour_bytes(w, h),
+            _ => n * 12,
+        };
         for (what, bytes) in [
-            ("the screen's colour", n * 12),
+            ("the screen's colour", color_bytes),
             ("the screen's depth", n * 4),
             ("the tone-mapped screen", n_words * 4),
         ] {
@@ -320,14 +336,13 @@ impl ScreenContext {
             None => None,
         };
         let polar = match method {
-            Method::Full if config.aa.is_some() => {
-                return Err(GpuError::Unsupported(
-                    "sample-space AA on the resident screen side at full resolution (it runs \
-                     on polar buffers)"
-                        .into(),
-                ))
+            Method::Full | Method::Weier if config.aa.is_some() => {
+                return Err(GpuError::Unsupported(format!(
+                    "sample-space AA on the resident screen side for {method} (it runs on \
+                     polar buffers)"
+                )))
             }
-            Method::Full => None,
+            Method::Full | Method::Weier => None,
             _ => Some(ResidentPolar::new(
                 ctx,
                 display,
@@ -362,7 +377,7 @@ impl ScreenContext {
                 );
                 let color = buffer(
                     "screen colour",
-                    n * 12,
+                    color_bytes,
                     storage | wgpu::BufferUsages::COPY_SRC,
                 );
                 let depth = buffer(
@@ -398,6 +413,10 @@ impl ScreenContext {
                 )
             })?;
         let (split, tone) = (split.ok_or_else(missing)?, tone.ok_or_else(missing)?);
+        let pull_push = match method {
+            Method::Weier => Some(ResidentPullPush::new(ctx, w, h, &color, &depth)?),
+            _ => None,
+        };
         let dof = match (&config.dof, dof_tables) {
             (Some(d), Some(t)) => Some(ctx.scoped(&what, || -> Result<DofPasses> {
                 let mut coc_p = crate::dof::COC_SHADER.pipelines(device);
@@ -567,6 +586,7 @@ impl ScreenContext {
             width: w,
             height: h,
             polar,
+            pull_push,
             split,
             split_uniform,
             split_bind: None,
@@ -700,6 +720,9 @@ impl ScreenContext {
             height: self.height,
             pad: 0,
         };
+        if let Some(pp) = &mut self.pull_push {
+            pp.prepare(mapping)?;
+        }
         let same_source = self.split_bind.as_ref().is_some_and(|(b, _)| *b == source);
         let ctx = &self.ctx;
         ctx.scoped("recording the resident screen side", || {
@@ -738,6 +761,10 @@ impl ScreenContext {
                 pass.set_pipeline(&self.split);
                 pass.set_bind_group(0, split_bind, &[]);
                 pass.dispatch_workgroups(w.div_ceil(WORKGROUP_SIZE), h, 1);
+            }
+            // Weier: the pull-push over the split's colour and depth, timed as `reconstruct`.
+            if let Some(pp) = &self.pull_push {
+                pp.record(encoder, timer.as_deref_mut().and_then(|t| t.writes(2)))?;
             }
             let mut tone_bind = &self.tone_from_color;
             if let (Some(d), Some(_)) = (&self.dof, &dof_coc) {

@@ -44,7 +44,8 @@ pub const SHADER: ShaderSource = ShaderSource {
         include_str!("../../shaders/ray_generation.wgsl"),
         include_str!("../../shaders/surface.wgsl"),
         include_str!("../../shaders/environment_light.wgsl"),
-        include_str!("../../shaders/frame_shade.wgsl")
+        include_str!("../../shaders/frame_shade.wgsl"),
+        include_str!("../../shaders/frame_sparse.wgsl")
     ),
     entry_points: &[
         "closest_hit",
@@ -81,6 +82,9 @@ pub const GBUFFER_TEXEL_BYTES: u64 = 32;
 pub const KIND_POLAR: u32 = 0;
 /// `FrameParams.kind` of a screen-aligned (full-resolution) buffer.
 pub const KIND_SCREEN: u32 = 1;
+/// `FrameParams.kind` of Weier's sparse screen pattern: a screen-aligned buffer shaded where
+/// the pattern's tables in the runs binding say (`frame_sparse.wgsl`).
+pub const KIND_SPARSE: u32 = 2;
 
 /// `FrameLayer` of `frame_shade.wgsl`.
 #[repr(C)]
@@ -155,6 +159,9 @@ pub enum RayLayout {
     Polar,
     /// Through the screen point of the texel (full resolution).
     Screen,
+    /// Through the screen point of the texel where Weier's sparse pattern casts a ray
+    /// ([`super::weier_pattern`]).
+    Sparse,
 }
 
 /// Whether the resident kernel renders `plan`'s samples exactly as the CPU's
@@ -200,6 +207,9 @@ pub fn supports(plan: &FramePlan) -> Result<RayLayout> {
     }
     if plan.method() == Method::Full {
         return Ok(RayLayout::Screen);
+    }
+    if plan.method() == Method::Weier && mapping.weier_sparse().is_some() {
+        return Ok(RayLayout::Sparse);
     }
     unsupported(format!(
         "the {} mapping's screen-aligned samples in the resident frame",
