@@ -242,6 +242,22 @@ impl ResidentFrame {
         Ok(())
     }
 
+    /// Whether the resident frame accumulates `plan`'s frames temporally (with
+    /// [`Self::set_temporal`] on): `Ok`, or the [`GpuError::Unsupported`] that [`Self::render`]
+    /// returns before anything is sent — Weier's frames, which the CPU accumulates in screen
+    /// space (`fovea_render::temporal::weier_taa`: the reconstructed frame kept as a pyramid
+    /// history), not in sample space as the resident temporal pass does.
+    pub fn supports_temporal(plan: &FramePlan) -> Result<()> {
+        if plan.method() == Method::Weier {
+            return Err(GpuError::Unsupported(format!(
+                "temporal accumulation of the {} method in the resident frame (its screen-space \
+                 pyramid history is CPU-only; turn temporal off or use --backend cpu)",
+                plan.method()
+            )));
+        }
+        Ok(())
+    }
+
     /// The scene of `world` on `ctx`, each eye's screen side for `plans` (index = eye: left,
     /// right) seen by `cameras`, and the timers; each eye's sample buffers are made with its
     /// first frame. Refuses what [`Self::supports`] refuses, before allocating anything.
@@ -404,15 +420,8 @@ impl ResidentFrame {
             Self::supports(plans[e], cameras[e])?;
         }
         if self.temporal.is_some() {
-            if let Some(p) = plans.iter().find(|p| p.method() == Method::Weier) {
-                // The CPU accumulates Weier's frames in screen space (`temporal::weier_taa`:
-                // the reconstructed frame kept as a pyramid history), not in sample space.
-                return Err(GpuError::Unsupported(format!(
-                    "temporal accumulation of the {} method in the resident frame (its \
-                     screen-space pyramid history is CPU-only; turn temporal off or use \
-                     --backend cpu)",
-                    p.method()
-                )));
+            for p in plans {
+                Self::supports_temporal(p)?;
             }
         }
         for e in 0..2 {
