@@ -55,3 +55,32 @@ fn split_planes(@builtin(global_invocation_id) gid: vec3<u32>) {
     blue[k] = px.z;
     depth[k] = px.w;
 }
+
+// Weier's pull-push works on an interleaved pyramid (`shaders/pull_push.wgsl`, level 0 the
+// screen): `planes_to_rgb` copies the planes into its level 0 before the pull, `rgb_to_planes`
+// copies the push's result back (src/frame/pull_push.rs). Bits only, as above.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn planes_to_rgb(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let x = gid.x;
+    let y = gid.y;
+    if x >= params.width || y >= params.height {
+        return;
+    }
+    let k = y * params.width + x;
+    color[3u * k] = red[k];
+    color[3u * k + 1u] = green[k];
+    color[3u * k + 2u] = blue[k];
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn rgb_to_planes(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let x = gid.x;
+    let y = gid.y;
+    if x >= params.width || y >= params.height {
+        return;
+    }
+    let k = y * params.width + x;
+    red[k] = color[3u * k];
+    green[k] = color[3u * k + 1u];
+    blue[k] = color[3u * k + 2u];
+}

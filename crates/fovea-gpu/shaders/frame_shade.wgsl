@@ -105,6 +105,9 @@ struct FrameColumn {
 
 const FRAME_POLAR: u32 = 0u;
 const FRAME_SCREEN: u32 = 1u;
+// Weier's sparse pattern: screen-aligned, shaded where `sparse_shaded` (frame_sparse.wgsl,
+// appended) says from the pattern's tables in `frame_runs`, each ray's cone `sparse_spread`.
+const FRAME_SPARSE: u32 = 3u;
 // A texel's state in `frame_material` (w of its second record).
 const STATE_HIT: f32 = 0.0;
 const STATE_MISS: f32 = 1.0;
@@ -148,6 +151,11 @@ fn frame_point(i: u32, j: u32) -> vec4<f32> {
     }
     if frame.kind != FRAME_POLAR {
         let p = camera.centre + vec2<f32>(f32(i) + frame.offset.x, f32(j) + frame.offset.y);
+        if frame.kind == FRAME_SPARSE {
+            // The cone from the screen point itself (p is relative to the principal point).
+            let s = vec2<f32>(f32(i) + frame.offset.x, f32(j) + frame.offset.y);
+            return vec4<f32>(p, sparse_spread(s), select(0.0, 1.0, sparse_shaded(i, j)));
+        }
         return vec4<f32>(p, frame.pixel_spread, 1.0);
     }
     var shaded = frame_shaded(i, j);

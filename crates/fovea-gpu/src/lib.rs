@@ -133,4 +133,5 @@ pub const ALL_SHADERS: &[shaders::ShaderSource] = &[
     frame::shade::SHADER,
     frame::temporal::SHADER,
     frame::layers::SHADER,
+    frame::pull_push::MASK_SHADER,
 ];

@@ -50,7 +50,7 @@ pub const SHADER: ShaderSource = ShaderSource {
 };
 
 /// Bytes per pixel of the colour pyramid (r, g, b as f32).
-const RGB_BYTES: u64 = 12;
+pub(crate) const RGB_BYTES: u64 = 12;
 
 /// The uniform block `PullPushParams` of `pull_push.wgsl` (same field order; see there). One
 /// per dispatch.
@@ -115,16 +115,16 @@ type Dispatch = (wgpu::BindGroup, (u32, u32));
 
 /// One level of the pyramid: size and offsets (pixels) in the colour and weight buffers.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Level {
-    w: u32,
-    h: u32,
-    off: u64,
-    wt_off: u64,
+pub(crate) struct Level {
+    pub(crate) w: u32,
+    pub(crate) h: u32,
+    pub(crate) off: u64,
+    pub(crate) wt_off: u64,
 }
 
 /// The pyramid of a `w`×`h` screen (the CPU's: halve, rounding up, down to 1×1), with the
 /// colour buffer's and the weight buffer's lengths in pixels.
-fn pyramid(w: u32, h: u32) -> (Vec<Level>, u64, u64) {
+pub(crate) fn pyramid(w: u32, h: u32) -> (Vec<Level>, u64, u64) {
     let mut levels = vec![Level {
         w,
         h,

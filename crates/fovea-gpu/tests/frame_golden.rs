@@ -5,7 +5,7 @@
 //! as a 16-bit PNG of its Reinhard + sRGB encoding. Its `realtime-*` cases are the shading the
 //! resident frame serves (`--quality realtime`: direct light, one occluded environment ray);
 //! every other case needs indirect light, path tracing, contrast, another DOF
-//! filter, Guenter, the insets or Weier, which `ResidentFrame::supports` refuses (the denoiser
+//! filter, Guenter or the insets, which `ResidentFrame::supports` refuses (the denoiser, Weier
 //! and temporal accumulation run resident since; `vafr-denoise` needs indirect light)
 //! (checked below, so a case that becomes resident is noticed). Each served case is rendered
 //! here through `fovea_gpu::frame::ResidentRun` (the plan as the golden test makes it, for
@@ -104,12 +104,20 @@ fn served() -> Vec<Case> {
             54.0,
         ),
         case("realtime-vafr-no-aa", no_aa, off_centre(), 56.0),
+        case(
+            "realtime-weier",
+            realtime(Method::Weier),
+            off_centre(),
+            56.0,
+        ),
         case("realtime-dof-gather-full-1m", dof, off_centre(), 56.0),
     ]
 }
 
 /// Golden cases the resident frame must refuse, with what refuses them (a sample of the
-/// others: offline shading, contrast, another DOF filter, the inset's Laplacian blend, Weier). The denoiser is
+/// others: offline shading, contrast, another DOF filter, the inset's Laplacian blend).
+/// Guenter, the inset's alpha blend and Weier run resident since (`tests/frame_layers.rs`,
+/// `tests/frame_weier.rs`). The denoiser is
 /// served since it runs in the resident frame (checked against the CPU in
 /// `frame_binocular.rs`).
 fn refused() -> Vec<(&'static str, FrameSettings)> {
@@ -127,7 +135,6 @@ fn refused() -> Vec<(&'static str, FrameSettings)> {
         ("contrast", contrast),
         ("bokeh", bokeh),
         ("inset-laplacian", inset_laplacian),
-        ("weier", realtime(Method::Weier)),
     ]
 }
 

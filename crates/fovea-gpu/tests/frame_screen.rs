@@ -815,7 +815,22 @@ fn unsupported_methods_and_mismatched_frames_are_refused_before_recording() {
     let display = display();
     let limits = limits(&display);
     let cfg = config(ReconstructFilter::Footprint, None);
-    for method in [Method::Weier] {
+    // Every method runs on the screen side now; what it still refuses is a setting: the
+    // inset's Laplacian-pyramid boundary, and sample-space AA on screen-aligned samples.
+    let laplacian = ScreenConfig {
+        inset_smoothing: fovea_post::inset_smoothing::Smoothing::LAPLACIAN,
+        ..cfg.clone()
+    };
+    let aa = ScreenConfig {
+        aa: Some(fovea_gpu::sample_aa::SampleFilter::Gaussian),
+        ..cfg.clone()
+    };
+    for (method, cfg) in [
+        (Method::Inset, &laplacian),
+        (Method::Weier, &aa),
+        (Method::Guenter, &aa),
+        (Method::Full, &aa),
+    ] {
         let e = ScreenContext::new(&ctx, &display, method, cfg.clone(), limits)
             .err()
             .unwrap();

@@ -233,6 +233,12 @@ pub trait FoveationMapping: Send + Sync {
     fn screen_layers(&self) -> Vec<ScreenLayer> {
         Vec::new()
     }
+
+    /// Weier's sparse screen pattern behind this mapping, for an executor that evaluates
+    /// its tables itself (the resident GPU frame); `None` for every other mapping.
+    fn weier_sparse(&self) -> Option<&WeierSparse> {
+        None
+    }
 }
 
 /// One column of a polar buffer: the circle of radius `r_px` around `centre`, turned once

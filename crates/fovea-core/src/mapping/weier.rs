@@ -254,6 +254,26 @@ impl WeierSparse {
     pub fn radii_px(&self) -> (f64, f64) {
         (self.r0_px, self.r1_px)
     }
+
+    /// The pixel `S_in` is centred on: the point of regard, floored.
+    pub fn anchor_px(&self) -> (i64, i64) {
+        self.anchor
+    }
+
+    /// Half the side of `S_in`, pixels: `S_in` holds offsets up to `±half` both ways.
+    pub fn s_in_half(&self) -> i64 {
+        self.half
+    }
+
+    /// The parameters the tables were built from.
+    pub fn sparse_params(&self) -> WeierParams {
+        self.params
+    }
+
+    /// The screen the pattern covers, pixels.
+    pub fn screen_px(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
 }
 
 /// Weier's acuity probability: 1 inside r₀, linear to `p_min` at r₁, `p_min` beyond.
@@ -365,6 +385,9 @@ impl FoveationMapping for WeierSparse {
     }
     fn tangential_rate_cpd(&self, e_deg: f64) -> f64 {
         self.radial_rate_cpd(e_deg)
+    }
+    fn weier_sparse(&self) -> Option<&WeierSparse> {
+        Some(self)
     }
 }
 

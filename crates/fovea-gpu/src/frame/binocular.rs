@@ -24,7 +24,7 @@
 
 use std::time::Instant;
 
-use fovea_core::mapping::FoveationMapping;
+use fovea_core::mapping::{FoveationMapping, Method};
 use fovea_core::units::Metres;
 use fovea_post::dof::gather::ScatterAsGather;
 use fovea_post::dof::FilterKind;
@@ -146,7 +146,7 @@ fn screen_config(plan: &FramePlan, camera: &EyeCamera, tone: ToneSettings) -> Re
     if !ScreenContext::supports(method) {
         return Err(GpuError::Unsupported(format!(
             "the {method} mapping in the resident frame (it runs vafr, kfr, lafr, \
-             visual-polar, guenter, inset and full; use the staged --backend gpu or --backend cpu)"
+             visual-polar, guenter, inset, full and weier; use the staged --backend gpu or --backend cpu)"
         )));
     }
     if let Some(d) = &plan.settings.denoise {
@@ -224,6 +224,22 @@ impl ResidentFrame {
             return Err(GpuError::Input(
                 "the camera's display is not the plan's".into(),
             ));
+        }
+        Ok(())
+    }
+
+    /// Whether the resident frame accumulates `plan`'s frames temporally (with
+    /// [`Self::set_temporal`] on): `Ok`, or the [`GpuError::Unsupported`] that [`Self::render`]
+    /// returns before anything is sent — Weier's frames, which the CPU accumulates in screen
+    /// space (`fovea_render::temporal::weier_taa`: the reconstructed frame kept as a pyramid
+    /// history), not in sample space as the resident temporal pass does.
+    pub fn supports_temporal(plan: &FramePlan) -> Result<()> {
+        if plan.method() == Method::Weier {
+            return Err(GpuError::Unsupported(format!(
+                "temporal accumulation of the {} method in the resident frame (its screen-space \
+                 pyramid history is CPU-only; turn temporal off or use --backend cpu)",
+                plan.method()
+            )));
         }
         Ok(())
     }
@@ -388,6 +404,11 @@ impl ResidentFrame {
         let t = Instant::now();
         for e in 0..2 {
             Self::supports(plans[e], cameras[e])?;
+        }
+        if self.temporal.is_some() {
+            for p in plans {
+                Self::supports_temporal(p)?;
+            }
         }
         for e in 0..2 {
             self.ensure_screen(e, plans[e], cameras[e])?;

@@ -241,13 +241,23 @@ pub fn compare_binocular(ctx: &GpuContext, p: &CompareParams<'_>) -> Result<Bino
     let world = p.world;
     let mut caches = [PlanCache::new(), PlanCache::new()];
     let (cams, plans, _) = plans_of(p, 0, &mut caches)?;
-    let mut route = Route::decide(
-        ctx,
-        world,
-        [&plans[0], &plans[1]],
-        [&cams[0], &cams[1]],
-        p.tone,
-    )?;
+    // Temporal accumulation the resident frame does not run (Weier's) stages the frames.
+    let temporal_refusal = p.temporal.and_then(|_| {
+        plans
+            .iter()
+            .find_map(|pl| super::ResidentFrame::supports_temporal(pl).err())
+    });
+    let mut route = match temporal_refusal {
+        Some(GpuError::Unsupported(what)) => Route::Staged(format!("not served: {what}")),
+        Some(e) => return Err(e),
+        None => Route::decide(
+            ctx,
+            world,
+            [&plans[0], &plans[1]],
+            [&cams[0], &cams[1]],
+            p.tone,
+        )?,
+    };
     if let Route::Resident(run) = &mut route {
         run.set_temporal(p.temporal)?;
     }

@@ -37,8 +37,9 @@ use super::layers::{self, LayerPass, ShadeLayerGpu};
 use super::samples::DeviceSamples;
 use super::shade::{
     supports, FrameColumnGpu, FrameLayerGpu, FrameUniform, RayLayout, ShadeScene,
-    GBUFFER_TEXEL_BYTES, KIND_LAYERED, KIND_POLAR, KIND_SCREEN,
+    GBUFFER_TEXEL_BYTES, KIND_LAYERED, KIND_POLAR, KIND_SCREEN, KIND_SPARSE,
 };
+use super::weier_pattern::{self, DevicePattern};
 use crate::denoise::{DeviceGuides, GpuDenoiser};
 use crate::environment_light::EnvUniform;
 use crate::error::{GpuError, Result};
@@ -75,6 +76,9 @@ pub struct EyeShade {
     layer_block: wgpu::Buffer,
     /// Layers past the first of a layered buffer, each dispatched with its own uniforms.
     more: Vec<LayerPass>,
+    /// Weier's pattern in the runs buffer (a sparse layout's), written whole only when it
+    /// changes.
+    sparse: DevicePattern,
 }
 
 /// The per-frame tables of one eye's plan: each column's record (and one past the last), the
@@ -232,6 +236,14 @@ fn tables(plan: &FramePlan, layout: RayLayout) -> Tables {
         runs,
         centre: [polar.centre.x_px, polar.centre.y_px],
     }
+}
+
+/// Run records (two words each) Weier's pattern takes in the runs buffer, with its cone table
+/// (1 for another mapping).
+fn sparse_pairs(plan: &FramePlan) -> usize {
+    plan.mapping()
+        .weier_sparse()
+        .map_or(1, |m| weier_pattern::words_len(m, true).div_ceil(2))
 }
 
 /// The largest buffer (texels) and the most columns of `plan`'s mapping over gazes at the
@@ -433,6 +445,7 @@ impl EyeShade {
             groups,
             layer_block: layered.0,
             more: layered.1,
+            sparse: DevicePattern::default(),
         })
     }
 
@@ -445,7 +458,8 @@ impl EyeShade {
             && texels <= self.texel_capacity
             && tables.columns.len() <= self.columns_capacity
             && tables.runs.len() <= self.runs_capacity
-            && (plan.buffers.len() == 1 || self.sizes == plan.buffers);
+            && (plan.buffers.len() == 1 || self.sizes == plan.buffers)
+            && (layout != RayLayout::Sparse || sparse_pairs(plan) <= self.runs_capacity);
         if !fits {
             return false;
         }
@@ -509,6 +523,7 @@ impl EyeShade {
                 RayLayout::Polar => KIND_POLAR,
                 RayLayout::Screen => KIND_SCREEN,
                 RayLayout::Layered => KIND_LAYERED,
+                RayLayout::Sparse => KIND_SPARSE,
             },
             inf_bits: f32::INFINITY.to_bits(),
             unshadowed: u32::from(env_light == EnvLight::Unshadowed),
@@ -544,6 +559,19 @@ impl EyeShade {
         if self.layout == RayLayout::Polar {
             ctx.write_buffer(&self.columns, 0, bytemuck::cast_slice(&tables.columns));
             ctx.write_buffer(&self.runs, 0, bytemuck::cast_slice(&tables.runs));
+        }
+        if let (RayLayout::Sparse, Some(m)) = (self.layout, plan.mapping().weier_sparse()) {
+            // Weier's pattern where the runs would be: its four per-frame words, or every
+            // word (tables and cones) with the eye's first frame.
+            let gaze = plan.eye.gaze;
+            let spread = weier_pattern::Spread {
+                mapping: plan.mapping(),
+                display: &plan.display,
+                gaze,
+                floor_rad: plan.footprint.floor_rad,
+            };
+            let at = [gaze.point.x_px, gaze.point.y_px];
+            self.sparse.write(ctx, &self.runs, m, at, Some(&spread));
         }
     }
 
@@ -726,6 +754,7 @@ impl ResidentSamples {
                 RayLayout::Screen | RayLayout::Layered => {
                     (tables.columns.len(), tables.runs.len(), texels)
                 }
+                RayLayout::Sparse => (tables.columns.len(), sparse_pairs(plan), texels),
             };
             self.eyes[eye] = Some(EyeShade::new(
                 &self.scene,

@@ -13,6 +13,9 @@
 //! * [`layers`]: screen-aligned layered buffers (Guenter's layers) on both sides
 //!   ([`ResidentLayers`]).
 //! * [`reconstruct`]: the polar reconstruction the screen side records ([`ResidentPolar`]).
+//! * [`pull_push`]: Weier's pull-push reconstruction the screen side records
+//!   ([`ResidentPullPush`]); [`weier_pattern`]: Weier's sparse pattern as device tables, read
+//!   by the shade kernels and the pull-push's mask.
 //! * [`binocular`]: both eyes' sample and screen sides in one encoder, one submission
 //!   ([`ResidentFrame`]).
 //! * [`temporal`]: temporal accumulation in sample space between the shading and the screen
@@ -29,6 +32,7 @@ pub mod compare;
 pub mod context;
 pub mod gaze_path;
 pub mod layers;
+pub mod pull_push;
 pub mod reconstruct;
 pub mod run;
 // The sample buffers live beside the frame (`crate::samples`): the denoiser reads them too,
@@ -38,6 +42,7 @@ pub mod screen;
 pub mod shade;
 pub mod temporal;
 pub mod timing;
+pub mod weier_pattern;
 
 pub use binocular::{
     BinocularTimes, ResidentFrame, ToneSettings, BINOCULAR_PASSES, DENOISE_PASSES,
@@ -47,6 +52,7 @@ pub use context::{EyeShade, RecordTimes, ResidentSamples};
 pub use gaze_path::{GazePath, SACCADE_STEP_DEG};
 pub use layers::ResidentLayers;
 pub use reconstruct::{PolarCapacity, ResidentPolar, ScreenPlanes, TableUpload};
+pub use pull_push::ResidentPullPush;
 pub use run::{refusal, FrameCounts, ResidentRun, Route};
 pub use samples::{DeviceSamples, SampleLayer};
 pub use screen::{

@@ -15,7 +15,11 @@
 //! | `tonemap` | exposure, tone curve, 8-bit sRGB, four codes a word | `tonemap.wgsl::tonemap_planes` |
 //!
 //! Full resolution (the samples are the screen) skips the first three and runs `split`; a
-//! polar mapping's reconstruction writes the planes itself. The DOF runs when the context was
+//! polar mapping's reconstruction writes the planes itself. Weier's sparse pattern (its
+//! samples are the screen's shaded pixels) runs `split` too, then its pull-push
+//! reconstruction ([`ResidentPullPush`], timed as `reconstruct`) fills the planes' holes;
+//! Guenter's layers and the inset composite into a screen that `split` reads
+//! ([`ResidentLayers`]). The DOF runs when the context was
 //! built with it and the frame has a focus.
 //!
 //! **Every per-pixel buffer holds 4 bytes a pixel** (issue 37): the linear colour as three
@@ -50,6 +54,7 @@ use crate::device::GpuContext;
 use crate::dof::{coc_uniform, CocUniform, GatherUniform, OFFSET_BYTES};
 use crate::error::{GpuError, Result};
 use crate::frame::layers::ResidentLayers;
+use crate::frame::pull_push::ResidentPullPush;
 use crate::frame::reconstruct::{PolarCapacity, ResidentPolar, ScreenPlanes, TableUpload};
 use crate::frame::samples::DeviceSamples;
 use crate::frame::timing::FrameTimer;
@@ -66,7 +71,7 @@ pub const SPLIT_SHADER: ShaderSource = ShaderSource {
         include_str!("../../shaders/common.wgsl"),
         include_str!("../../shaders/frame_screen_split.wgsl")
     ),
-    entry_points: &["split_screen", "split_planes"],
+    entry_points: &["split_screen", "split_planes", "planes_to_rgb", "rgb_to_planes"],
     uniform: ("SplitParams", std::mem::size_of::<SplitUniform>()),
 };
 
@@ -362,6 +367,8 @@ pub struct ScreenContext {
     polar: Option<ResidentPolar>,
     /// Guenter's layers' reconstruction (`crate::frame::layers`).
     layers: Option<ResidentLayers>,
+    /// Weier's reconstruction, after the split pass over the screen's planes.
+    pull_push: Option<ResidentPullPush>,
     split: wgpu::ComputePipeline,
     split_uniform: wgpu::Buffer,
     /// The split pass's bindings and the sample buffer they read (full resolution only).
@@ -384,8 +391,8 @@ pub struct ScreenContext {
 
 impl ScreenContext {
     /// Whether the screen side runs `method`: the polar mappings (VaFR, KFR/LMFR, LaFR,
-    /// visual-polar), Guenter's layers, the inset and full resolution. Weier is not resident
-    /// yet.
+    /// visual-polar), Guenter's layers, the inset, full resolution and Weier's sparse pattern
+    /// (pull-push, [`ResidentPullPush`]).
     pub fn supports(method: Method) -> bool {
         matches!(
             method,
@@ -396,6 +403,7 @@ impl ScreenContext {
                 | Method::Guenter
                 | Method::Inset
                 | Method::Full
+                | Method::Weier
         )
     }
 
@@ -412,7 +420,7 @@ impl ScreenContext {
         if !Self::supports(method) {
             return Err(GpuError::Unsupported(format!(
                 "the resident screen side for {method} (it runs vafr, kfr, lafr, visual-polar, \
-                 guenter, inset and full; use the per-stage GPU path or --backend cpu)"
+                 guenter, inset, full and weier; use the per-stage GPU path or --backend cpu)"
             )));
         }
         if !config.exposure_stops.is_finite() {
@@ -458,12 +466,11 @@ impl ScreenContext {
             }
             None => None,
         };
-        if method == Method::Full && config.aa.is_some() {
-            return Err(GpuError::Unsupported(
-                "sample-space AA on the resident screen side at full resolution (it runs on \
-                 polar buffers)"
-                    .into(),
-            ));
+        if matches!(method, Method::Full | Method::Weier) && config.aa.is_some() {
+            return Err(GpuError::Unsupported(format!(
+                "sample-space AA on the resident screen side for {method} (it runs on polar \
+                 buffers)"
+            )));
         }
         if matches!(method, Method::Guenter | Method::Inset) && config.aa.is_some() {
             return Err(GpuError::Unsupported(format!(
@@ -534,7 +541,7 @@ impl ScreenContext {
             })?;
         let (split, tone) = (split.ok_or_else(missing)?, tone.ok_or_else(missing)?);
         let polar = match method {
-            Method::Full | Method::Guenter | Method::Inset => None,
+            Method::Full | Method::Weier | Method::Guenter | Method::Inset => None,
             _ => Some(ResidentPolar::new(
                 ctx,
                 display,
@@ -546,6 +553,16 @@ impl ScreenContext {
                     depth: &depth,
                 },
             )?),
+        };
+        let pull_push = match method {
+            Method::Weier => Some(ResidentPullPush::new(
+                ctx,
+                w,
+                h,
+                [&color[0], &color[1], &color[2]],
+                &depth,
+            )?),
+            _ => None,
         };
         let dof = match (&config.dof, dof_tables) {
             (Some(d), Some(t)) => Some(ctx.scoped(&what, || -> Result<DofPasses> {
@@ -731,6 +748,7 @@ impl ScreenContext {
             height: h,
             polar,
             layers,
+            pull_push,
             split,
             split_uniform,
             split_bind: None,
@@ -864,6 +882,9 @@ impl ScreenContext {
             }
             _ => None,
         };
+        if let Some(pp) = &mut self.pull_push {
+            pp.prepare(mapping)?;
+        }
         let ctx = &self.ctx;
         ctx.scoped("recording the resident screen side", || {
             if let (Some(d), Some(u)) = (&self.dof, &dof_coc) {
@@ -913,6 +934,10 @@ impl ScreenContext {
                 pass.set_pipeline(&self.split);
                 pass.set_bind_group(0, split_bind, &[]);
                 pass.dispatch_workgroups(w.div_ceil(WORKGROUP_SIZE), h, 1);
+            }
+            // Weier: the pull-push over the split's colour and depth, timed as `reconstruct`.
+            if let Some(pp) = &self.pull_push {
+                pp.record(encoder, timer.as_deref_mut().and_then(|t| t.writes(2)))?;
             }
             let mut tone_bind = &self.tone_from_color;
             if let (Some(d), Some(_)) = (&self.dof, &dof_coc) {

@@ -45,7 +45,8 @@ pub const SHADER: ShaderSource = ShaderSource {
         include_str!("../../shaders/surface.wgsl"),
         include_str!("../../shaders/environment_light.wgsl"),
         include_str!("../../shaders/frame_shade_layers.wgsl"),
-        include_str!("../../shaders/frame_shade.wgsl")
+        include_str!("../../shaders/frame_shade.wgsl"),
+        include_str!("../../shaders/frame_sparse.wgsl")
     ),
     entry_points: &[
         "closest_hit",
@@ -85,6 +86,9 @@ pub const KIND_SCREEN: u32 = 1;
 /// `FrameParams.kind` of a layer of a screen-aligned layered buffer (Guenter's layers;
 /// `super::layers`).
 pub const KIND_LAYERED: u32 = 2;
+/// `FrameParams.kind` of Weier's sparse screen pattern: a screen-aligned buffer shaded where
+/// the pattern's tables in the runs binding say (`frame_sparse.wgsl`).
+pub const KIND_SPARSE: u32 = 3;
 
 /// `FrameLayer` of `frame_shade.wgsl`.
 #[repr(C)]
@@ -162,6 +166,9 @@ pub enum RayLayout {
     /// Through the screen point of the texel in its layer, one dispatch per layer
     /// (Guenter's layers; [`super::layers`]).
     Layered,
+    /// Through the screen point of the texel where Weier's sparse pattern casts a ray
+    /// ([`super::weier_pattern`]).
+    Sparse,
 }
 
 /// Whether the resident kernel renders `plan`'s samples exactly as the CPU's
@@ -211,6 +218,9 @@ pub fn supports(plan: &FramePlan) -> Result<RayLayout> {
     }
     if plan.method() == Method::Full {
         return Ok(RayLayout::Screen);
+    }
+    if plan.method() == Method::Weier && mapping.weier_sparse().is_some() {
+        return Ok(RayLayout::Sparse);
     }
     unsupported(format!(
         "the {} mapping's screen-aligned samples in the resident frame",
