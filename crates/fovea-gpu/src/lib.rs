@@ -131,5 +131,6 @@ pub const ALL_SHADERS: &[shaders::ShaderSource] = &[
     frame::screen::PRESENT_SHADER,
     denoise::SHADER,
     frame::shade::SHADER,
+    frame::bounce::SHADER,
     frame::temporal::SHADER,
 ];

@@ -24,7 +24,7 @@
 //!   against `render_planned` with the same settings (the CPU's `fovea_post::denoise`),
 //!   ≥ 40 dB, and nearer to it than to the CPU's frame without denoising (so the GPU did
 //!   denoise); the steady frames' counters as above; the denoiser's GPU ms from the timers;
-//! * what the resident frame does not serve (indirect light, Guenter's layers, peripheral
+//! * what the resident frame does not serve (path tracing, Guenter's layers, peripheral
 //!   contrast) is refused with `GpuError::Unsupported` naming it, with nothing uploaded,
 //!   created or submitted.
 //!
@@ -356,8 +356,14 @@ fn what_the_frame_does_not_serve_is_refused_before_anything_is_sent() {
     };
     let cases = [
         (
-            with(&|s: &mut FrameSettings| s.shading = ShadingMode::DEFAULT),
-            "indirect",
+            with(&|s: &mut FrameSettings| {
+                s.shading = ShadingMode::Path {
+                    bounces: 2,
+                    spp: 1,
+                    seed: 0,
+                }
+            }),
+            "path tracing",
         ),
         (settings(Method::Guenter), "sample layers"),
         (

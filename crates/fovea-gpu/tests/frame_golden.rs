@@ -4,10 +4,11 @@
 //! `fovea-render/tests/golden.rs` pins each method's frame of the built-in scene at 160×180
 //! as a 16-bit PNG of its Reinhard + sRGB encoding. Its `realtime-*` cases are the shading the
 //! resident frame serves (`--quality realtime`: direct light, one occluded environment ray);
-//! every other case needs indirect light, path tracing, contrast, another DOF
-//! filter, Guenter, the insets or Weier, which `ResidentFrame::supports` refuses (the denoiser
-//! and temporal accumulation run resident since; `vafr-denoise` needs indirect light)
-//! (checked below, so a case that becomes resident is noticed). Each served case is rendered
+//! the others need path tracing, contrast, another DOF filter, Guenter, the insets or Weier,
+//! which `ResidentFrame::supports` refuses (checked below, so a case that becomes resident is
+//! noticed), or are the offline preset's indirect light, which runs resident since (the
+//! bounce kernels, checked against the CPU in `frame_indirect.rs`) but is not compared here;
+//! the denoiser and temporal accumulation run resident too. Each served case is rendered
 //! here through `fovea_gpu::frame::ResidentRun` (the plan as the golden test makes it, for
 //! both eyes of the frame), its 8-bit image read back, and compared with the stored file:
 //! PSNR of the three encoded channels, each 8-bit code `c` as `257·c` against the 16-bit
@@ -36,6 +37,7 @@ use fovea_render::dof::{DofSettings, FocusMode};
 use fovea_render::pipeline::{plan_frame, AaMode, FrameSettings};
 use fovea_render::quality::Quality;
 use fovea_render::scene::builtin;
+use fovea_render::shade::ShadingMode;
 use fovea_render::world::World;
 
 const WIDTH: u32 = 160;
@@ -109,10 +111,16 @@ fn served() -> Vec<Case> {
 }
 
 /// Golden cases the resident frame must refuse, with what refuses them (a sample of the
-/// others: offline shading, contrast, another DOF filter, Guenter, Weier). The denoiser is
+/// others: path tracing, contrast, another DOF filter, Guenter, Weier). The denoiser is
 /// served since it runs in the resident frame (checked against the CPU in
 /// `frame_binocular.rs`).
 fn refused() -> Vec<(&'static str, FrameSettings)> {
+    let mut path = realtime(Method::Vafr);
+    path.shading = ShadingMode::Path {
+        bounces: 2,
+        spp: 1,
+        seed: 0,
+    };
     let mut contrast = realtime(Method::Vafr);
     contrast.contrast = Some(fovea_post::contrast::PeripheralContrast::default());
     let mut bokeh = realtime(Method::Vafr);
@@ -121,7 +129,7 @@ fn refused() -> Vec<(&'static str, FrameSettings)> {
         FocusMode::Auto,
     ));
     vec![
-        ("indirect", FrameSettings::new(Method::Vafr)),
+        ("path", path),
         ("contrast", contrast),
         ("bokeh", bokeh),
         ("guenter", realtime(Method::Guenter)),

@@ -163,12 +163,8 @@ pub enum RayLayout {
 pub fn supports(plan: &FramePlan) -> Result<RayLayout> {
     let unsupported = |what: String| Err(GpuError::Unsupported(what));
     let env_light = match plan.settings.shading {
-        ShadingMode::Direct { env_light } => env_light,
-        ShadingMode::Indirect { bounces, .. } => {
-            return unsupported(format!(
-                "indirect light ({bounces} bounces) in the resident frame (use --shading direct)"
-            ))
-        }
+        // Indirect light: the bounce kernels after the direct ones (`super::bounce`).
+        ShadingMode::Direct { env_light } | ShadingMode::Indirect { env_light, .. } => env_light,
         ShadingMode::Path { .. } => {
             return unsupported("path tracing in the resident frame (use --shading direct)".into())
         }
