@@ -958,8 +958,8 @@ fn png_psnr_db(a: &Path, b: &Path) -> f64 {
 /// (`--quality realtime`, one eye and both eyes with `--stereo dup`) goes resident — the
 /// JSON's `backend.route` says so, the frame is one submission, no blocking wait, nothing
 /// read back, the image read back only for `--out` (3 bytes a pixel and eye) — and its PNG is
-/// the CPU's within 40 dB; a frame it does not serve (the offline preset's indirect light,
-/// `--stereo rep`) is staged, and the JSON says why in one line.
+/// the CPU's within 40 dB; a frame it does not serve (path tracing, `--stereo rep`) is
+/// staged, and the JSON says why in one line.
 #[cfg(feature = "gpu")]
 #[test]
 fn gpu_render_goes_resident_when_served_and_says_why_not() {
@@ -1022,7 +1022,11 @@ fn gpu_render_goes_resident_when_served_and_says_why_not() {
         assert!(db >= 40.0, "{name}: {db} dB");
     }
     for (name, extra, why) in [
-        ("offline", &["--method", "full"][..], "indirect light"),
+        (
+            "path",
+            &["--method", "full", "--shading", "path"][..],
+            "path tracing",
+        ),
         (
             "rep",
             &[&realtime[..], &["--eyes", "both", "--stereo", "rep"]].concat()[..],

@@ -131,6 +131,7 @@ pub const ALL_SHADERS: &[shaders::ShaderSource] = &[
     frame::screen::PRESENT_SHADER,
     denoise::SHADER,
     frame::shade::SHADER,
+    frame::bounce::SHADER,
     frame::temporal::SHADER,
     frame::layers::SHADER,
     frame::pull_push::MASK_SHADER,

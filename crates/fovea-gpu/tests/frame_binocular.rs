@@ -27,7 +27,7 @@
 //! * the inset (Liu et al.'s, following the gaze) with the alpha-blended boundary the same,
 //!   on the mirrored gazes and with the inset against the screen's corners (edges that are the
 //!   screen's are not blended);
-//! * what the resident frame does not serve (indirect light, the inset's Laplacian blend,
+//! * what the resident frame does not serve (path tracing, the inset's Laplacian blend,
 //!   peripheral contrast) is refused with `GpuError::Unsupported` naming it, with nothing uploaded,
 //!   created or submitted.
 //!
@@ -415,8 +415,14 @@ fn what_the_frame_does_not_serve_is_refused_before_anything_is_sent() {
     };
     let cases = [
         (
-            with(&|s: &mut FrameSettings| s.shading = ShadingMode::DEFAULT),
-            "indirect",
+            with(&|s: &mut FrameSettings| {
+                s.shading = ShadingMode::Path {
+                    bounces: 2,
+                    spp: 1,
+                    seed: 0,
+                }
+            }),
+            "path tracing",
         ),
         (
             {

@@ -4,10 +4,12 @@
 //! `fovea-render/tests/golden.rs` pins each method's frame of the built-in scene at 160×180
 //! as a 16-bit PNG of its Reinhard + sRGB encoding. Its `realtime-*` cases are the shading the
 //! resident frame serves (`--quality realtime`: direct light, one occluded environment ray);
-//! every other case needs indirect light, path tracing, contrast, another DOF
-//! filter, Guenter or the insets, which `ResidentFrame::supports` refuses (the denoiser, Weier
-//! and temporal accumulation run resident since; `vafr-denoise` needs indirect light)
-//! (checked below, so a case that becomes resident is noticed). Each served case is rendered
+//! the others need path tracing, contrast, another DOF filter or the inset's Laplacian blend,
+//! which `ResidentFrame::supports` refuses (checked below, so a case that becomes resident is
+//! noticed), or are the offline preset's indirect light, which runs resident since (the
+//! bounce kernels, checked against the CPU in `frame_indirect.rs`) but is not compared here;
+//! the denoiser, Guenter, the inset's alpha blend, Weier and temporal accumulation run
+//! resident too. Each served case is rendered
 //! here through `fovea_gpu::frame::ResidentRun` (the plan as the golden test makes it, for
 //! both eyes of the frame), its 8-bit image read back, and compared with the stored file:
 //! PSNR of the three encoded channels, each 8-bit code `c` as `257·c` against the 16-bit
@@ -36,6 +38,7 @@ use fovea_render::dof::{DofSettings, FocusMode};
 use fovea_render::pipeline::{plan_frame, AaMode, FrameSettings};
 use fovea_render::quality::Quality;
 use fovea_render::scene::builtin;
+use fovea_render::shade::ShadingMode;
 use fovea_render::world::World;
 
 const WIDTH: u32 = 160;
@@ -115,12 +118,18 @@ fn served() -> Vec<Case> {
 }
 
 /// Golden cases the resident frame must refuse, with what refuses them (a sample of the
-/// others: offline shading, contrast, another DOF filter, the inset's Laplacian blend).
+/// others: path tracing, contrast, another DOF filter, the inset's Laplacian blend).
 /// Guenter, the inset's alpha blend and Weier run resident since (`tests/frame_layers.rs`,
 /// `tests/frame_weier.rs`). The denoiser is
 /// served since it runs in the resident frame (checked against the CPU in
 /// `frame_binocular.rs`).
 fn refused() -> Vec<(&'static str, FrameSettings)> {
+    let mut path = realtime(Method::Vafr);
+    path.shading = ShadingMode::Path {
+        bounces: 2,
+        spp: 1,
+        seed: 0,
+    };
     let mut contrast = realtime(Method::Vafr);
     contrast.contrast = Some(fovea_post::contrast::PeripheralContrast::default());
     let mut bokeh = realtime(Method::Vafr);
@@ -131,7 +140,7 @@ fn refused() -> Vec<(&'static str, FrameSettings)> {
     let mut inset_laplacian = realtime(Method::Inset);
     inset_laplacian.inset_smoothing = fovea_post::inset_smoothing::Smoothing::LAPLACIAN;
     vec![
-        ("indirect", FrameSettings::new(Method::Vafr)),
+        ("path", path),
         ("contrast", contrast),
         ("bokeh", bokeh),
         ("inset-laplacian", inset_laplacian),

@@ -13,7 +13,7 @@
 //! * a steady-state binocular frame (the second, the gaze moved by a saccade-sized step): one
 //!   submission, no blocking wait, at most 256 KiB uploaded, nothing read back, no buffer or
 //!   bind group created;
-//! * what the kernel does not serve (indirect bounces, periphery rays, the inset's Laplacian
+//! * what the kernel does not serve (path tracing, periphery rays, the inset's Laplacian
 //!   blend) is
 //!   refused with `GpuError::Unsupported` naming it, before anything is recorded.
 //!
@@ -207,7 +207,17 @@ fn what_the_kernel_does_not_serve_is_refused_before_recording() {
     let gaze = cams[0].display.gaze(700.0, 820.0).unwrap();
     let mut resident = ResidentSamples::new(&ctx, &world).unwrap();
     let cases = [
-        (settings(Method::Vafr, ShadingMode::DEFAULT), "indirect"),
+        (
+            settings(
+                Method::Vafr,
+                ShadingMode::Path {
+                    bounces: 2,
+                    spp: 1,
+                    seed: 0,
+                },
+            ),
+            "path tracing",
+        ),
         (
             {
                 let mut s = settings(Method::Vafr, ShadingMode::DIRECT);

@@ -2,7 +2,9 @@
 //! room"): the mean luma of a full-resolution frame from the scene's file camera with direct
 //! shading, with direct shading plus 1 to 4 bounces of indirect light (the default: 3), and
 //! with path tracing of 8 bounces as the converged reference; also the top eighth of the frame
-//! (the ceiling of an interior seen from its file camera), and each frame's CPU time.
+//! (the ceiling of an interior seen from its file camera), and each frame's CPU time. The last
+//! two rows are the real-time preset's candidates (one environment ray, without and with one
+//! bounce).
 //!
 //! ```sh
 //! cargo run --release -p fovea-render --example indirect_light -- \
@@ -81,6 +83,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ("indirect, 2 bounces".into(), indirect(2), 16),
         ("indirect, 3 bounces".into(), indirect(3), 16),
         ("indirect, 4 bounces".into(), indirect(4), 16),
+        // The real-time preset's choices: one environment ray at the primary hit, with and
+        // without one bounce (`fovea_render::quality`).
+        (
+            "direct, 1 environment ray".into(),
+            ShadingMode::Direct {
+                env_light: EnvLight::Occluded { samples: 1 },
+            },
+            16,
+        ),
+        (
+            "indirect, 1 bounce, 1 environment ray".into(),
+            ShadingMode::Indirect {
+                env_light: EnvLight::Occluded { samples: 1 },
+                bounces: 1,
+            },
+            16,
+        ),
     ] {
         let ((all, top), ms) = run(shading, samples)?;
         println!(

@@ -32,7 +32,10 @@ mod shadow_batch;
 
 use crate::trace::{trace_sample, GSample};
 use crate::world::World;
-pub use bounce::{bounce_env_light, indirect, BOUNCE_ENV_SAMPLES, DEFAULT_BOUNCES};
+pub use bounce::{
+    bounce_env_key_mask, bounce_env_light, indirect, BOUNCE_ENV_SAMPLES, BOUNCE_LATER_SALT,
+    BOUNCE_SALT, BOUNCE_SPREAD_RAD, DEFAULT_BOUNCES, ROULETTE_MAX,
+};
 pub use env_light::{
     env_constants, environment_light, subsample_key, texel_key, unoccluded_estimate, EnvLight,
     DEFAULT_ENV_SAMPLES, MAX_ENV_SAMPLES,

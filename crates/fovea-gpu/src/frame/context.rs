@@ -30,10 +30,11 @@ use fovea_core::units::ScreenPoint;
 use fovea_render::camera::EyeCamera;
 use fovea_render::plan::FramePlan;
 use fovea_render::shade::frame_noise::with_frame;
-use fovea_render::shade::{texel_key, EnvLight, ShadingMode};
+use fovea_render::shade::{texel_key, EnvLight};
 use fovea_render::world::World;
 
 use super::layers::{self, LayerPass, ShadeLayerGpu};
+use super::bounce::{plan_bounces, BounceKernels, EyeBounce};
 use super::samples::DeviceSamples;
 use super::shade::{
     supports, FrameColumnGpu, FrameLayerGpu, FrameUniform, RayLayout, ShadeScene,
@@ -79,6 +80,9 @@ pub struct EyeShade {
     /// Weier's pattern in the runs buffer (a sparse layout's), written whole only when it
     /// changes.
     sparse: DevicePattern,
+    /// The bounces of indirect light (`super::bounce`), made with the eye's first plan
+    /// that has them.
+    bounce: Option<EyeBounce>,
 }
 
 /// The per-frame tables of one eye's plan: each column's record (and one past the last), the
@@ -446,7 +450,67 @@ impl EyeShade {
             layer_block: layered.0,
             more: layered.1,
             sparse: DevicePattern::default(),
+            bounce: None,
         })
+    }
+
+    /// Readies the bounces of indirect light for `plan` (`super::bounce`): their buffers and
+    /// bind group made when the plan first has bounces (`kernels` built by then), their blocks
+    /// written; a plan without bounces records none.
+    fn prepare_bounce(
+        &mut self,
+        scene: &ShadeScene,
+        kernels: Option<&BounceKernels>,
+        plan: &FramePlan,
+    ) -> Result<()> {
+        if let (None, Some(kernels), true) = (&self.bounce, kernels, plan_bounces(plan) > 0) {
+            let scene_buffers = scene.tracer.scene.as_ref().ok_or_else(|| {
+                GpuError::Unsupported("a scene without triangles in the resident frame".into())
+            })?;
+            let guides: [&wgpu::Buffer; 3] = match (&self.guides, &self._no_guides) {
+                (Some(g), _) => [g.albedo(), g.normal(), g.noisy()],
+                (None, Some(n)) => [&n[0], &n[1], &n[2]],
+                (None, None) => unreachable!("stand-ins are made without guides"),
+            };
+            let s = &scene.surfaces.buffers;
+            // The direct kernels' bindings but the environment block (16), which the bounces
+            // have their own of.
+            let shared: Vec<(u32, &wgpu::Buffer)> = vec![
+                (0, &scene.trace_params),
+                (1, &scene_buffers.nodes),
+                (2, &scene_buffers.tris),
+                (3, &scene_buffers.prim_ids),
+                (6, &self.camera),
+                (7, &scene.lights_buffer),
+                (9, &s[0]),
+                (10, &s[1]),
+                (11, &s[2]),
+                (12, &s[3]),
+                (13, &s[4]),
+                (14, &s[5]),
+                (17, &scene.environment.pixels),
+                (18, &scene.environment.tables),
+                (21, &self.frame),
+                (22, &self.columns),
+                (23, &self.runs),
+                (24, self.samples.buffer()),
+                (25, &self.gbuffer[0]),
+                (26, &self.gbuffer[1]),
+                (27, guides[0]),
+                (28, guides[1]),
+                (29, guides[2]),
+            ];
+            self.bounce = Some(EyeBounce::new(
+                scene,
+                kernels,
+                &shared,
+                self.texel_capacity,
+            )?);
+        }
+        if let Some(b) = &mut self.bounce {
+            b.write(scene, plan);
+        }
+        Ok(())
     }
 
     /// Takes `plan`'s buffers and tables over when they fit these buffers (no allocation;
@@ -499,10 +563,12 @@ impl EyeShade {
             camera.principal_point_px(),
             tables.centre,
         );
-        let env_light = match plan.settings.shading {
-            ShadingMode::Direct { env_light } => env_light,
-            _ => EnvLight::Occluded { samples: 0 },
-        };
+        // The primary hit's environment light, with or without bounces.
+        let env_light = plan
+            .settings
+            .shading
+            .direct_env_light()
+            .unwrap_or(EnvLight::Occluded { samples: 0 });
         let env = scene.environment.uniform(match env_light {
             EnvLight::Occluded { samples } => samples,
             EnvLight::Unshadowed => 0,
@@ -598,6 +664,11 @@ impl EyeShade {
             pass.set_pipeline(pipeline);
             pass.dispatch_workgroups(self.groups[0], self.groups[1], 1);
         }
+        // Indirect light, after the primary's (`super::bounce`; never with layers, which
+        // `super::shade::supports` refuses with it).
+        if let Some(b) = &self.bounce {
+            b.record(&mut pass, self.groups);
+        }
         // A layered buffer's other layers, each with its own uniforms (the G-buffer between
         // the kernels is the layer's).
         for layer in &self.more {
@@ -663,6 +734,8 @@ pub struct ResidentSamples {
     denoisers: [Option<GpuDenoiser>; 2],
     /// The tables' wall ms since the last [`Self::render_eyes`].
     tables_ms: f64,
+    /// The bounce kernels, built with the first plan that has bounces of indirect light.
+    bounce_kernels: Option<BounceKernels>,
 }
 
 impl ResidentSamples {
@@ -673,6 +746,7 @@ impl ResidentSamples {
             eyes: [None, None],
             denoisers: [None, None],
             tables_ms: 0.0,
+            bounce_kernels: None,
         })
     }
 
@@ -762,6 +836,12 @@ impl ResidentSamples {
                 layout,
                 (columns, runs, capacity),
             )?);
+        }
+        if plan_bounces(plan) > 0 && self.bounce_kernels.is_none() {
+            self.bounce_kernels = Some(BounceKernels::new(&self.scene)?);
+        }
+        if let Some(e) = &mut self.eyes[eye] {
+            e.prepare_bounce(&self.scene, self.bounce_kernels.as_ref(), plan)?;
         }
         if let Some(e) = &self.eyes[eye] {
             e.write(&self.scene, world, camera, plan, &tables, &layered);

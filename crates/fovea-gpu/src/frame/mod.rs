@@ -6,6 +6,8 @@
 //!   the record every sample-space pass writes or reads.
 //! * [`shade`]: the sample side's fused kernel — ray generation, trace, surface, direct and
 //!   environment light per texel into [`DeviceSamples`] — and what it serves ([`supports`]).
+//! * [`bounce`]: indirect light — bounces with next-event estimation after the shade
+//!   kernels, for plans with [`ShadingMode::Indirect`](fovea_render::shade::ShadingMode).
 //! * [`context`]: each eye's persistent buffers and bind group; both eyes recorded into one
 //!   encoder and submitted once ([`ResidentSamples`]).
 //! * [`screen`]: the screen side — reconstruction, depth of field and tone map of one eye's
@@ -28,6 +30,7 @@
 //!   ([`compare_binocular`]).
 
 pub mod binocular;
+pub mod bounce;
 pub mod compare;
 pub mod context;
 pub mod gaze_path;

@@ -177,12 +177,8 @@ pub enum RayLayout {
 pub fn supports(plan: &FramePlan) -> Result<RayLayout> {
     let unsupported = |what: String| Err(GpuError::Unsupported(what));
     let env_light = match plan.settings.shading {
-        ShadingMode::Direct { env_light } => env_light,
-        ShadingMode::Indirect { bounces, .. } => {
-            return unsupported(format!(
-                "indirect light ({bounces} bounces) in the resident frame (use --shading direct)"
-            ))
-        }
+        // Indirect light: the bounce kernels after the direct ones (`super::bounce`).
+        ShadingMode::Direct { env_light } | ShadingMode::Indirect { env_light, .. } => env_light,
         ShadingMode::Path { .. } => {
             return unsupported("path tracing in the resident frame (use --shading direct)".into())
         }
@@ -203,6 +199,15 @@ pub fn supports(plan: &FramePlan) -> Result<RayLayout> {
     }
     let mapping = plan.mapping();
     if !mapping.screen_layers().is_empty() {
+        if let ShadingMode::Indirect { bounces, .. } = plan.settings.shading {
+            // The bounce kernels read the G-buffer of one layer; a layered buffer reuses it
+            // layer after layer.
+            return unsupported(format!(
+                "indirect light ({bounces} bounces) on {}'s layers in the resident frame (use \
+                 --shading direct)",
+                plan.method()
+            ));
+        }
         super::layers::supports(plan)?;
         return Ok(RayLayout::Layered);
     }

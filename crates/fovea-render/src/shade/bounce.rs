@@ -37,11 +37,19 @@ use crate::world::World;
 pub const BOUNCE_ENV_SAMPLES: u32 = 1;
 /// Salt of the bounce direction's random numbers.
 pub const BOUNCE_SALT: u64 = 0x626F_756E_6365_2131;
+/// Salt of the numbers hashed with the frame (the bounces after the first, the roulette).
+pub const BOUNCE_LATER_SALT: u64 = BOUNCE_SALT.rotate_left(17);
 /// Xor-ed (rotated by the bounce) into the sample's key for the environment rays at a bounce,
 /// within [`BOUNCE_ENV_KEY_FIELDS`], so they draw other numbers than the primary's.
 pub const BOUNCE_ENV_KEY: u64 = 0x0000_0015_A5A5_A5A0;
 /// The key's tile and sub-sample fields (bits 4–37): the rank, the eye and the frame stay.
 pub const BOUNCE_ENV_KEY_FIELDS: u64 = ((1 << 38) - 1) & !15;
+/// What the bounce at depth `depth` (0: the first) xors into the sample's key for the
+/// environment rays at the surface it reaches.
+#[inline]
+pub fn bounce_env_key_mask(depth: u32) -> u64 {
+    BOUNCE_ENV_KEY.rotate_left(4 * depth) & BOUNCE_ENV_KEY_FIELDS
+}
 /// Largest survival probability of the Russian roulette.
 pub const ROULETTE_MAX: f32 = 0.95;
 /// Default bounces of [`super::ShadingMode::Indirect`] (docs/rendering.md has the
@@ -82,7 +90,7 @@ pub fn indirect(
     // The first bounce's numbers: hashed without the frame, rotated by it.
     let mut first = fovea_core::math::mix64(without_frame(key) ^ BOUNCE_SALT);
     // Every later number: hashed with the frame.
-    let mut later = fovea_core::math::mix64(key ^ BOUNCE_SALT.rotate_left(17));
+    let mut later = fovea_core::math::mix64(key ^ BOUNCE_LATER_SALT);
     let step = |rng: &mut u64| {
         *rng = fovea_core::math::mix64(*rng);
         (*rng >> (64 - UNIT_BITS)) as u32
@@ -135,7 +143,7 @@ pub fn indirect(
         if !h.is_hit() {
             break;
         }
-        let env_key = key ^ (BOUNCE_ENV_KEY.rotate_left(4 * depth) & BOUNCE_ENV_KEY_FIELDS);
+        let env_key = key ^ bounce_env_key_mask(depth);
         sum += throughput
             * (h.emissive
                 + direct(world, &h, counts)
