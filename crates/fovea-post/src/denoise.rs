@@ -65,9 +65,9 @@ pub const MAX_ITERATIONS: u32 = 6;
 pub const ALBEDO_FLOOR: f32 = 0.02;
 
 /// Bytes per sample the denoiser holds: the guides (albedo and normal, 12 bytes each) and the
-/// working buffers (normal and depth 16, depth gradient 8, role 1, two light-and-variance
-/// buffers 16 each).
-pub const BYTES_PER_SAMPLE: u64 = 12 + 12 + 12 + 16 + 8 + 1 + 16 + 16;
+/// working buffers (normal and depth 16, depth gradient 8, role 1, same-surface mask 1, two
+/// light-and-variance buffers 16 each).
+pub const BYTES_PER_SAMPLE: u64 = 12 + 12 + 12 + 16 + 8 + 1 + 1 + 16 + 16;
 
 /// B3-spline taps `[1, 4, 6, 4, 1]/16` at offsets −2..2.
 const H5: [f32; 5] = [1.0 / 16.0, 4.0 / 16.0, 6.0 / 16.0, 4.0 / 16.0, 1.0 / 16.0];
@@ -234,6 +234,9 @@ pub struct DenoiseScratch {
     a: Vec<[f32; 4]>,
     /// Light (RGB) and variance, pong.
     b: Vec<[f32; 4]>,
+    /// Per source, which of its 3×3 neighbours the first iteration's variance prefilter
+    /// reads (one bit each, [`cell_bit`]), found by the set-up pass.
+    same: Vec<u8>,
     /// The receivers' texel indices and shading normals, in texel order (`geom` holds a
     /// zero normal for every texel that is not a source, so that no neighbour reads it).
     receivers: Vec<(u32, [f32; 3])>,
@@ -244,6 +247,7 @@ impl DenoiseScratch {
         self.geom.resize(n, [0.0; 4]);
         self.grad.resize(n, [0.0; 2]);
         self.role.resize(n, 0);
+        self.same.resize(n, 0);
         self.a.resize(n, [0.0; 4]);
         self.b.resize(n, [0.0; 4]);
     }
@@ -253,6 +257,7 @@ impl DenoiseScratch {
         (self.geom.capacity() * 16
             + self.grad.capacity() * 8
             + self.role.capacity()
+            + self.same.capacity()
             + (self.a.capacity() + self.b.capacity()) * 16
             + self.receivers.capacity() * 16) as u64
     }
@@ -272,6 +277,13 @@ impl std::ops::AddAssign for DenoiseStats {
         self.filtered += o.filtered;
         self.clamped += o.clamped;
     }
+}
+
+#[cfg(test)]
+std::thread_local! {
+    /// Test only: the first iteration tests the neighbours for its variance prefilter itself
+    /// instead of reading the set-up pass's masks (the two must agree exactly).
+    static PREFILTER_TESTS_ITSELF: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
 
 const PASSIVE: u8 = 0;
@@ -470,6 +482,7 @@ pub fn denoise_with_variance(
         role,
         a,
         b,
+        same,
         receivers,
     } = scratch;
 
@@ -538,8 +551,9 @@ pub fn denoise_with_variance(
     let (clamped, filtered, busy) = grad
         .par_chunks_mut(wu)
         .zip(b.par_chunks_mut(wu))
+        .zip(same.par_chunks_mut(wu))
         .enumerate()
-        .map(|(j, (gr, out))| setup.row(j as u32, gr, out))
+        .map(|(j, ((gr, out), same))| setup.row(j as u32, gr, out, same))
         .reduce(|| (0, 0, false), |x, y| (x.0 + y.0, x.1 + y.1, x.2 || y.2));
     let stats = DenoiseStats { filtered, clamped };
     // No Monte Carlo light anywhere and nothing to refill (noise-free shading): filtering
@@ -550,6 +564,11 @@ pub fn denoise_with_variance(
 
     // 3. À-trous iterations, b → a → b …, all but the last.
     let grad = &*grad;
+    #[cfg(test)]
+    let tests_itself = PREFILTER_TESTS_ITSELF.with(|t| t.get());
+    #[cfg(not(test))]
+    let tests_itself = false;
+    let mask = (!tests_itself).then_some(same.as_slice());
     let (mut src, mut dst) = (&mut *b, &mut *a);
     for it in 0..params.iterations - 1 {
         let pass = Pass {
@@ -558,6 +577,7 @@ pub fn denoise_with_variance(
             grad,
             role,
             src: &*src,
+            same: mask,
             receivers,
             wu,
             step: 1i32 << it,
@@ -577,6 +597,7 @@ pub fn denoise_with_variance(
         grad,
         role,
         src: &*src,
+        same: mask,
         receivers,
         wu,
         step: 1i32 << (params.iterations - 1),
@@ -630,16 +651,23 @@ struct Setup<'a> {
 impl Setup<'_> {
     /// Row `j` of the set-up pass: the depth gradient of every texel not passive into `gr`,
     /// the (clamped) light and its variance into `out` (every texel's light as it is
-    /// elsewhere); returns the texels clamped and filtered and whether any receiver or any
+    /// elsewhere), each source's same-surface mask for the variance's prefilter into `same`;
+    /// returns the texels clamped and filtered and whether any receiver or any
     /// Monte Carlo light is there. In the AVX2 build where the CPU has it.
     #[inline]
-    fn row(&self, j: u32, gr: &mut [[f32; 2]], out: &mut [[f32; 4]]) -> (u64, u64, bool) {
+    fn row(
+        &self,
+        j: u32,
+        gr: &mut [[f32; 2]],
+        out: &mut [[f32; 4]],
+        same: &mut [u8],
+    ) -> (u64, u64, bool) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2 (checked above); the function is safe Rust otherwise.
-            return unsafe { setup_row_avx2(self, j, gr, out) };
+            return unsafe { setup_row_avx2(self, j, gr, out, same) };
         }
-        setup_row(self, j, gr, out)
+        setup_row(self, j, gr, out, same)
     }
 }
 
@@ -651,14 +679,29 @@ unsafe fn setup_row_avx2(
     j: u32,
     gr: &mut [[f32; 2]],
     out: &mut [[f32; 4]],
+    same: &mut [u8],
 ) -> (u64, u64, bool) {
-    setup_row(s, j, gr, out)
+    setup_row(s, j, gr, out, same)
+}
+
+/// The bit of the 3×3 neighbour `[xi][yi]` (offset + 1; not the centre) in the same-surface
+/// mask.
+#[inline(always)]
+fn cell_bit(xi: usize, yi: usize) -> u32 {
+    let c = (xi * 3 + yi) as u32;
+    c - (c > 4) as u32
 }
 
 /// Row `j` of the set-up pass, eight texels at a time, each lane's sums in the scalar
 /// filter's order (the neighbours column by column): the scalar filter's result bit for bit.
 #[inline(always)]
-fn setup_row(s: &Setup, j: u32, gr: &mut [[f32; 2]], out: &mut [[f32; 4]]) -> (u64, u64, bool) {
+fn setup_row(
+    s: &Setup,
+    j: u32,
+    gr: &mut [[f32; 2]],
+    out: &mut [[f32; 4]],
+    same: &mut [u8],
+) -> (u64, u64, bool) {
     let Setup {
         grid,
         geom,
@@ -706,17 +749,13 @@ fn setup_row(s: &Setup, j: u32, gr: &mut [[f32; 2]], out: &mut [[f32; 4]]) -> (u
                 if xi == 1 && yi == 1 {
                     continue;
                 }
-                let (q, inside) = column.cells(grid, yi as i32 - 1, wu, &k);
-                let there = std::array::from_fn(|t| {
-                    inside[t] && role[q[t] as usize] != PASSIVE && q[t] != k[t]
-                });
-                *cell = (q, there);
+                *cell = column.cells(grid, yi as i32 - 1, wu, &k);
             }
         }
         // Smaller one-sided depth difference per axis (x: the row's neighbours, y: the
-        // column's).
-        let dz = |(q, there): ([u32; LANES], [bool; LANES]), t: usize| {
-            if there[t] {
+        // column's), over the other texels that are not passive.
+        let dz = |(q, inside): ([u32; LANES], [bool; LANES]), t: usize| {
+            if inside[t] && q[t] != k[t] && role[q[t] as usize] != PASSIVE {
                 (geom[q[t] as usize][3] - zp[t]).abs()
             } else {
                 f32::INFINITY
@@ -736,13 +775,19 @@ fn setup_row(s: &Setup, j: u32, gr: &mut [[f32; 2]], out: &mut [[f32; 4]]) -> (u
         }
         // Luminance moments of the neighbours on the same surface: normal weight above ½ and
         // depth within the gradient's prediction, `|z_p − z_q| ≤ σ_z |∇z·(p − q)| + ε_z` (the
-        // depth weight's exponent at most 1, compared without dividing).
+        // depth weight's exponent at most 1, compared without dividing). With them, per
+        // neighbour, the first à-trous iteration's verdict for the variance's prefilter (its
+        // tolerance rounded as it adds it: `σ_z |∇z·(p − q)| + ε_z` with `ε_z` summed first;
+        // the centre itself where a row wraps onto it: if it is a source), one bit each.
+        let eps_z: F8 = std::array::from_fn(|t| 1e-3 * zp[t].abs() + 1e-9);
         let (mut sw, mut s1, mut s2) = ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
+        let mut bits = [0u8; LANES];
         for (xi, col) in near.iter().enumerate() {
-            for (yi, &(q, there)) in col.iter().enumerate() {
+            for (yi, &(q, inside)) in col.iter().enumerate() {
                 if xi == 1 && yi == 1 {
                     continue;
                 }
+                let bit = 1u8 << cell_bit(xi, yi);
                 let [nx, ny, nz, zq] = transpose8(geom, &q);
                 let [r, g, b, _] = transpose8(light0, &q);
                 let (ax, ay) = (xi.abs_diff(1) as f32, yi.abs_diff(1) as f32);
@@ -750,44 +795,63 @@ fn setup_row(s: &Setup, j: u32, gr: &mut [[f32; 2]], out: &mut [[f32; 4]]) -> (u
                 // has no normal in `geom`: never the same surface.
                 for t in 0..LANES {
                     let dot = px[t] * nx[t] + py[t] * ny[t] + pz[t] * nz[t];
-                    let den = sigma_z * (g0[t] * ax + g1[t] * ay) + 1e-3 * zp[t].abs() + 1e-9;
-                    let same =
-                        there[t] && !(1.0 - dot > same_normal || (zp[t] - zq[t]).abs() > den);
+                    let dz = (zp[t] - zq[t]).abs();
+                    let tol = sigma_z * (g0[t] * ax + g1[t] * ay);
+                    let den = tol + 1e-3 * zp[t].abs() + 1e-9;
+                    let other = inside[t] && q[t] != k[t];
+                    let same = other && !(1.0 - dot > same_normal || dz > den);
                     let lq = luma([r[t], g[t], b[t]]);
                     sw[t] += if same { 1.0 } else { 0.0 };
                     s1[t] += if same { lq } else { 0.0 };
                     s2[t] += if same { lq * lq } else { 0.0 };
+                    let prefilter = if q[t] == k[t] {
+                        source[t]
+                    } else {
+                        !(1.0 - dot > same_normal || dz > tol + eps_z[t])
+                    };
+                    bits[t] |= if inside[t] && prefilter { bit } else { 0 };
                 }
             }
         }
-        for t in 0..n {
-            if !source[t] {
-                continue;
-            }
-            let mut lp = [lr[t], lg[t], lb[t]];
-            let mut yp = luma(lp);
-            if let (Some(kk), true) = (params.firefly_k, sw[t] >= 2.0) {
-                let mean = s1[t] / sw[t];
-                let sd = (s2[t] / sw[t] - mean * mean).max(0.0).sqrt();
-                let limit = mean + kk * sd;
-                if yp > limit && yp > 0.0 {
-                    let s = limit.max(0.0) / yp;
-                    lp = lp.map(|v| v * s);
-                    yp = luma(lp);
-                    clamped += 1;
-                }
-            }
+        // The firefly clamp and the variance, lane by lane without branches.
+        let temporal: F8 = std::array::from_fn(|t| match variance {
+            Some(v) if t < n => v.data()[base + t],
+            _ => f32::NAN,
+        });
+        let (fire, kk) = (params.firefly_k.is_some(), params.firefly_k.unwrap_or(0.0));
+        let mut res = [[0.0f32; 4]; LANES];
+        let mut clamp = [false; LANES];
+        for t in 0..LANES {
+            let lp = [lr[t], lg[t], lb[t]];
+            let yp = luma(lp);
+            let mean = s1[t] / sw[t];
+            let sd = (s2[t] / sw[t] - mean * mean).max(0.0).sqrt();
+            let limit = mean + kk * sd;
+            clamp[t] = fire && sw[t] >= 2.0 && yp > limit && yp > 0.0;
+            let sc = limit.max(0.0) / yp;
+            let lp = if clamp[t] { lp.map(|v| v * sc) } else { lp };
+            let yp = if clamp[t] { luma(lp) } else { yp };
             // The temporal estimate where given, else the variance of the neighbourhood with
             // the (clamped) centre.
-            let temporal = variance.map_or(f32::NAN, |v| v.data()[k[t] as usize]);
-            let var = if temporal >= 0.0 && temporal.is_finite() {
-                temporal
+            let (tw, t1, t2) = (sw[t] + 1.0, s1[t] + yp, s2[t] + yp * yp);
+            let m = t1 / tw;
+            let spatial = (t2 / tw - m * m).max(0.0);
+            let tv = temporal[t];
+            let var = if tv >= 0.0 && tv.is_finite() {
+                tv
             } else {
-                let (tw, t1, t2) = (sw[t] + 1.0, s1[t] + yp, s2[t] + yp * yp);
-                let mean = t1 / tw;
-                (t2 / tw - mean * mean).max(0.0)
+                spatial
             };
-            out[i0 + t] = [lp[0], lp[1], lp[2], var];
+            res[t] = [lp[0], lp[1], lp[2], var];
+        }
+        for t in 0..n {
+            if source[t] {
+                out[i0 + t] = res[t];
+                clamped += clamp[t] as u64;
+            }
+            if live[t] {
+                same[i0 + t] = bits[t];
+            }
         }
         i0 += LANES;
     }
@@ -809,6 +873,9 @@ struct Pass<'a> {
     grad: &'a [[f32; 2]],
     role: &'a [u8],
     src: &'a [[f32; 4]],
+    /// The set-up pass's same-surface masks, where it found them (else the first iteration
+    /// tests the neighbours itself).
+    same: Option<&'a [u8]>,
     receivers: &'a [(u32, [f32; 3])],
     wu: usize,
     step: i32,
@@ -1000,6 +1067,7 @@ fn atrous_pass(
         grad,
         role,
         src,
+        same: None,
         receivers: &receivers,
         wu,
         step,
@@ -1045,6 +1113,7 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
         grad,
         role,
         src,
+        same,
         receivers,
         wu,
         step,
@@ -1091,7 +1160,33 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
         // 3×3 Gaussian of the variance over sources on the same surface (SVGF Eq. 5's g₃ₓ₃; a
         // neighbour across an edge has another noise level), in the first iteration; the
         // later ones read the variance the earlier ones filtered.
-        let var: F8 = if step == 1 {
+        let var: F8 = if let (1, Some(same)) = (step, same) {
+            // The neighbours the set-up pass found on the same surface.
+            let bits: [u8; LANES] = std::array::from_fn(|t| same[k[t] as usize]);
+            let (mut vw, mut vs) = ([0.0f32; LANES], [0.0f32; LANES]);
+            for (xi, di) in (-1i32..=1).enumerate() {
+                let col = Column::at(grid, i0, n, j, (&turn, &frac), di);
+                for (yi, dj) in (-1i32..=1).enumerate() {
+                    let wgt = H3[xi] * H3[yi];
+                    if xi == 1 && yi == 1 {
+                        for t in 0..LANES {
+                            vw[t] += if source[t] { wgt } else { 0.0 };
+                            vs[t] += if source[t] { wgt * lv[t] } else { 0.0 };
+                        }
+                        continue;
+                    }
+                    let (q, _) = col.cells(grid, dj, wu, &k);
+                    let vq: F8 = std::array::from_fn(|t| src[q[t] as usize][3]);
+                    let bit = 1u8 << cell_bit(xi, yi);
+                    for t in 0..LANES {
+                        let on = bits[t] & bit != 0;
+                        vw[t] += if on { wgt } else { 0.0 };
+                        vs[t] += if on { wgt * vq[t] } else { 0.0 };
+                    }
+                }
+            }
+            std::array::from_fn(|t| if vw[t] > 0.0 { vs[t] / vw[t] } else { 0.0 })
+        } else if step == 1 {
             let (mut vw, mut vs) = ([0.0f32; LANES], [0.0f32; LANES]);
             for (xi, di) in (-1i32..=1).enumerate() {
                 let col = Column::at(grid, i0, n, j, (&turn, &frac), di);
@@ -1593,6 +1688,68 @@ mod tests {
                     for k in (0..n).filter(|&k| role[k] != PASSIVE) {
                         assert_eq!(fast[k], slow[k], "{kernel:?} step {step} texel {k}");
                     }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_set_up_masks_equal_the_prefilters_own_tests() {
+        // The first iteration's variance prefilter reads which neighbours are on the same
+        // surface from the set-up pass; testing them itself gives the same frame bit for bit.
+        // A polar grid (with the fovea crossing) and a rect one, random surfaces, sky,
+        // receivers (NaN colour), both kernels, one and four iterations.
+        let rows = vec![4u32, 9, 15, 22, 28, 33, 36, 36, 36, 35, 36];
+        let period: Vec<f64> = rows.iter().map(|&r| r as f64 * 1.05 + 0.2).collect();
+        let polar = Grid::Polar {
+            rows: rows.clone(),
+            period,
+        };
+        let rect = Grid::Rect {
+            width: 31,
+            height: 20,
+        };
+        let mut rng = Rng(5);
+        for (grid, w, h) in [(&polar, 11u32, 36u32), (&rect, 31, 20)] {
+            let mut s = scene(
+                (w, h),
+                |i, j| [0.5 + 0.1 * (i % 3) as f32, 0.4, 0.3 + 0.05 * (j % 4) as f32],
+                texture,
+                |i, j| 2.0 + 0.02 * i as f32 + if (i + j) % 7 < 3 { 1.0 } else { 0.0 },
+                |i, j| {
+                    if (i / 3 + j / 5) % 3 == 0 {
+                        [0.0, 0.6, 0.8]
+                    } else {
+                        [0.0, 0.0, 1.0]
+                    }
+                },
+            );
+            for k in 0..(w * h) as usize {
+                let x = rng.next();
+                let c = &mut s.color.data_mut()[k];
+                *c = c.map(|v| v * (0.5 + rng.next()));
+                if x < 0.05 {
+                    s.depth.data_mut()[k] = f32::INFINITY;
+                } else if x < 0.09 {
+                    *c = [f32::NAN; 3];
+                }
+            }
+            for kernel in [Kernel::Linear3x3, Kernel::B3Spline5x5] {
+                for iterations in [1, 4] {
+                    let p = DenoiseParams {
+                        kernel,
+                        iterations,
+                        ..DenoiseParams::default()
+                    };
+                    let (masked, _) = run(&s, grid, &p);
+                    PREFILTER_TESTS_ITSELF.with(|t| t.set(true));
+                    let (tested, _) = run(&s, grid, &p);
+                    PREFILTER_TESTS_ITSELF.with(|t| t.set(false));
+                    let bits = |img: &Image<Rgb>| -> Vec<u32> {
+                        img.data().iter().flatten().map(|v| v.to_bits()).collect()
+                    };
+                    assert_eq!(bits(&masked), bits(&tested), "{kernel:?} x{iterations}");
+                    assert_ne!(bits(&masked), bits(&s.color), "{kernel:?} x{iterations}");
                 }
             }
         }
