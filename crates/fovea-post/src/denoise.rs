@@ -65,9 +65,9 @@ pub const MAX_ITERATIONS: u32 = 6;
 pub const ALBEDO_FLOOR: f32 = 0.02;
 
 /// Bytes per sample the denoiser holds: the guides (albedo and normal, 12 bytes each) and the
-/// working buffers (normal and depth 16, depth gradient 8, role 1, two light-and-variance
-/// buffers 16 each).
-pub const BYTES_PER_SAMPLE: u64 = 12 + 12 + 12 + 16 + 8 + 1 + 16 + 16;
+/// working buffers (normal and depth 16, depth gradient 8, role 1, same-surface mask 1, two
+/// light-and-variance buffers 16 each).
+pub const BYTES_PER_SAMPLE: u64 = 12 + 12 + 12 + 16 + 8 + 1 + 1 + 16 + 16;
 
 /// B3-spline taps `[1, 4, 6, 4, 1]/16` at offsets −2..2.
 const H5: [f32; 5] = [1.0 / 16.0, 4.0 / 16.0, 6.0 / 16.0, 4.0 / 16.0, 1.0 / 16.0];
@@ -234,6 +234,12 @@ pub struct DenoiseScratch {
     a: Vec<[f32; 4]>,
     /// Light (RGB) and variance, pong.
     b: Vec<[f32; 4]>,
+    /// Per source, which of its 3×3 neighbours the first iteration's variance prefilter
+    /// reads (one bit each, [`cell_bit`]), found by the set-up pass.
+    same: Vec<u8>,
+    /// The receivers' texel indices and shading normals, in texel order (`geom` holds a
+    /// zero normal for every texel that is not a source, so that no neighbour reads it).
+    receivers: Vec<(u32, [f32; 3])>,
 }
 
 impl DenoiseScratch {
@@ -241,6 +247,7 @@ impl DenoiseScratch {
         self.geom.resize(n, [0.0; 4]);
         self.grad.resize(n, [0.0; 2]);
         self.role.resize(n, 0);
+        self.same.resize(n, 0);
         self.a.resize(n, [0.0; 4]);
         self.b.resize(n, [0.0; 4]);
     }
@@ -250,7 +257,9 @@ impl DenoiseScratch {
         (self.geom.capacity() * 16
             + self.grad.capacity() * 8
             + self.role.capacity()
-            + (self.a.capacity() + self.b.capacity()) * 16) as u64
+            + self.same.capacity()
+            + (self.a.capacity() + self.b.capacity()) * 16
+            + self.receivers.capacity() * 16) as u64
     }
 }
 
@@ -268,6 +277,13 @@ impl std::ops::AddAssign for DenoiseStats {
         self.filtered += o.filtered;
         self.clamped += o.clamped;
     }
+}
+
+#[cfg(test)]
+std::thread_local! {
+    /// Test only: the first iteration tests the neighbours for its variance prefilter itself
+    /// instead of reading the set-up pass's masks (the two must agree exactly).
+    static PREFILTER_TESTS_ITSELF: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
 
 const PASSIVE: u8 = 0;
@@ -451,6 +467,14 @@ pub fn denoise_with_variance(
     if n == 0 {
         return Ok(DenoiseStats::default());
     }
+    // Texel indices are computed in 32 bits.
+    if n > u32::MAX as usize {
+        return Err(FoveaError::invalid(
+            "denoise buffer",
+            format!("{w}x{h}"),
+            "at most 2^32 − 1 texels",
+        ));
+    }
     scratch.fit(n);
     let DenoiseScratch {
         geom,
@@ -458,6 +482,8 @@ pub fn denoise_with_variance(
         role,
         a,
         b,
+        same,
+        receivers,
     } = scratch;
 
     // 1. Roles, geometry and demodulated light.
@@ -477,13 +503,19 @@ pub fn denoise_with_variance(
                     && z.is_finite()
                     && nv.iter().all(|v| v.is_finite())
                     && nv != [0.0; 3];
-                g[i] = [nv[0], nv[1], nv[2], z];
                 r[i] = if !surface {
                     PASSIVE
                 } else if c.iter().chain(&al).all(|v| v.is_finite()) {
                     SOURCE
                 } else {
                     RECEIVER
+                };
+                // A texel that is not a source has no normal here: every weight to it, and
+                // the same-surface test, is then zero (`n_p·0 = 0`), with no test of its role.
+                g[i] = if r[i] == SOURCE {
+                    [nv[0], nv[1], nv[2], z]
+                } else {
+                    [0.0, 0.0, 0.0, z]
                 };
                 let lt = if r[i] == SOURCE {
                     demodulate(noisy_part(noisy, k, c), al)
@@ -494,112 +526,34 @@ pub fn denoise_with_variance(
             }
         });
 
+    // The receivers' own normals (rare: a NaN or infinite colour), for their own weights.
+    receivers.clear();
+    receivers.par_extend(
+        role.par_iter()
+            .enumerate()
+            .filter(|&(_, &r)| r == RECEIVER)
+            .map(|(k, _)| (k as u32, normal.data()[k])),
+    );
+    let receivers = &*receivers;
+
     // 2. Depth gradient, spatial variance and firefly clamp; with them, per row, the texels
     // filtered and whether any receiver or any Monte Carlo light is there (the idle test).
     let (geom, role) = (&*geom, &*role);
-    let sigma_z = params.sigma_depth;
-    // dot^σ_n > ½ ⇔ 1 − dot < ln 2 / σ_n (to first order): "the same surface".
-    let same_normal = std::f32::consts::LN_2 / params.normal_power as f32;
-    let light0 = &*a;
+    let setup = Setup {
+        grid,
+        geom,
+        role,
+        light0: &*a,
+        variance,
+        wu,
+        params,
+    };
     let (clamped, filtered, busy) = grad
         .par_chunks_mut(wu)
         .zip(b.par_chunks_mut(wu))
+        .zip(same.par_chunks_mut(wu))
         .enumerate()
-        .map(|(j, (gr, out))| {
-            let j = j as u32;
-            let (mut clamped, mut filtered, mut busy) = (0u64, 0u64, false);
-            for i in 0..wu {
-                let k = j as usize * wu + i;
-                out[i] = light0[k];
-                if role[k] == PASSIVE {
-                    continue;
-                }
-                filtered += 1;
-                let l0 = light0[k];
-                busy |= role[k] == RECEIVER || l0[0] != 0.0 || l0[1] != 0.0 || l0[2] != 0.0;
-                let gp = geom[k];
-                let zp = gp[3];
-                let turn = turn_of(grid, i as u32, j);
-                // The 3×3 neighbourhood's surface samples, [di + 1][dj + 1] (the centre and
-                // passive texels: none).
-                let mut near = [[None::<usize>; 3]; 3];
-                for (di, col) in (-1i32..=1).zip(near.iter_mut()) {
-                    let Some((c, row, rows)) = column_at(grid, i as u32, j, turn, di) else {
-                        continue;
-                    };
-                    for (dj, cell) in (-1i32..=1).zip(col.iter_mut()) {
-                        if di == 0 && dj == 0 {
-                            continue;
-                        }
-                        *cell = row_of(grid, row, rows, dj)
-                            .map(|r| r as usize * wu + c as usize)
-                            .filter(|&q| role[q] != PASSIVE && q != k);
-                    }
-                }
-                // Smaller one-sided depth difference per axis (x: the row's neighbours,
-                // y: the column's).
-                let dz =
-                    |cell: Option<usize>| cell.map_or(f32::INFINITY, |q| (geom[q][3] - zp).abs());
-                let fin = |s: f32| if s.is_finite() { s } else { 0.0 };
-                let g = [
-                    fin(dz(near[0][1]).min(dz(near[2][1]))),
-                    fin(dz(near[1][0]).min(dz(near[1][2]))),
-                ];
-                gr[i] = g;
-                if role[k] != SOURCE {
-                    continue;
-                }
-                // Luminance moments of the neighbours on the same surface: normal weight above
-                // ½ and depth within the gradient's prediction, `|z_p − z_q| ≤ σ_z |∇z·(p −
-                // q)| + ε_z` (the depth weight's exponent at most 1, compared without
-                // dividing).
-                let (mut sw, mut s1, mut s2) = (0.0f32, 0.0f32, 0.0f32);
-                for (di, col) in near.iter().enumerate() {
-                    for (dj, &cell) in col.iter().enumerate() {
-                        let Some(q) = cell else {
-                            continue;
-                        };
-                        let gq = geom[q];
-                        let dot = gp[0] * gq[0] + gp[1] * gq[1] + gp[2] * gq[2];
-                        let (ax, ay) = (di.abs_diff(1) as f32, dj.abs_diff(1) as f32);
-                        let den = sigma_z * (g[0] * ax + g[1] * ay) + 1e-3 * zp.abs() + 1e-9;
-                        if role[q] != SOURCE || 1.0 - dot > same_normal || (zp - gq[3]).abs() > den
-                        {
-                            continue;
-                        }
-                        let lq = luma([light0[q][0], light0[q][1], light0[q][2]]);
-                        sw += 1.0;
-                        s1 += lq;
-                        s2 += lq * lq;
-                    }
-                }
-                let mut lp = [l0[0], l0[1], l0[2]];
-                let mut yp = luma(lp);
-                if let (Some(kk), true) = (params.firefly_k, sw >= 2.0) {
-                    let mean = s1 / sw;
-                    let sd = (s2 / sw - mean * mean).max(0.0).sqrt();
-                    let limit = mean + kk * sd;
-                    if yp > limit && yp > 0.0 {
-                        let s = limit.max(0.0) / yp;
-                        lp = lp.map(|v| v * s);
-                        yp = luma(lp);
-                        clamped += 1;
-                    }
-                }
-                // The temporal estimate where given, else the variance of the neighbourhood
-                // with the (clamped) centre.
-                let temporal = variance.map_or(f32::NAN, |v| v.data()[k]);
-                let var = if temporal >= 0.0 && temporal.is_finite() {
-                    temporal
-                } else {
-                    let (tw, t1, t2) = (sw + 1.0, s1 + yp, s2 + yp * yp);
-                    let mean = t1 / tw;
-                    (t2 / tw - mean * mean).max(0.0)
-                };
-                out[i] = [lp[0], lp[1], lp[2], var];
-            }
-            (clamped, filtered, busy)
-        })
+        .map(|(j, ((gr, out), same))| setup.row(j as u32, gr, out, same))
         .reduce(|| (0, 0, false), |x, y| (x.0 + y.0, x.1 + y.1, x.2 || y.2));
     let stats = DenoiseStats { filtered, clamped };
     // No Monte Carlo light anywhere and nothing to refill (noise-free shading): filtering
@@ -608,50 +562,309 @@ pub fn denoise_with_variance(
         return Ok(stats);
     }
 
-    // 3. À-trous iterations, b → a → b …
+    // 3. À-trous iterations, b → a → b …, all but the last.
     let grad = &*grad;
+    #[cfg(test)]
+    let tests_itself = PREFILTER_TESTS_ITSELF.with(|t| t.get());
+    #[cfg(not(test))]
+    let tests_itself = false;
+    let mask = (!tests_itself).then_some(same.as_slice());
     let (mut src, mut dst) = (&mut *b, &mut *a);
-    for it in 0..params.iterations {
-        let step = 1i32 << it;
-        atrous_pass(grid, geom, grad, role, src, dst, wu, step, params);
+    for it in 0..params.iterations - 1 {
+        let pass = Pass {
+            grid,
+            geom,
+            grad,
+            role,
+            src: &*src,
+            same: mask,
+            receivers,
+            wu,
+            step: 1i32 << it,
+            params,
+        };
+        dst.par_chunks_mut(wu)
+            .enumerate()
+            .for_each(|(j, out)| pass.row(j as u32, out));
         std::mem::swap(&mut src, &mut dst);
     }
 
-    // 4. Remodulate (the last result is in `src`).
-    let src = &*src;
+    // 4. The last iteration, remodulated row by row as it is filtered (its light goes through
+    // a row buffer instead of a whole working buffer read back in another pass).
+    let last = Pass {
+        grid,
+        geom,
+        grad,
+        role,
+        src: &*src,
+        same: mask,
+        receivers,
+        wu,
+        step: 1i32 << (params.iterations - 1),
+        params,
+    };
     color
         .data_mut()
         .par_chunks_mut(wu)
         .zip(albedo.data().par_chunks(wu))
         .enumerate()
-        .for_each(|(j, (c, al))| {
-            for i in 0..wu {
-                let k = j * wu + i;
-                if role[k] == PASSIVE {
-                    continue;
+        .for_each_init(
+            || vec![[0.0f32; 4]; wu],
+            |light, (j, (c, al))| {
+                last.row(j as u32, light);
+                for i in 0..wu {
+                    let k = j * wu + i;
+                    if role[k] == PASSIVE {
+                        continue;
+                    }
+                    let l = [light[i][0], light[i][1], light[i][2]];
+                    let lit = remodulate(l, al[i]);
+                    // The exact part kept (a receiver's colour is not finite: all of it
+                    // refilled).
+                    let out: Rgb = if role[k] == SOURCE {
+                        let m = noisy_part(noisy, k, c[i]);
+                        std::array::from_fn(|ch| c[i][ch] - m[ch] + lit[ch])
+                    } else {
+                        lit
+                    };
+                    if out.iter().all(|v| v.is_finite()) {
+                        c[i] = out;
+                    }
                 }
-                let l = [src[k][0], src[k][1], src[k][2]];
-                let lit = remodulate(l, al[i]);
-                // The exact part kept (a receiver's colour is not finite: all of it refilled).
-                let out: Rgb = if role[k] == SOURCE {
-                    let m = noisy_part(noisy, k, c[i]);
-                    std::array::from_fn(|ch| c[i][ch] - m[ch] + lit[ch])
-                } else {
-                    lit
-                };
-                if out.iter().all(|v| v.is_finite()) {
-                    c[i] = out;
-                }
-            }
-        });
+            },
+        );
     Ok(stats)
 }
 
-/// The most taps of one à-trous iteration besides the centre (the 5×5 kernel's 24).
-const MAX_TAPS: usize = 24;
-/// Taps evaluated together: the weights of 8 taps are computed lane by lane over fixed-size
-/// arrays, which the compiler turns into SIMD (SSE2 everywhere, AVX2 where the CPU has it).
+/// What the set-up pass (depth gradient, spatial moments, firefly clamp) reads.
+struct Setup<'a> {
+    grid: &'a Grid,
+    geom: &'a [[f32; 4]],
+    role: &'a [u8],
+    /// The demodulated light of pass 1.
+    light0: &'a [[f32; 4]],
+    variance: Option<&'a Image<f32>>,
+    wu: usize,
+    params: &'a DenoiseParams,
+}
+
+impl Setup<'_> {
+    /// Row `j` of the set-up pass: the depth gradient of every texel not passive into `gr`,
+    /// the (clamped) light and its variance into `out` (every texel's light as it is
+    /// elsewhere), each source's same-surface mask for the variance's prefilter into `same`;
+    /// returns the texels clamped and filtered and whether any receiver or any
+    /// Monte Carlo light is there. In the AVX2 build where the CPU has it.
+    #[inline]
+    fn row(
+        &self,
+        j: u32,
+        gr: &mut [[f32; 2]],
+        out: &mut [[f32; 4]],
+        same: &mut [u8],
+    ) -> (u64, u64, bool) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2 (checked above); the function is safe Rust otherwise.
+            return unsafe { setup_row_avx2(self, j, gr, out, same) };
+        }
+        setup_row(self, j, gr, out, same)
+    }
+}
+
+/// [`setup_row`] compiled for AVX2 (no FMA: the SSE2 build's results bit for bit).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn setup_row_avx2(
+    s: &Setup,
+    j: u32,
+    gr: &mut [[f32; 2]],
+    out: &mut [[f32; 4]],
+    same: &mut [u8],
+) -> (u64, u64, bool) {
+    setup_row(s, j, gr, out, same)
+}
+
+/// The bit of the 3×3 neighbour `[xi][yi]` (offset + 1; not the centre) in the same-surface
+/// mask.
+#[inline(always)]
+fn cell_bit(xi: usize, yi: usize) -> u32 {
+    let c = (xi * 3 + yi) as u32;
+    c - (c > 4) as u32
+}
+
+/// Row `j` of the set-up pass, eight texels at a time, each lane's sums in the scalar
+/// filter's order (the neighbours column by column): the scalar filter's result bit for bit.
+#[inline(always)]
+fn setup_row(
+    s: &Setup,
+    j: u32,
+    gr: &mut [[f32; 2]],
+    out: &mut [[f32; 4]],
+    same: &mut [u8],
+) -> (u64, u64, bool) {
+    let Setup {
+        grid,
+        geom,
+        role,
+        light0,
+        variance,
+        wu,
+        params,
+    } = *s;
+    let sigma_z = params.sigma_depth;
+    // dot^σ_n > ½ ⇔ 1 − dot < ln 2 / σ_n (to first order): "the same surface".
+    let same_normal = std::f32::consts::LN_2 / params.normal_power as f32;
+    let base_row = j as usize * wu;
+    out.copy_from_slice(&light0[base_row..base_row + wu]);
+    let (mut clamped, mut filtered, mut busy) = (0u64, 0u64, false);
+    let mut i0 = 0;
+    while i0 < wu {
+        let n = LANES.min(wu - i0);
+        let base = base_row + i0;
+        let live: [bool; LANES] = std::array::from_fn(|t| t < n && role[base + t] != PASSIVE);
+        if !live.contains(&true) {
+            i0 += LANES;
+            continue;
+        }
+        let k: [u32; LANES] = std::array::from_fn(|t| if t < n { base + t } else { base } as u32);
+        let source: [bool; LANES] = std::array::from_fn(|t| live[t] && role[base + t] == SOURCE);
+        let [lr, lg, lb, _] = transpose8(light0, &k);
+        for t in 0..LANES {
+            if live[t] {
+                filtered += 1;
+                busy |= !source[t] || lr[t] != 0.0 || lg[t] != 0.0 || lb[t] != 0.0;
+            }
+        }
+        let [px, py, pz, zp] = transpose8(geom, &k);
+        let turn: [f64; LANES] =
+            std::array::from_fn(|t| turn_of(grid, (i0 + t.min(n - 1)) as u32, j));
+        // `column_at`'s `t − trunc(t)` of the angle (a step to another column at half 0).
+        let frac: [f64; LANES] = std::array::from_fn(|t| turn[t] - (turn[t] as i64) as f64);
+        // The 3×3 neighbourhood's other surface samples, [di + 1][dj + 1]: index and whether
+        // it is one (the centre: none).
+        let mut near = [[(k, [false; LANES]); 3]; 3];
+        for (xi, col) in near.iter_mut().enumerate() {
+            let column = Column::at(grid, i0, n, j, (&turn, &frac), xi as i32 - 1);
+            for (yi, cell) in col.iter_mut().enumerate() {
+                if xi == 1 && yi == 1 {
+                    continue;
+                }
+                *cell = column.cells(grid, yi as i32 - 1, wu, &k);
+            }
+        }
+        // Smaller one-sided depth difference per axis (x: the row's neighbours, y: the
+        // column's), over the other texels that are not passive.
+        let dz = |(q, inside): ([u32; LANES], [bool; LANES]), t: usize| {
+            if inside[t] && q[t] != k[t] && role[q[t] as usize] != PASSIVE {
+                (geom[q[t] as usize][3] - zp[t]).abs()
+            } else {
+                f32::INFINITY
+            }
+        };
+        let fin = |v: f32| if v.is_finite() { v } else { 0.0 };
+        let g0: F8 = std::array::from_fn(|t| fin(dz(near[0][1], t).min(dz(near[2][1], t))));
+        let g1: F8 = std::array::from_fn(|t| fin(dz(near[1][0], t).min(dz(near[1][2], t))));
+        for t in 0..n {
+            if live[t] {
+                gr[i0 + t] = [g0[t], g1[t]];
+            }
+        }
+        if !source.contains(&true) {
+            i0 += LANES;
+            continue;
+        }
+        // Luminance moments of the neighbours on the same surface: normal weight above ½ and
+        // depth within the gradient's prediction, `|z_p − z_q| ≤ σ_z |∇z·(p − q)| + ε_z` (the
+        // depth weight's exponent at most 1, compared without dividing). With them, per
+        // neighbour, the first à-trous iteration's verdict for the variance's prefilter (its
+        // tolerance rounded as it adds it: `σ_z |∇z·(p − q)| + ε_z` with `ε_z` summed first;
+        // the centre itself where a row wraps onto it: if it is a source), one bit each.
+        let eps_z: F8 = std::array::from_fn(|t| 1e-3 * zp[t].abs() + 1e-9);
+        let (mut sw, mut s1, mut s2) = ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
+        let mut bits = [0u8; LANES];
+        for (xi, col) in near.iter().enumerate() {
+            for (yi, &(q, inside)) in col.iter().enumerate() {
+                if xi == 1 && yi == 1 {
+                    continue;
+                }
+                let bit = 1u8 << cell_bit(xi, yi);
+                let [nx, ny, nz, zq] = transpose8(geom, &q);
+                let [r, g, b, _] = transpose8(light0, &q);
+                let (ax, ay) = (xi.abs_diff(1) as f32, yi.abs_diff(1) as f32);
+                // Branch-free: a neighbour left out adds exact zeros. One that is not a source
+                // has no normal in `geom`: never the same surface.
+                for t in 0..LANES {
+                    let dot = px[t] * nx[t] + py[t] * ny[t] + pz[t] * nz[t];
+                    let dz = (zp[t] - zq[t]).abs();
+                    let tol = sigma_z * (g0[t] * ax + g1[t] * ay);
+                    let den = tol + 1e-3 * zp[t].abs() + 1e-9;
+                    let other = inside[t] && q[t] != k[t];
+                    let same = other && !(1.0 - dot > same_normal || dz > den);
+                    let lq = luma([r[t], g[t], b[t]]);
+                    sw[t] += if same { 1.0 } else { 0.0 };
+                    s1[t] += if same { lq } else { 0.0 };
+                    s2[t] += if same { lq * lq } else { 0.0 };
+                    let prefilter = if q[t] == k[t] {
+                        source[t]
+                    } else {
+                        !(1.0 - dot > same_normal || dz > tol + eps_z[t])
+                    };
+                    bits[t] |= if inside[t] && prefilter { bit } else { 0 };
+                }
+            }
+        }
+        // The firefly clamp and the variance, lane by lane without branches.
+        let temporal: F8 = std::array::from_fn(|t| match variance {
+            Some(v) if t < n => v.data()[base + t],
+            _ => f32::NAN,
+        });
+        let (fire, kk) = (params.firefly_k.is_some(), params.firefly_k.unwrap_or(0.0));
+        let mut res = [[0.0f32; 4]; LANES];
+        let mut clamp = [false; LANES];
+        for t in 0..LANES {
+            let lp = [lr[t], lg[t], lb[t]];
+            let yp = luma(lp);
+            let mean = s1[t] / sw[t];
+            let sd = (s2[t] / sw[t] - mean * mean).max(0.0).sqrt();
+            let limit = mean + kk * sd;
+            clamp[t] = fire && sw[t] >= 2.0 && yp > limit && yp > 0.0;
+            let sc = limit.max(0.0) / yp;
+            let lp = if clamp[t] { lp.map(|v| v * sc) } else { lp };
+            let yp = if clamp[t] { luma(lp) } else { yp };
+            // The temporal estimate where given, else the variance of the neighbourhood with
+            // the (clamped) centre.
+            let (tw, t1, t2) = (sw[t] + 1.0, s1[t] + yp, s2[t] + yp * yp);
+            let m = t1 / tw;
+            let spatial = (t2 / tw - m * m).max(0.0);
+            let tv = temporal[t];
+            let var = if tv >= 0.0 && tv.is_finite() {
+                tv
+            } else {
+                spatial
+            };
+            res[t] = [lp[0], lp[1], lp[2], var];
+        }
+        for t in 0..n {
+            if source[t] {
+                out[i0 + t] = res[t];
+                clamped += clamp[t] as u64;
+            }
+            if live[t] {
+                same[i0 + t] = bits[t];
+            }
+        }
+        i0 += LANES;
+    }
+    (clamped, filtered, busy)
+}
+
+/// Texels filtered together: eight consecutive texels of a row, one per lane. Every quantity
+/// is a fixed-size lane array (structure of arrays), which the compiler turns into SIMD (SSE2
+/// everywhere, AVX2 where the CPU has it); a tap's weight is computed for eight texels at
+/// once and added to each texel's own sums, in the kernel's order.
 const LANES: usize = 8;
+/// One value per lane.
+type F8 = [f32; LANES];
 
 /// What an à-trous iteration reads, shared by every row.
 struct Pass<'a> {
@@ -660,179 +873,167 @@ struct Pass<'a> {
     grad: &'a [[f32; 2]],
     role: &'a [u8],
     src: &'a [[f32; 4]],
+    /// The set-up pass's same-surface masks, where it found them (else the first iteration
+    /// tests the neighbours itself).
+    same: Option<&'a [u8]>,
+    receivers: &'a [(u32, [f32; 3])],
     wu: usize,
     step: i32,
     params: &'a DenoiseParams,
 }
 
-/// Eight taps' data, one array per quantity (structure of arrays, for SIMD).
-#[derive(Default)]
-struct Lanes {
-    nx: [f32; LANES],
-    ny: [f32; LANES],
-    nz: [f32; LANES],
-    z: [f32; LANES],
-    r: [f32; LANES],
-    g: [f32; LANES],
-    b: [f32; LANES],
-    var: [f32; LANES],
-    /// Kernel weight `h(x)·h(y)`; 0 for an unused lane.
-    h: [f32; LANES],
-    /// |Δx|, |Δy| in kernel steps.
-    ax: [f32; LANES],
-    ay: [f32; LANES],
-}
-
-/// The 3×3 kernel's taps besides the centre, `(xi, yi)` = offset + 1, in the kernel's order.
-const TAPS_3X3: [(usize, usize); LANES] = [
-    (0, 0),
-    (0, 1),
-    (0, 2),
-    (1, 0),
-    (1, 2),
-    (2, 0),
-    (2, 1),
-    (2, 2),
-];
-/// |Δx| of [`TAPS_3X3`] in kernel steps.
-const AX_3X3: [f32; LANES] = [1.0, 1.0, 1.0, 0.0, 0.0, 1.0, 1.0, 1.0];
-/// |Δy| of [`TAPS_3X3`] in kernel steps.
-const AY_3X3: [f32; LANES] = [1.0, 0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 1.0];
-
-/// Eight taps' lanes: the guides and light of texels `q`, with their kernel weights `h` and
-/// offsets `ax`, `ay`. On x86-64 each four-float record is loaded whole and the records are
-/// transposed in registers (SSE, which every x86-64 has; the AVX2 build encodes the same
-/// operations in VEX); elsewhere each lane array is built whole from its eight loads (no
-/// scalar stores read back as a vector: that stalls on store forwarding). The values are the
-/// same either way.
+/// Records `rows[q[0..8]]` transposed: element `c` of the result is component `c` of the
+/// eight records. On x86-64 each four-float record is loaded whole and the records are
+/// transposed in registers (two 4×4 transposes with SSE, which every x86-64 has; the AVX2
+/// build encodes the same operations in VEX); elsewhere each lane array is built whole from
+/// its eight loads. The values are the same either way.
 #[inline(always)]
-fn gather(
-    geom: &[[f32; 4]],
-    src: &[[f32; 4]],
-    q: &[usize; LANES],
-    h: [f32; LANES],
-    ax: [f32; LANES],
-    ay: [f32; LANES],
-) -> Lanes {
+fn transpose8(rows: &[[f32; 4]], q: &[u32; LANES]) -> [F8; 4] {
+    let q: [usize; LANES] = std::array::from_fn(|t| q[t] as usize);
     #[cfg(target_arch = "x86_64")]
     {
-        let ([nx, ny, nz, z], [r, g, b, var]) = (transpose8(geom, q), transpose8(src, q));
-        Lanes {
-            nx,
-            ny,
-            nz,
-            z,
-            r,
-            g,
-            b,
-            var,
-            h,
-            ax,
-            ay,
+        use std::arch::x86_64::*;
+        let mut out = [[0.0f32; LANES]; 4];
+        for half in 0..2 {
+            let o = 4 * half;
+            let (a, b, c, d) = (rows[q[o]], rows[q[o + 1]], rows[q[o + 2]], rows[q[o + 3]]);
+            // SAFETY: SSE is part of x86-64; every pointer is a bounds-checked record of four
+            // floats or a lane array with four floats from `o` on.
+            unsafe {
+                let (a, b) = (_mm_loadu_ps(a.as_ptr()), _mm_loadu_ps(b.as_ptr()));
+                let (c, d) = (_mm_loadu_ps(c.as_ptr()), _mm_loadu_ps(d.as_ptr()));
+                // [a.x b.x a.y b.y], [a.z b.z a.w b.w], and the same of c, d.
+                let (t0, t1) = (_mm_unpacklo_ps(a, b), _mm_unpackhi_ps(a, b));
+                let (t2, t3) = (_mm_unpacklo_ps(c, d), _mm_unpackhi_ps(c, d));
+                _mm_storeu_ps(out[0][o..].as_mut_ptr(), _mm_movelh_ps(t0, t2));
+                _mm_storeu_ps(out[1][o..].as_mut_ptr(), _mm_movehl_ps(t2, t0));
+                _mm_storeu_ps(out[2][o..].as_mut_ptr(), _mm_movelh_ps(t1, t3));
+                _mm_storeu_ps(out[3][o..].as_mut_ptr(), _mm_movehl_ps(t3, t1));
+            }
         }
+        out
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
-        let gq: [[f32; 4]; LANES] = std::array::from_fn(|t| geom[q[t]]);
-        let sq: [[f32; 4]; LANES] = std::array::from_fn(|t| src[q[t]]);
-        Lanes {
-            nx: std::array::from_fn(|t| gq[t][0]),
-            ny: std::array::from_fn(|t| gq[t][1]),
-            nz: std::array::from_fn(|t| gq[t][2]),
-            z: std::array::from_fn(|t| gq[t][3]),
-            r: std::array::from_fn(|t| sq[t][0]),
-            g: std::array::from_fn(|t| sq[t][1]),
-            b: std::array::from_fn(|t| sq[t][2]),
-            var: std::array::from_fn(|t| sq[t][3]),
-            h,
-            ax,
-            ay,
-        }
+        let r: [[f32; 4]; LANES] = std::array::from_fn(|t| rows[q[t]]);
+        std::array::from_fn(|c| std::array::from_fn(|t| r[t][c]))
     }
 }
 
-/// Records `rows[q[0..8]]` transposed: element `c` of the result is component `c` of the
-/// eight records (two 4×4 transposes of whole-record loads).
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn transpose8(rows: &[[f32; 4]], q: &[usize; LANES]) -> [[f32; LANES]; 4] {
-    use std::arch::x86_64::*;
-    let mut out = [[0.0f32; LANES]; 4];
-    for half in 0..2 {
-        let o = 4 * half;
-        let (a, b, c, d) = (rows[q[o]], rows[q[o + 1]], rows[q[o + 2]], rows[q[o + 3]]);
-        // SAFETY: SSE is part of x86-64; every pointer is a bounds-checked record of four
-        // floats or a lane array with four floats from `o` on.
-        unsafe {
-            let (a, b) = (_mm_loadu_ps(a.as_ptr()), _mm_loadu_ps(b.as_ptr()));
-            let (c, d) = (_mm_loadu_ps(c.as_ptr()), _mm_loadu_ps(d.as_ptr()));
-            // [a.x b.x a.y b.y], [a.z b.z a.w b.w], and the same of c, d.
-            let (t0, t1) = (_mm_unpacklo_ps(a, b), _mm_unpackhi_ps(a, b));
-            let (t2, t3) = (_mm_unpacklo_ps(c, d), _mm_unpackhi_ps(c, d));
-            _mm_storeu_ps(out[0][o..].as_mut_ptr(), _mm_movelh_ps(t0, t2));
-            _mm_storeu_ps(out[1][o..].as_mut_ptr(), _mm_movehl_ps(t2, t0));
-            _mm_storeu_ps(out[2][o..].as_mut_ptr(), _mm_movelh_ps(t1, t3));
-            _mm_storeu_ps(out[3][o..].as_mut_ptr(), _mm_movehl_ps(t3, t1));
-        }
-    }
-    out
+/// Where one kernel column's taps land for the lanes of a block: per lane the column, the row
+/// at the texel's angle there (before wrapping) and that column's row count; `ok` false where
+/// the column is outside the buffer or the lane past the row's end.
+struct Column {
+    c: [u32; LANES],
+    row: [i64; LANES],
+    rows: [u32; LANES],
+    ok: [bool; LANES],
 }
 
-/// The sum of eight lanes as a tree, `((a₀ + a₄) + (a₂ + a₆)) + ((a₁ + a₅) + (a₃ + a₇))`: three
-/// dependent additions instead of seven, in the order a vector reduction takes (halves, then
-/// quarters, then pairs).
-#[inline(always)]
-fn sum8(a: &[f32; LANES]) -> f32 {
-    let h: [f32; 4] = std::array::from_fn(|t| a[t] + a[t + 4]);
-    let q = [h[0] + h[2], h[1] + h[3]];
-    q[0] + q[1]
-}
-
-/// The centre texel's terms of the edge-stopping weight.
-struct Centre {
-    gp: [f32; 4],
-    g: [f32; 2],
-    yp: f32,
-    inv_sl: f32,
-    eps_z: f32,
-    step: f32,
-    sigma_z: f32,
-    sigma_n: f32,
-}
-
-impl Centre {
-    /// Adds each lane's weight `w` (Eq. 3–5 times the kernel's) into `acc`: `w`, `w·rgb`,
-    /// `w²·var`.
+impl Column {
+    /// The kernel column `dx` texels from texels `(i0 + t, j)`, `t < n`, whose angles in turns
+    /// are `turn[t]` and `frac[t]` their fractions `turn − ⌊turn⌋` ([`column_at`] per lane).
+    /// Lane by lane without branches where the eight columns are consecutive columns of the
+    /// buffer (the common case), else per lane.
     #[inline(always)]
-    fn weigh(&self, l: &Lanes, acc: &mut [[f32; LANES]; 5]) {
-        let (gp, g) = (self.gp, self.g);
-        for t in 0..LANES {
-            let dot = gp[0] * l.nx[t] + gp[1] * l.ny[t] + gp[2] * l.nz[t];
-            // 1 / (σ_z |∇z·(p − q)| + ε_z).
-            let d = (g[0] * l.ax[t] + g[1] * l.ay[t]) * self.step;
-            let inv_den = 1.0 / (self.sigma_z * d + self.eps_z);
-            let yq = 0.299 * l.r[t] + 0.587 * l.g[t] + 0.114 * l.b[t];
-            // max(0, n·n')^σ_n ≈ e^(−σ_n (1 − n·n')) (equal to first order at n = n'),
-            // folded into the one exponential with the depth and luminance terms.
-            let arg = (gp[3] - l.z[t]).abs() * inv_den
-                + (self.yp - yq).abs() * self.inv_sl
-                + self.sigma_n * (1.0 - dot);
-            let e = exp_neg(arg);
-            let wgt = if dot > 0.0 && arg <= 30.0 {
-                l.h[t] * e
-            } else {
-                0.0
-            };
-            acc[0][t] += wgt;
-            acc[1][t] += wgt * l.r[t];
-            acc[2][t] += wgt * l.g[t];
-            acc[3][t] += wgt * l.b[t];
-            acc[4][t] += wgt * wgt * l.var[t];
+    fn at(
+        grid: &Grid,
+        i0: usize,
+        n: usize,
+        j: u32,
+        (turn, frac): (&[f64; LANES], &[f64; LANES]),
+        dx: i32,
+    ) -> Self {
+        let mut col = Column {
+            c: [0; LANES],
+            row: [0; LANES],
+            rows: [0; LANES],
+            ok: [false; LANES],
+        };
+        let c0 = i0 as i64 + dx as i64;
+        match grid {
+            Grid::Rect { width, height } => {
+                for t in 0..LANES {
+                    let c = c0 + t as i64;
+                    col.ok[t] = t < n && c >= 0 && c < *width as i64;
+                    col.c[t] = if col.ok[t] { c as u32 } else { 0 };
+                    col.row[t] = j as i64;
+                    col.rows[t] = *height;
+                }
+                return col;
+            }
+            Grid::Polar { rows, period } if c0 >= 0 && c0 as usize + LANES <= rows.len() => {
+                let c0 = c0 as usize;
+                let (rs, ps) = (&rows[c0..c0 + LANES], &period[c0..c0 + LANES]);
+                for t in 0..LANES {
+                    col.ok[t] = t < n && rs[t] != 0;
+                    col.c[t] = (c0 + t) as u32;
+                    col.rows[t] = rs[t];
+                    // `column_at`'s row at the same angle (the same column: the same row).
+                    col.row[t] = if dx == 0 {
+                        j as i64
+                    } else {
+                        (frac[t] * ps[t]) as i64
+                    };
+                }
+                return col;
+            }
+            Grid::Polar { .. } => {}
         }
+        for t in 0..n {
+            if let Some((c, row, rows)) = column_at(grid, (i0 + t) as u32, j, turn[t], dx) {
+                (col.c[t], col.row[t], col.rows[t], col.ok[t]) = (c, row, rows, true);
+            }
+        }
+        col
+    }
+
+    /// The texels `dy` rows on: per lane its index and whether it lies in the buffer (else
+    /// the index is the lane's centre `k`).
+    #[inline(always)]
+    fn cells(
+        &self,
+        grid: &Grid,
+        dy: i32,
+        wu: usize,
+        k: &[u32; LANES],
+    ) -> ([u32; LANES], [bool; LANES]) {
+        let r: [i64; LANES] = std::array::from_fn(|t| self.row[t] + dy as i64);
+        let within: [bool; LANES] =
+            std::array::from_fn(|t| r[t] >= 0 && r[t] < self.rows[t] as i64);
+        if (0..LANES).all(|t| within[t] || !self.ok[t]) {
+            // No row wraps: one multiply-add per lane, in 32 bits (the buffer has fewer than
+            // 2^32 texels).
+            let q = std::array::from_fn(|t| {
+                let q = (r[t] as u32)
+                    .wrapping_mul(wu as u32)
+                    .wrapping_add(self.c[t]);
+                if self.ok[t] {
+                    q
+                } else {
+                    k[t]
+                }
+            });
+            return (q, self.ok);
+        }
+        let (mut q, mut inside) = (*k, [false; LANES]);
+        for t in 0..LANES {
+            if !self.ok[t] {
+                continue;
+            }
+            if let Some(r) = row_of(grid, self.row[t], self.rows[t], dy) {
+                (q[t], inside[t]) = ((r as usize * wu + self.c[t] as usize) as u32, true);
+            }
+        }
+        (q, inside)
     }
 }
 
-/// One à-trous iteration at `step` texels from `src` into `dst` (receivers only).
+/// One à-trous iteration at `step` texels from `src` into `dst` (every texel not passive), from
+/// any geometry `geom` (normal and depth per texel): prepared as the set-up does (no normal
+/// for the texels that are not sources, the receivers' kept aside), then filtered as
+/// [`denoise_with_variance`]'s iterations are.
+#[cfg(test)]
 #[allow(clippy::too_many_arguments)]
 fn atrous_pass(
     grid: &Grid,
@@ -845,27 +1046,51 @@ fn atrous_pass(
     step: i32,
     params: &DenoiseParams,
 ) {
+    let receivers: Vec<(u32, [f32; 3])> = (0..geom.len())
+        .filter(|&k| role[k] == RECEIVER)
+        .map(|k| (k as u32, [geom[k][0], geom[k][1], geom[k][2]]))
+        .collect();
+    let geom: Vec<[f32; 4]> = geom
+        .iter()
+        .zip(role)
+        .map(|(g, &r)| {
+            if r == SOURCE {
+                *g
+            } else {
+                [0.0, 0.0, 0.0, g[3]]
+            }
+        })
+        .collect();
     let pass = Pass {
         grid,
-        geom,
+        geom: &geom,
         grad,
         role,
         src,
+        same: None,
+        receivers: &receivers,
         wu,
         step,
         params,
     };
-    #[cfg(target_arch = "x86_64")]
-    let avx2 = std::arch::is_x86_feature_detected!("avx2");
-    dst.par_chunks_mut(wu).enumerate().for_each(|(j, out)| {
+    dst.par_chunks_mut(wu)
+        .enumerate()
+        .for_each(|(j, out)| pass.row(j as u32, out));
+}
+
+impl Pass<'_> {
+    /// Row `j` of the iteration into `out` (the row's texels; passive ones left as they are),
+    /// in the AVX2 build where the CPU has it.
+    #[inline]
+    fn row(&self, j: u32, out: &mut [[f32; 4]]) {
         #[cfg(target_arch = "x86_64")]
-        if avx2 {
+        if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2 (checked above); the function is safe Rust otherwise.
-            unsafe { atrous_row_avx2(&pass, j as u32, out) };
+            unsafe { atrous_row_avx2(self, j, out) };
             return;
         }
-        atrous_row(&pass, j as u32, out);
-    });
+        atrous_row(self, j, out);
+    }
 }
 
 /// [`atrous_row`] compiled for AVX2 (the same operations, 8 lanes wide; no FMA, so the
@@ -876,7 +1101,10 @@ unsafe fn atrous_row_avx2(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
     atrous_row(pass, j, out)
 }
 
-/// Row `j` of one à-trous iteration.
+/// Row `j` of one à-trous iteration, eight texels at a time. Every sum adds its terms in the
+/// order of the scalar filter (the centre, then the kernel's taps column by column), so the
+/// result is the scalar filter's bit for bit: a tap that does not land on another source
+/// reads the centre with kernel weight 0 and adds exact zeros.
 #[inline(always)]
 fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
     let Pass {
@@ -885,6 +1113,8 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
         grad,
         role,
         src,
+        same,
+        receivers,
         wu,
         step,
         params,
@@ -895,172 +1125,192 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
     let same_normal = std::f32::consts::LN_2 / sigma_n;
     let h = params.kernel.taps();
     let half = h.len() / 2;
-    let reuse_3x3 = step == 1 && h.len() == 3;
-    for i in 0..wu {
-        let k = j as usize * wu + i;
-        if role[k] == PASSIVE {
+    let stepf = step as f32;
+    let mut i0 = 0;
+    while i0 < wu {
+        let n = LANES.min(wu - i0);
+        let base = j as usize * wu + i0;
+        let live: [bool; LANES] = std::array::from_fn(|t| t < n && role[base + t] != PASSIVE);
+        if !live.contains(&true) {
+            i0 += LANES;
             continue;
         }
-        let gp = geom[k];
-        let g = grad[k];
-        let lp = [src[k][0], src[k][1], src[k][2]];
-        let yp = luma(lp);
-        let turn = turn_of(grid, i as u32, j);
-        let eps_z = 1e-3 * gp[3].abs() + 1e-9;
-        // The 3×3 neighbourhood at step 1 (index or none, [di + 1][dj + 1]): the variance's
-        // prefilter in the first iteration, and the taps too with the 3×3 kernel.
-        let mut near = [[None::<usize>; 3]; 3];
-        if step == 1 {
-            for (di, col) in (-1i32..=1).zip(near.iter_mut()) {
-                let Some((c, row, rows)) = column_at(grid, i as u32, j, turn, di) else {
-                    continue;
-                };
-                for (dj, cell) in (-1i32..=1).zip(col.iter_mut()) {
-                    *cell = row_of(grid, row, rows, dj).map(|r| r as usize * wu + c as usize);
+        // Lanes past the row's end compute texel `base`'s and store nothing.
+        let k: [u32; LANES] = std::array::from_fn(|t| if t < n { base + t } else { base } as u32);
+        let source: [bool; LANES] = std::array::from_fn(|t| role[k[t] as usize] == SOURCE);
+        let [mut px, mut py, mut pz, zp] = transpose8(geom, &k);
+        // A receiver's own normal (`geom` has none for it).
+        for t in 0..n {
+            if live[t] && !source[t] {
+                if let Ok(r) = receivers.binary_search_by_key(&k[t], |e| e.0) {
+                    [px[t], py[t], pz[t]] = receivers[r].1;
                 }
             }
         }
-        // 3×3 Gaussian of the variance over sources on the same surface (SVGF Eq. 5's
-        // g₃ₓ₃; a neighbour across an edge has another noise level), in the first
-        // iteration; the later ones read the variance the earlier ones filtered.
-        let (mut vw, mut vs) = (0.0f32, 0.0f32);
-        if step > 1 {
-            (vw, vs) = (1.0, src[k][3]);
-        }
-        for (di, col) in (-1i32..=1).zip(&near).filter(|_| step == 1) {
-            for (dj, &cell) in (-1i32..=1).zip(col) {
-                let Some(q) = cell else {
-                    continue;
-                };
-                if role[q] != SOURCE {
-                    continue;
-                }
-                if q != k {
-                    let gq = geom[q];
-                    let dot = gp[0] * gq[0] + gp[1] * gq[1] + gp[2] * gq[2];
-                    let dz = (gp[3] - gq[3]).abs();
-                    let tol = sigma_z * (g[0] * di.abs() as f32 + g[1] * dj.abs() as f32);
-                    if 1.0 - dot > same_normal || dz > tol + eps_z {
-                        continue;
-                    }
-                }
-                let wgt = H3[(di + 1) as usize] * H3[(dj + 1) as usize];
-                vw += wgt;
-                vs += wgt * src[q][3];
-            }
-        }
-        let var = if vw > 0.0 { vs / vw } else { 0.0 };
-        // A receiver-only texel has no light of its own to compare with.
-        let inv_sl = if role[k] == SOURCE {
-            1.0 / (sigma_l * var.sqrt() + 1e-8)
-        } else {
-            0.0
-        };
+        let [lr, lg, lb, lv] = transpose8(src, &k);
+        let g0: F8 = std::array::from_fn(|t| grad[k[t] as usize][0]);
+        let g1: F8 = std::array::from_fn(|t| grad[k[t] as usize][1]);
+        let yp: F8 = std::array::from_fn(|t| 0.299 * lr[t] + 0.587 * lg[t] + 0.114 * lb[t]);
+        let eps_z: F8 = std::array::from_fn(|t| 1e-3 * zp[t].abs() + 1e-9);
+        let turn: [f64; LANES] =
+            std::array::from_fn(|t| turn_of(grid, (i0 + t.min(n - 1)) as u32, j));
+        // `column_at`'s `t − trunc(t)` of the angle (a step to another column at half 0).
+        let frac: [f64; LANES] = std::array::from_fn(|t| turn[t] - (turn[t] as i64) as f64);
 
-        let (mut sw, mut sl, mut sv) = (0.0f32, [0.0f32; 3], 0.0f32);
-        if role[k] == SOURCE {
-            let wgt = h[half] * h[half];
-            sw = wgt;
-            sl = lp.map(|v| v * wgt);
-            sv = wgt * wgt * src[k][3];
-        }
-        let centre = Centre {
-            gp,
-            g,
-            yp,
-            inv_sl,
-            eps_z,
-            step: step as f32,
-            sigma_z,
-            sigma_n,
+        // 3×3 Gaussian of the variance over sources on the same surface (SVGF Eq. 5's g₃ₓ₃; a
+        // neighbour across an edge has another noise level), in the first iteration; the
+        // later ones read the variance the earlier ones filtered.
+        let var: F8 = if let (1, Some(same)) = (step, same) {
+            // The neighbours the set-up pass found on the same surface.
+            let bits: [u8; LANES] = std::array::from_fn(|t| same[k[t] as usize]);
+            let (mut vw, mut vs) = ([0.0f32; LANES], [0.0f32; LANES]);
+            for (xi, di) in (-1i32..=1).enumerate() {
+                let col = Column::at(grid, i0, n, j, (&turn, &frac), di);
+                for (yi, dj) in (-1i32..=1).enumerate() {
+                    let wgt = H3[xi] * H3[yi];
+                    if xi == 1 && yi == 1 {
+                        for t in 0..LANES {
+                            vw[t] += if source[t] { wgt } else { 0.0 };
+                            vs[t] += if source[t] { wgt * lv[t] } else { 0.0 };
+                        }
+                        continue;
+                    }
+                    let (q, _) = col.cells(grid, dj, wu, &k);
+                    let vq: F8 = std::array::from_fn(|t| src[q[t] as usize][3]);
+                    let bit = 1u8 << cell_bit(xi, yi);
+                    for t in 0..LANES {
+                        let on = bits[t] & bit != 0;
+                        vw[t] += if on { wgt } else { 0.0 };
+                        vs[t] += if on { wgt * vq[t] } else { 0.0 };
+                    }
+                }
+            }
+            std::array::from_fn(|t| if vw[t] > 0.0 { vs[t] / vw[t] } else { 0.0 })
+        } else if step == 1 {
+            let (mut vw, mut vs) = ([0.0f32; LANES], [0.0f32; LANES]);
+            for (xi, di) in (-1i32..=1).enumerate() {
+                let col = Column::at(grid, i0, n, j, (&turn, &frac), di);
+                for (yi, dj) in (-1i32..=1).enumerate() {
+                    let (q, inside) = col.cells(grid, dj, wu, &k);
+                    let [nx, ny, nz, zq] = transpose8(geom, &q);
+                    let vq: F8 = std::array::from_fn(|t| src[q[t] as usize][3]);
+                    let wgt = H3[xi] * H3[yi];
+                    let (ax, ay) = (di.abs() as f32, dj.abs() as f32);
+                    for t in 0..LANES {
+                        let dot = px[t] * nx[t] + py[t] * ny[t] + pz[t] * nz[t];
+                        let dz = (zp[t] - zq[t]).abs();
+                        let tol = sigma_z * (g0[t] * ax + g1[t] * ay);
+                        // The centre itself if it is a source; another texel if it is on the
+                        // same surface (one that is not a source has no normal in `geom`).
+                        let same = if q[t] == k[t] {
+                            source[t]
+                        } else {
+                            !(1.0 - dot > same_normal || dz > tol + eps_z[t])
+                        };
+                        // Branch-free: a cell left out adds exact zeros.
+                        let on = inside[t] && same;
+                        vw[t] += if on { wgt } else { 0.0 };
+                        vs[t] += if on { wgt * vq[t] } else { 0.0 };
+                    }
+                }
+            }
+            std::array::from_fn(|t| if vw[t] > 0.0 { vs[t] / vw[t] } else { 0.0 })
+        } else {
+            lv
         };
-        // Lane sums (w, w·r, w·g, w·b, w²·var), reduced after the last block.
-        let mut acc = [[0.0f32; LANES]; 5];
-        if h.len() == 3 {
-            // The 3×3 kernel's eight taps, one lane each in the kernel's order, without
-            // branches: a tap that does not land on another source reads the centre with
-            // kernel weight 0, which adds exact zeros, so the sums equal the packed lanes'
-            // below bit for bit.
-            let mut tq = [k; LANES];
-            let mut th = [0.0f32; LANES];
-            let mut cells = [[None::<usize>; 3]; 3];
-            if reuse_3x3 {
-                cells = near;
+        // A receiver-only texel has no light of its own to compare with.
+        let inv_sl: F8 = std::array::from_fn(|t| {
+            if source[t] {
+                1.0 / (sigma_l * var[t].sqrt() + 1e-8)
             } else {
-                for (di, col) in (-step..=step).step_by(step as usize).zip(cells.iter_mut()) {
-                    let Some((c, row, rows)) = column_at(grid, i as u32, j, turn, di) else {
-                        continue;
-                    };
-                    for (dj, cell) in (-step..=step).step_by(step as usize).zip(col.iter_mut()) {
-                        *cell = row_of(grid, row, rows, dj).map(|r| r as usize * wu + c as usize);
-                    }
-                }
+                0.0
             }
-            for (t, &(xi, yi)) in TAPS_3X3.iter().enumerate() {
-                if let Some(q) = cells[xi][yi] {
-                    let ok = role[q] == SOURCE && q != k;
-                    tq[t] = if ok { q } else { k };
-                    th[t] = if ok { H3[xi] * H3[yi] } else { 0.0 };
-                }
-            }
-            let lanes = gather(geom, src, &tq, th, AX_3X3, AY_3X3);
-            centre.weigh(&lanes, &mut acc);
-        } else {
-            // The taps that land on another source: index, kernel weight and |Δx|, |Δy| in
-            // kernel steps. Unused lanes read the centre with weight 0.
-            let mut tq = [k; MAX_TAPS];
-            let mut th = [0.0f32; MAX_TAPS];
-            let mut tx = [0.0f32; MAX_TAPS];
-            let mut ty = [0.0f32; MAX_TAPS];
-            let mut nt = 0usize;
-            let mut push = |q: usize, xi: usize, yi: usize| {
-                if role[q] == SOURCE && q != k {
-                    tq[nt] = q;
-                    th[nt] = h[xi] * h[yi];
-                    tx[nt] = xi.abs_diff(half) as f32;
-                    ty[nt] = yi.abs_diff(half) as f32;
-                    nt += 1;
-                }
-            };
-            for xi in 0..h.len() {
-                let di = (xi as i32 - half as i32) * step;
-                let Some((c, row, rows)) = column_at(grid, i as u32, j, turn, di) else {
+        });
+        // 1 / (σ_z |∇z·(p − q)| + ε_z) for |Δx|, |Δy| in kernel steps (one division per
+        // offset class and lane, not per tap).
+        let mut inv_den = [[[0.0f32; LANES]; 3]; 3];
+        for (ax, row) in inv_den.iter_mut().enumerate().take(half + 1) {
+            for (ay, lanes) in row.iter_mut().enumerate().take(half + 1) {
+                if ax + ay == 0 {
                     continue;
-                };
-                for yi in 0..h.len() {
-                    if xi == half && yi == half {
-                        continue;
-                    }
-                    let dj = (yi as i32 - half as i32) * step;
-                    if let Some(r) = row_of(grid, row, rows, dj) {
-                        push(r as usize * wu + c as usize, xi, yi);
-                    }
+                }
+                for t in 0..LANES {
+                    let d = (g0[t] * ax as f32 + g1[t] * ay as f32) * stepf;
+                    lanes[t] = 1.0 / (sigma_z * d + eps_z[t]);
                 }
             }
-            for block in 0..nt.div_ceil(LANES) {
-                let o = block * LANES;
-                let q: [usize; LANES] = std::array::from_fn(|t| tq[o + t]);
-                let lanes = gather(
-                    geom,
-                    src,
-                    &q,
-                    std::array::from_fn(|t| th[o + t]),
-                    std::array::from_fn(|t| tx[o + t]),
-                    std::array::from_fn(|t| ty[o + t]),
-                );
-                centre.weigh(&lanes, &mut acc);
+        }
+        // The sums (w, w·rgb, w²·var), the centre's first.
+        let hc = h[half] * h[half];
+        let mut sw: F8 = std::array::from_fn(|t| if source[t] { hc } else { 0.0 });
+        let mut sr: F8 = std::array::from_fn(|t| if source[t] { lr[t] * hc } else { 0.0 });
+        let mut sg: F8 = std::array::from_fn(|t| if source[t] { lg[t] * hc } else { 0.0 });
+        let mut sb: F8 = std::array::from_fn(|t| if source[t] { lb[t] * hc } else { 0.0 });
+        let mut sv: F8 = std::array::from_fn(|t| if source[t] { hc * hc * lv[t] } else { 0.0 });
+        for (xi, &hx) in h.iter().enumerate() {
+            let col = Column::at(
+                grid,
+                i0,
+                n,
+                j,
+                (&turn, &frac),
+                (xi as i32 - half as i32) * step,
+            );
+            for (yi, &hy) in h.iter().enumerate() {
+                if xi == half && yi == half {
+                    continue;
+                }
+                let (q0, inside) = col.cells(grid, (yi as i32 - half as i32) * step, wu, &k);
+                // A tap outside or on the centre reads the centre with kernel weight 0; one on a
+                // texel that is not a source has weight 0 too (it has no normal in `geom`:
+                // `n_p·0 = 0`), and light 0 or a receiver's finite light.
+                let read: [bool; LANES] = std::array::from_fn(|t| inside[t] && q0[t] != k[t]);
+                let q: [u32; LANES] = std::array::from_fn(|t| if read[t] { q0[t] } else { k[t] });
+                let hq: F8 = std::array::from_fn(|t| if read[t] { hx * hy } else { 0.0 });
+                let [nx, ny, nz, zq] = transpose8(geom, &q);
+                let [r, g, b, v] = transpose8(src, &q);
+                let inv_den = &inv_den[xi.abs_diff(half)][yi.abs_diff(half)];
+                for t in 0..LANES {
+                    let dot = px[t] * nx[t] + py[t] * ny[t] + pz[t] * nz[t];
+                    let yq = 0.299 * r[t] + 0.587 * g[t] + 0.114 * b[t];
+                    // max(0, n·n')^σ_n ≈ e^(−σ_n (1 − n·n')) (equal to first order at
+                    // n = n'), folded into the one exponential with the depth and luminance
+                    // terms.
+                    let arg = (zp[t] - zq[t]).abs() * inv_den[t]
+                        + (yp[t] - yq).abs() * inv_sl[t]
+                        + sigma_n * (1.0 - dot);
+                    // A weight past the cut-off is not used: its exponential is taken at 31
+                    // instead (no subnormal products in the unused lanes).
+                    let e = exp_neg(arg.min(31.0));
+                    let wgt = if dot > 0.0 && arg <= 30.0 {
+                        hq[t] * e
+                    } else {
+                        0.0
+                    };
+                    sw[t] += wgt;
+                    sr[t] += wgt * r[t];
+                    sg[t] += wgt * g[t];
+                    sb[t] += wgt * b[t];
+                    sv[t] += wgt * wgt * v[t];
+                }
             }
         }
-        sw += sum8(&acc[0]);
-        for ch in 0..3 {
-            sl[ch] += sum8(&acc[1 + ch]);
+        let res: [F8; 4] = [
+            std::array::from_fn(|t| sr[t] / sw[t]),
+            std::array::from_fn(|t| sg[t] / sw[t]),
+            std::array::from_fn(|t| sb[t] / sw[t]),
+            std::array::from_fn(|t| sv[t] / (sw[t] * sw[t])),
+        ];
+        for t in 0..n {
+            if live[t] {
+                out[i0 + t] = if sw[t] > 0.0 {
+                    [res[0][t], res[1][t], res[2][t], res[3][t]]
+                } else {
+                    src[k[t] as usize]
+                };
+            }
         }
-        sv += sum8(&acc[4]);
-        out[i] = if sw > 0.0 {
-            [sl[0] / sw, sl[1] / sw, sl[2] / sw, sv / (sw * sw)]
-        } else {
-            src[k]
-        };
+        i0 += LANES;
     }
 }
 
@@ -1373,6 +1623,133 @@ mod tests {
                             );
                         }
                     }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_pass_equals_the_scalar_reference_exactly() {
+        // Eight texels at a time, each texel's sums in the kernel's order as the scalar
+        // filter adds them: the same numbers, not only to rounding (a zero may change sign).
+        // Random geometry with passive and receiver texels, on a polar grid (with columns
+        // whose angles cross the fovea) and a rect grid, every step and both kernels.
+        let rows = vec![5u32, 11, 16, 21, 27, 30, 35, 40, 40, 40, 39, 37, 40];
+        let period: Vec<f64> = rows.iter().map(|&r| r as f64 * 1.07 + 0.3).collect();
+        let polar = Grid::Polar {
+            rows: rows.clone(),
+            period,
+        };
+        let rect = Grid::Rect {
+            width: 45,
+            height: 23,
+        };
+        let mut rng = Rng(77);
+        for (grid, w, h) in [(&polar, 13usize, 40usize), (&rect, 45, 23)] {
+            let n = w * h;
+            let geom: Vec<[f32; 4]> = (0..n)
+                .map(|_| {
+                    let s = (rng.next() * 3.0) as u32;
+                    let nv = [[0.0, 0.0, 1.0], [0.0, 0.6, 0.8], [0.8, 0.0, 0.6]][s as usize];
+                    let nv = [nv[0], nv[1] + 0.02 * rng.next(), nv[2]];
+                    [nv[0], nv[1], nv[2], 2.0 + s as f32 + 0.03 * rng.next()]
+                })
+                .collect();
+            let grad: Vec<[f32; 2]> = (0..n)
+                .map(|_| [0.03 * rng.next(), 0.02 * rng.next()])
+                .collect();
+            let role: Vec<u8> = (0..n)
+                .map(|k| {
+                    let (i, j) = ((k % w) as u32, (k / w) as u32);
+                    match (grid.valid(i, j), rng.next()) {
+                        (false, _) => PASSIVE,
+                        (true, x) if x < 0.08 => PASSIVE,
+                        (true, x) if x < 0.12 => RECEIVER,
+                        _ => SOURCE,
+                    }
+                })
+                .collect();
+            let src: Vec<[f32; 4]> = (0..n)
+                .map(|_| {
+                    let v = rng.next();
+                    [v, 0.3 * v + 0.4 * rng.next(), rng.next(), 0.08 * rng.next()]
+                })
+                .collect();
+            for kernel in [Kernel::Linear3x3, Kernel::B3Spline5x5] {
+                let params = DenoiseParams {
+                    kernel,
+                    ..DenoiseParams::default()
+                };
+                for step in [1, 2, 4, 8, 16] {
+                    let mut fast = vec![[0.0f32; 4]; n];
+                    let mut slow = vec![[0.0f32; 4]; n];
+                    atrous_pass(grid, &geom, &grad, &role, &src, &mut fast, w, step, &params);
+                    reference_pass(grid, &geom, &grad, &role, &src, &mut slow, w, step, &params);
+                    for k in (0..n).filter(|&k| role[k] != PASSIVE) {
+                        assert_eq!(fast[k], slow[k], "{kernel:?} step {step} texel {k}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_set_up_masks_equal_the_prefilters_own_tests() {
+        // The first iteration's variance prefilter reads which neighbours are on the same
+        // surface from the set-up pass; testing them itself gives the same frame bit for bit.
+        // A polar grid (with the fovea crossing) and a rect one, random surfaces, sky,
+        // receivers (NaN colour), both kernels, one and four iterations.
+        let rows = vec![4u32, 9, 15, 22, 28, 33, 36, 36, 36, 35, 36];
+        let period: Vec<f64> = rows.iter().map(|&r| r as f64 * 1.05 + 0.2).collect();
+        let polar = Grid::Polar {
+            rows: rows.clone(),
+            period,
+        };
+        let rect = Grid::Rect {
+            width: 31,
+            height: 20,
+        };
+        let mut rng = Rng(5);
+        for (grid, w, h) in [(&polar, 11u32, 36u32), (&rect, 31, 20)] {
+            let mut s = scene(
+                (w, h),
+                |i, j| [0.5 + 0.1 * (i % 3) as f32, 0.4, 0.3 + 0.05 * (j % 4) as f32],
+                texture,
+                |i, j| 2.0 + 0.02 * i as f32 + if (i + j) % 7 < 3 { 1.0 } else { 0.0 },
+                |i, j| {
+                    if (i / 3 + j / 5) % 3 == 0 {
+                        [0.0, 0.6, 0.8]
+                    } else {
+                        [0.0, 0.0, 1.0]
+                    }
+                },
+            );
+            for k in 0..(w * h) as usize {
+                let x = rng.next();
+                let c = &mut s.color.data_mut()[k];
+                *c = c.map(|v| v * (0.5 + rng.next()));
+                if x < 0.05 {
+                    s.depth.data_mut()[k] = f32::INFINITY;
+                } else if x < 0.09 {
+                    *c = [f32::NAN; 3];
+                }
+            }
+            for kernel in [Kernel::Linear3x3, Kernel::B3Spline5x5] {
+                for iterations in [1, 4] {
+                    let p = DenoiseParams {
+                        kernel,
+                        iterations,
+                        ..DenoiseParams::default()
+                    };
+                    let (masked, _) = run(&s, grid, &p);
+                    PREFILTER_TESTS_ITSELF.with(|t| t.set(true));
+                    let (tested, _) = run(&s, grid, &p);
+                    PREFILTER_TESTS_ITSELF.with(|t| t.set(false));
+                    let bits = |img: &Image<Rgb>| -> Vec<u32> {
+                        img.data().iter().flatten().map(|v| v.to_bits()).collect()
+                    };
+                    assert_eq!(bits(&masked), bits(&tested), "{kernel:?} x{iterations}");
+                    assert_ne!(bits(&masked), bits(&s.color), "{kernel:?} x{iterations}");
                 }
             }
         }
