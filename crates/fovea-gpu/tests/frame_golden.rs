@@ -59,9 +59,11 @@ fn off_centre() -> Gaze {
     display().gaze(52.0, 64.0).unwrap()
 }
 
+/// `--quality realtime`'s settings (`Quality::apply`: direct light, one occluded environment
+/// ray, VaFR's rings in one buffer for any gaze), as `fovea-render/tests/golden.rs` makes them.
 fn realtime(m: Method) -> FrameSettings {
     let mut f = FrameSettings::new(m);
-    f.shading = Quality::Realtime.shading();
+    Quality::Realtime.apply(&mut f);
     f
 }
 

@@ -279,16 +279,17 @@ fn cases() -> Vec<Case> {
         }),
         case("realtime-dof-gather-full-1m", |s| {
             let mut f = with_dof(Method::Full, FilterKind::Gather, FocusMode::Fixed(1.0));
-            f.shading = fovea_render::quality::Quality::Realtime.shading();
+            fovea_render::quality::Quality::Realtime.apply(&mut f);
             frame(s, &f, off_centre())
         }),
     ]
 }
 
-/// `--quality realtime`'s shading (direct light, one occluded environment ray per sample).
+/// `--quality realtime`'s settings (`Quality::apply`: direct light, one occluded environment
+/// ray per sample, VaFR's rings in one buffer for any gaze).
 fn realtime(m: Method) -> FrameSettings {
     let mut f = FrameSettings::new(m);
-    f.shading = fovea_render::quality::Quality::Realtime.shading();
+    fovea_render::quality::Quality::Realtime.apply(&mut f);
     f
 }
 
