@@ -144,7 +144,9 @@ pub fn params(args: &BenchArgs) -> Result<BenchParams> {
         .map(crate::common::parse_list_method)
         .collect::<Result<_>>()?;
     let mut frame = FrameSettings::new(Method::Full);
-    frame.mapping = args.options.frame_config()?;
+    frame.mapping = args
+        .options
+        .frame_config(args.frame.quality(Quality::Offline))?;
     args.options.warn_inapplicable(&methods);
     frame.shading = shading(
         args.shading,

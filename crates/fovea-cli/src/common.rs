@@ -210,13 +210,13 @@ pub struct MethodOptions {
     /// beyond it without samples: they render black.
     #[arg(long)]
     pub vafr_emax: Option<f64>,
-    /// How VaFR sizes its rings: exact (default: each ring at the true eccentricity of the
-    /// screen points it crosses, texels off the screen unshaded; acuity-consistent at every
-    /// gaze) or eq3 (the paper's Eq. 3, the gaze taken as the optical axis: the same buffer at
+    /// How VaFR sizes its rings: exact (the offline default: each ring at the true
+    /// eccentricity of the screen points it crosses, texels off the screen unshaded;
+    /// acuity-consistent at every gaze) or eq3 (the paper's Eq. 3, the gaze taken as the optical axis: the same buffer at
     /// every gaze, up to 4x too coarse far from a corner gaze; equal to exact at the centre)
     /// or eq3-any-gaze (Eq. 3's rings in one buffer reaching the screen's diagonal, texels off
     /// the screen unshaded: the same layout at every gaze, which the resident GPU frame builds
-    /// its tables from once).
+    /// its tables from once; the default of --quality realtime and of view).
     #[arg(long, value_enum, ignore_case = true)]
     pub vafr_rings: Option<VafrRingsChoice>,
     /// Visual-polar inverse CDF: exact (Lambert W) or paper-fit (Liu Eq. 3).
@@ -292,10 +292,15 @@ impl MethodOptions {
         }
     }
 
-    /// The mapping configuration of one frame: the defaults with these options, `--delta`
+    /// The mapping configuration of one frame: the defaults with `quality`'s VaFR rings
+    /// ([`fovea_render::quality::Quality::vafr_rings`]), then these options, `--delta`
     /// setting both KFR's and LaFR's ratio (`table` and `curves` instead add rows per δ).
-    pub fn frame_config(&self) -> Result<fovea_core::mapping::MappingConfig> {
+    pub fn frame_config(
+        &self,
+        quality: fovea_render::quality::Quality,
+    ) -> Result<fovea_core::mapping::MappingConfig> {
         let mut config = fovea_core::mapping::MappingConfig::default();
+        config.vafr.rings = quality.vafr_rings();
         self.apply(&mut config)?;
         if let Some(d) = self.delta {
             config.kfr.delta = d;
@@ -377,10 +382,11 @@ pub struct FrameOptions {
     #[command(flatten)]
     pub denoise: DenoiseArgs,
     /// Quality preset: offline (direct light plus three bounces of indirect light, four
-    /// environment rays per sample; the default of render, sequence and bench) or realtime
-    /// (direct light and one environment ray per sample, left to temporal accumulation and
-    /// the denoiser; the default of view, and what the resident GPU frame runs). --shading
-    /// and --env-samples override it (docs/rendering.md, "Quality presets").
+    /// environment rays per sample, VaFR's exact rings; the default of render, sequence and
+    /// bench) or realtime (direct light and one environment ray per sample, left to temporal
+    /// accumulation and the denoiser, VaFR's rings for any gaze; the default of view, and
+    /// what the resident GPU frame runs). --shading, --env-samples and --vafr-rings override
+    /// it (docs/rendering.md, "Quality presets").
     #[arg(long, value_enum, ignore_case = true)]
     pub quality: Option<crate::choices::QualityChoice>,
 }

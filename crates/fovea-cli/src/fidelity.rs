@@ -63,7 +63,10 @@ pub fn run(a: FidelityArgs) -> Result<()> {
         bail!("invalid parameter `methods`: name at least one method");
     }
     a.options.warn_inapplicable(&methods);
-    let config = a.options.frame_config()?;
+    // Sample plans only, no shading: the offline preset's (the mapping's default) rings.
+    let config = a
+        .options
+        .frame_config(fovea_render::quality::Quality::Offline)?;
     let gazes = match &a.gazes {
         Some(text) => text
             .split([' ', ';'])

@@ -156,7 +156,9 @@ pub fn params(args: &FlickerArgs) -> Result<FlickerParams> {
     if args.shading.is_some() {
         args.denoise.apply(&mut frame);
     }
-    frame.mapping = args.options.frame_config()?;
+    frame.mapping = args
+        .options
+        .frame_config(fovea_render::quality::Quality::Offline)?;
     args.options.warn_inapplicable(&methods);
     frame.memory_limit_bytes = memory_limit(args.max_memory.as_deref())?;
     frame.contrast = args.temporal_opts.contrast()?;

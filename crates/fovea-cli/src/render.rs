@@ -300,10 +300,10 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if args.coc_out.is_some() && dof.is_none() {
         bail!("--coc-out needs --dof <filter>");
     }
-    let config = args.options.frame_config()?;
+    let quality = args.frame.quality(Quality::Offline);
+    let config = args.options.frame_config(quality)?;
     args.options.warn_inapplicable(&[method]);
     let tone = ToneCurve::from(args.tonemap);
-    let quality = args.frame.quality(Quality::Offline);
     let shading_mode = shading(
         args.shading,
         quality,

@@ -195,7 +195,9 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     args.display.display(Headset::VivePro)?;
     let liu_hybrid = args.method.is_liu_hybrid();
     let method = args.method.method();
-    let config = args.options.frame_config()?;
+    let config = args
+        .options
+        .frame_config(args.frame.quality(fovea_render::quality::Quality::Offline))?;
     args.options.warn_inapplicable(&[method]);
     let dof = args.dof.settings(liu_hybrid)?;
     args.exposure.asked()?;

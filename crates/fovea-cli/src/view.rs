@@ -164,7 +164,9 @@ pub fn run(args: ViewArgs) -> Result<()> {
     let liu_hybrid = args.method.is_liu_hybrid();
     let method = args.method.method();
     let dof = args.dof.settings(liu_hybrid)?;
-    let config = args.options.frame_config()?;
+    let config = args
+        .options
+        .frame_config(args.frame.quality(fovea_render::quality::Quality::Realtime))?;
     args.options.warn_inapplicable(&[method]);
     args.exposure.asked()?;
     let memory_limit = crate::render::memory_limit(args.max_memory.as_deref())?;

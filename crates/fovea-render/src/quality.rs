@@ -12,10 +12,22 @@
 //!   (`fovea_gpu::frame`), so the viewer's usual settings stay on the device. What it costs in
 //!   quality against the offline preset is measured in docs/rendering.md ("Quality presets").
 //!
-//! Explicit options (`--shading`, `--env-samples`, `--bounces`) override a preset's choice.
+//! The presets also pick VaFR's ring layout ([`Quality::vafr_rings`]): the offline preset the
+//! exact rings ([`VafrRings::Exact`], acuity-consistent at every gaze, rebuilt per gaze), the
+//! real-time one Eq. 3's rings in one buffer for any gaze ([`VafrRings::Eq3AnyGaze`]), whose
+//! tables the resident frame builds once per display: with the exact rings a moving gaze
+//! costs the render thread ~250 ms of table building per frame at the Vive Pro Eye, against
+//! issue 37's 2 ms. What the coarser far rings of an off-centre gaze cost is measured in
+//! docs/rendering.md ("Quality presets").
+//!
+//! Explicit options (`--shading`, `--env-samples`, `--bounces`, `--vafr-rings`) override a
+//! preset's choice.
 
 use serde::Serialize;
 
+use fovea_core::mapping::VafrRings;
+
+use crate::settings::FrameSettings;
 use crate::shade::{EnvLight, ShadingMode, DEFAULT_BOUNCES, DEFAULT_ENV_SAMPLES};
 
 /// Environment rays per sample of the real-time preset.
@@ -68,6 +80,22 @@ impl Quality {
         }
     }
 
+    /// The preset's VaFR ring layout: [`VafrRings::Exact`] offline, [`VafrRings::Eq3AnyGaze`]
+    /// in real time (the same tables at every gaze, so a moving gaze rebuilds nothing).
+    pub fn vafr_rings(self) -> VafrRings {
+        match self {
+            Self::Offline => VafrRings::Exact,
+            Self::Realtime => VafrRings::Eq3AnyGaze,
+        }
+    }
+
+    /// Sets the preset's choices in `settings`: its shading ([`Self::shading`]) and VaFR's
+    /// rings ([`Self::vafr_rings`]).
+    pub fn apply(self, settings: &mut FrameSettings) {
+        settings.shading = self.shading();
+        settings.mapping.vafr.rings = self.vafr_rings();
+    }
+
     /// The preset's shading with occluded environment light.
     pub fn shading(self) -> ShadingMode {
         let env_light = EnvLight::Occluded {
@@ -106,5 +134,11 @@ mod tests {
             assert!(q.shading().validate().is_ok(), "{}", q.name());
         }
         assert_eq!(Quality::default(), Quality::Offline);
+        // Offline keeps the mapping's default rings; real time the gaze-independent layout.
+        assert_eq!(
+            Quality::Offline.vafr_rings(),
+            fovea_core::mapping::VafrParams::default().rings
+        );
+        assert_eq!(Quality::Realtime.vafr_rings(), VafrRings::Eq3AnyGaze);
     }
 }
