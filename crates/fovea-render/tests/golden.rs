@@ -272,6 +272,10 @@ fn cases() -> Vec<Case> {
         case("realtime-visual-polar", |s| {
             frame(s, &realtime(Method::VisualPolar), off_centre())
         }),
+        // Weier's sparse pattern and pull-push (issue 37: resident on the GPU).
+        case("realtime-weier", |s| {
+            frame(s, &realtime(Method::Weier), off_centre())
+        }),
         case("realtime-vafr-no-aa", |s| {
             let mut f = realtime(Method::Vafr);
             f.aa = fovea_render::pipeline::AaMode::None;
