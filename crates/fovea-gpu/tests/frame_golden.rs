@@ -89,7 +89,8 @@ fn served() -> Vec<Case> {
         FocusMode::Fixed(1.0),
     ));
     // Measured on lavapipe (2026-12-05): 59.02 dB full resolution (with and without the
-    // gather DOF), 59.00 VaFR, 58.97 KFR and LaFR, 57.43 visual-polar — at the 8-bit ceiling.
+    // gather DOF), 59.00 VaFR, 58.97 KFR and LaFR, 57.43 visual-polar, 59.03 Weier — at the
+    // 8-bit ceiling.
     vec![
         case("realtime-full-centre", realtime(Method::Full), centre, 56.0),
         case("realtime-vafr-centre", realtime(Method::Vafr), centre, 56.0),
