@@ -121,7 +121,7 @@ fn served() -> Vec<Case> {
     // Measured on lavapipe (2026-12-05, VaFR with the preset's rings for any gaze): 59.02 dB
     // full resolution (with and without the gather DOF at 10 cm), 59.01–59.03 VaFR with the
     // footprint reconstruction, 58.54 / 59.02 VaFR bilinear with / without FXAA, 58.97 KFR
-    // and LaFR, 57.43 visual-polar — at the 8-bit ceiling. The variants against their base:
+    // and LaFR, 57.43 visual-polar, 59.03 Weier — at the 8-bit ceiling. The variants against their base:
     // 36.72 dB without FXAA, 25.60 dB with the DOF.
     vec![
         case("realtime-full-centre", realtime(Method::Full), centre, 56.0),

@@ -272,6 +272,10 @@ fn cases() -> Vec<Case> {
         case("realtime-visual-polar", |s| {
             frame(s, &realtime(Method::VisualPolar), off_centre())
         }),
+        // Weier's sparse pattern and pull-push (issue 37: resident on the GPU).
+        case("realtime-weier", |s| {
+            frame(s, &realtime(Method::Weier), off_centre())
+        }),
         // FXAA with the paper's bilinear lookup, and without it: with the footprint
         // reconstruction (the default) every column of VaFR at 160×180 is denser than the
         // screen, FXAA's output is restored there, and an AA-less frame would equal
