@@ -728,7 +728,16 @@ impl Resident {
             self.accumulated = 0;
         }
         let before = self.ctx.traffic();
-        let times = frame.render(world, plans, cams).map_err(gpu_err)?;
+        // A combination the plans alone do not show (e.g. Weier with temporal accumulation):
+        // refused before anything is sent, rendered the staged way.
+        let times = match frame.render(world, plans, cams) {
+            Ok(t) => t,
+            Err(e @ fovea_gpu::GpuError::Unsupported(_)) => {
+                self.fall_back(e.to_string());
+                return Ok(None);
+            }
+            Err(e) => return Err(gpu_err(e)),
+        };
         if let Some(t) = frame.poll_gpu_times().map_err(gpu_err)?.pop() {
             self.gpu = Some(t);
         }
