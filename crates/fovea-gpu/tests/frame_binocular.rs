@@ -40,7 +40,7 @@ mod resident;
 
 use common::{gpu_or_skip, shout};
 use fovea_core::mapping::{Method, VafrRings};
-use fovea_gpu::frame::{ResidentFrame, ToneSettings};
+use fovea_gpu::frame::{ResidentFrame, ToneSettings, TEMPORAL_PASSES};
 use fovea_gpu::{GpuContext, GpuError};
 use fovea_post::denoise::DenoiseParams;
 use fovea_post::tonemap::{to_srgb8, ToneCurve};
@@ -259,6 +259,13 @@ fn binocular_frame_on_a_path(
             !times.is_empty(),
             "timestamps arrive once the device is idle"
         );
+        // Without temporal accumulation its passes do not run and have no time.
+        for t in &times {
+            for name in TEMPORAL_PASSES {
+                let ms = t.passes.iter().find(|p| p.0 == name).map(|p| p.1);
+                assert_eq!(ms, Some(None), "frame {}: {name}", t.frame);
+            }
+        }
     }
     check_images(
         &mut frame,

@@ -16,6 +16,8 @@
 //!   many-ray reference (the CPU's frame with 32 rays per sample): the mean squared error
 //!   falls as frames accumulate (the last frame's below 60 % of the first's; the figures
 //!   printed);
+//! * the accumulation pass's GPU time (`TEMPORAL_PASSES`) arrives from the frame's timers for
+//!   both eyes of every timed frame of those sequences;
 //! * settings the CPU refuses are refused (`GpuError::Input`), with nothing sent.
 //!
 //! Needs a GPU adapter (lavapipe will do); without one each test says SKIPPED on stderr, and
@@ -27,7 +29,7 @@ mod resident;
 
 use common::{gpu_or_skip, shout};
 use fovea_core::mapping::Method;
-use fovea_gpu::frame::{ResidentFrame, ToneSettings};
+use fovea_gpu::frame::{ResidentFrame, ToneSettings, TEMPORAL_PASSES};
 use fovea_gpu::{GpuContext, GpuError};
 use fovea_post::tonemap::{to_srgb8, ToneCurve};
 use fovea_render::camera::EyeCamera;
@@ -176,6 +178,34 @@ fn accumulated_frames_are_the_cpus(ctx: &GpuContext, method: Method, jitter: boo
             }
         }
         ctx.wait_idle("the test").unwrap();
+    }
+    // The accumulation pass is timed as every other pass (the bench's JSON and the viewer's
+    // HUD list it): each frame whose times arrived has both eyes' temporal milliseconds.
+    let times = frame.poll_gpu_times().unwrap();
+    if frame.timed() {
+        assert!(
+            !times.is_empty(),
+            "timestamps arrive once the device is idle"
+        );
+        for t in &times {
+            let ms: Vec<Option<f64>> = TEMPORAL_PASSES
+                .iter()
+                .map(|&name| t.passes.iter().find(|p| p.0 == name).and_then(|p| p.1))
+                .collect();
+            shout(&format!(
+                "[fovea-gpu] resident temporal {method} (jitter {jitter}) frame {} GPU ms: \
+                 temporal {ms:?}, whole frame {:.2}",
+                t.frame,
+                t.total_ms()
+            ));
+            assert!(
+                ms.iter()
+                    .all(|m| m.is_some_and(|v| v.is_finite() && v >= 0.0)),
+                "frame {}: the temporal passes are timed: {:?}",
+                t.frame,
+                t.passes
+            );
+        }
     }
 }
 

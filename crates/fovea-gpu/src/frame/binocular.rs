@@ -79,6 +79,11 @@ const EYE_PASSES: usize = 1 + SCREEN_PASSES.len();
 /// [`BINOCULAR_PASSES`]' (absent, `None`, in frames whose plans do not denoise).
 pub const DENOISE_PASSES: [&str; 2] = ["left denoise", "right denoise"];
 
+/// The temporal accumulation's passes as [`ResidentFrame::poll_gpu_times`] names them, after
+/// [`DENOISE_PASSES`] (absent, `None`, in frames without temporal accumulation). The copy of
+/// its result over the samples that follows each pass is a buffer copy, not timed.
+pub const TEMPORAL_PASSES: [&str; 2] = ["left temporal", "right temporal"];
+
 /// Frames each timer's ring holds in flight.
 const TIMER_RING: usize = 4;
 
@@ -105,6 +110,11 @@ pub struct BinocularTimes {
     pub submit_ms: f64,
 }
 
+/// The frame's timers ([`ResidentFrame`]'s `timers`), each read back on its own: 16 bytes a
+/// pass, 320 bytes a timed frame in all (the statistics' readback, well within issue 37's
+/// 64 KiB a frame).
+const TIMERS: usize = 5;
+
 /// Each pass's name and GPU ms (`None`: not run, or not arrived yet).
 type PassTimes = Vec<(&'static str, Option<f64>)>;
 
@@ -123,9 +133,10 @@ pub struct ResidentFrame {
     /// Whether each eye's screen side also fills its presenter texture
     /// ([`Self::set_presenting`]).
     presenting: bool,
-    /// The sample side's timer (one pass per eye), each eye's screen timer and the
-    /// denoiser's (one pass per eye); `None` on a device without timestamp queries.
-    timers: Option<[FrameTimer; 4]>,
+    /// The sample side's timer (one pass per eye), each eye's screen timer, the denoiser's
+    /// and the temporal accumulation's (one pass per eye each); `None` on a device without
+    /// timestamp queries.
+    timers: Option<[FrameTimer; TIMERS]>,
     /// Frames whose timers have partly arrived: (frame, timers arrived, passes).
     pending: Vec<(u64, u8, PassTimes)>,
     frames: u64,
@@ -269,8 +280,9 @@ impl ResidentFrame {
             FrameTimer::new(ctx, &SCREEN_PASSES, TIMER_RING)?,
             FrameTimer::new(ctx, &SCREEN_PASSES, TIMER_RING)?,
             FrameTimer::new(ctx, &DENOISE_PASSES, TIMER_RING)?,
+            FrameTimer::new(ctx, &TEMPORAL_PASSES, TIMER_RING)?,
         ) {
-            (Some(a), Some(b), Some(c), Some(d)) => Some([a, b, c, d]),
+            (Some(a), Some(b), Some(c), Some(d), Some(t)) => Some([a, b, c, d, t]),
             _ => None,
         };
         let mut frame = Self {
@@ -453,7 +465,8 @@ impl ResidentFrame {
                 // Temporal accumulation: after the shading, before the screen side.
                 if let Some(t) = &mut self.temporal {
                     for e in 0..2 {
-                        t.record(e, &mut encoder, None)?;
+                        let writes = self.timers.as_mut().and_then(|t| t[4].writes(e));
+                        t.record(e, &mut encoder, writes)?;
                     }
                 }
                 // The sample-space denoiser, after shading and temporal accumulation, before
@@ -523,7 +536,7 @@ impl ResidentFrame {
 
     /// The frames whose every pass's GPU time has arrived since the last call, oldest first,
     /// the passes named as [`BINOCULAR_PASSES`] (left eye, then right), then
-    /// [`DENOISE_PASSES`]. Never blocks.
+    /// [`DENOISE_PASSES`], then [`TEMPORAL_PASSES`]. Never blocks.
     pub fn poll_gpu_times(&mut self) -> Result<Vec<FrameGpuTimes>> {
         let Some(timers) = &mut self.timers else {
             return Ok(Vec::new());
@@ -537,6 +550,7 @@ impl ResidentFrame {
                             .iter()
                             .flatten()
                             .chain(&DENOISE_PASSES)
+                            .chain(&TEMPORAL_PASSES)
                             .map(|&n| (n, None))
                             .collect();
                         self.pending.push((t.frame, 0, passes));
@@ -549,6 +563,7 @@ impl ResidentFrame {
                     let slot = match k {
                         0 => EYE_PASSES * p,
                         3 => 2 * EYE_PASSES + p,
+                        4 => 2 * EYE_PASSES + DENOISE_PASSES.len() + p,
                         eye => EYE_PASSES * (eye - 1) + 1 + p,
                     };
                     if let Some(e) = entry.2.get_mut(slot) {
@@ -559,7 +574,7 @@ impl ResidentFrame {
         }
         let mut done: Vec<FrameGpuTimes> = Vec::new();
         self.pending.retain(|(frame, arrived, passes)| {
-            if *arrived == 0b1111 {
+            if *arrived == (1 << TIMERS) - 1 {
                 done.push(FrameGpuTimes {
                     frame: *frame,
                     passes: passes.clone(),

@@ -48,7 +48,7 @@ pub mod timing;
 pub mod weier_pattern;
 
 pub use binocular::{
-    BinocularTimes, ResidentFrame, ToneSettings, BINOCULAR_PASSES, DENOISE_PASSES,
+    BinocularTimes, ResidentFrame, ToneSettings, BINOCULAR_PASSES, DENOISE_PASSES, TEMPORAL_PASSES,
 };
 pub use compare::{compare_binocular, BinocularComparison, CompareParams, PathSummary};
 pub use context::{EyeShade, RecordTimes, ResidentSamples};
