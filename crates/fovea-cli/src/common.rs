@@ -378,9 +378,10 @@ pub struct FrameOptions {
     pub denoise: DenoiseArgs,
     /// Quality preset: offline (direct light plus three bounces of indirect light, four
     /// environment rays per sample; the default of render, sequence and bench) or realtime
-    /// (direct light and one environment ray per sample, left to temporal accumulation and
-    /// the denoiser; the default of view, and what the resident GPU frame runs). --shading
-    /// and --env-samples override it (docs/rendering.md, "Quality presets").
+    /// (direct light, one environment ray per sample and one bounce of indirect light, left
+    /// to temporal accumulation and the denoiser; the default of view, and what the resident
+    /// GPU frame runs). --shading, --bounces and --env-samples override it
+    /// (docs/rendering.md, "Quality presets").
     #[arg(long, value_enum, ignore_case = true)]
     pub quality: Option<crate::choices::QualityChoice>,
 }

@@ -285,7 +285,8 @@ fn cases() -> Vec<Case> {
     ]
 }
 
-/// `--quality realtime`'s shading (direct light, one occluded environment ray per sample).
+/// `--quality realtime`'s shading (direct light, one occluded environment ray per sample, one
+/// bounce of indirect light).
 fn realtime(m: Method) -> FrameSettings {
     let mut f = FrameSettings::new(m);
     f.shading = fovea_render::quality::Quality::Realtime.shading();
