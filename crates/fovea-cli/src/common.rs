@@ -383,10 +383,11 @@ pub struct FrameOptions {
     pub denoise: DenoiseArgs,
     /// Quality preset: offline (direct light plus three bounces of indirect light, four
     /// environment rays per sample, VaFR's exact rings; the default of render, sequence and
-    /// bench) or realtime (direct light and one environment ray per sample, left to temporal
-    /// accumulation and the denoiser, VaFR's rings for any gaze; the default of view, and
-    /// what the resident GPU frame runs). --shading, --env-samples and --vafr-rings override
-    /// it (docs/rendering.md, "Quality presets").
+    /// bench) or realtime (direct light, one environment ray per sample and one bounce of
+    /// indirect light, left to temporal accumulation and the denoiser, VaFR's rings for any
+    /// gaze; the default of view, and what the resident GPU frame runs). --shading,
+    /// --bounces, --env-samples and --vafr-rings override it (docs/rendering.md, "Quality
+    /// presets").
     #[arg(long, value_enum, ignore_case = true)]
     pub quality: Option<crate::choices::QualityChoice>,
 }

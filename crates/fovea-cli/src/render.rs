@@ -16,7 +16,7 @@ use fovea_render::pipeline::{
 };
 use fovea_render::plan::FramePlan;
 use fovea_render::quality::{Quality, ShadingKind};
-use fovea_render::shade::{EnvLight, ShadingMode, DEFAULT_BOUNCES};
+use fovea_render::shade::{EnvLight, ShadingMode};
 
 use crate::choices::{
     Aa, BackendArg, EnvLightChoice, Eyes, Headset, LockstepArg, MethodChoice, Shading, Stereo,
@@ -246,7 +246,7 @@ pub fn shading(
             } else {
                 ShadingMode::Indirect {
                     env_light,
-                    bounces: bounces.unwrap_or(DEFAULT_BOUNCES),
+                    bounces: bounces.unwrap_or(quality.bounces()),
                 }
             };
             mode.validate()?;

@@ -3,7 +3,8 @@
 //!
 //! `fovea-render/tests/golden.rs` pins each method's frame of the built-in scene at 160×180
 //! as a 16-bit PNG of its Reinhard + sRGB encoding. Its `realtime-*` cases are the shading the
-//! resident frame serves (`--quality realtime`: direct light, one occluded environment ray);
+//! resident frame serves (`--quality realtime`: direct light, one occluded environment ray,
+//! one bounce of indirect light);
 //! the others need path tracing, contrast, another DOF filter or the inset's Laplacian blend,
 //! which `ResidentFrame::supports` refuses (checked below, so a case that becomes resident is
 //! noticed), or are the offline preset's indirect light, which runs resident since (the

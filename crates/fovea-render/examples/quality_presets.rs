@@ -3,8 +3,8 @@
 //! VaFR at the gaze in the middle of the display, denoised as `render` and `sequence` do.
 //!
 //! Printed per preset: the CPU time of one frame, its mean luma against the offline frame's
-//! (the light the real-time shading leaves out: indirect bounces), and its luma PSNR against
-//! the offline frame (display-encoded, so noise and missing light both count); for the
+//! (the light the real-time shading leaves out: the bounces past its one), and its luma PSNR
+//! against the offline frame (display-encoded, so noise and missing light both count); for the
 //! real-time preset also frames 0 and 15 of a still sequence with temporal accumulation (its
 //! one environment ray per sample averaged over frames).
 //!
@@ -99,7 +99,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         &|_, _| {},
     )?;
     println!(
-        "  realtime (direct, 1 env ray), one frame:     {:>7.0} ms cpu ({:.2}x less), mean luma \
+        "  realtime (1 bounce, 1 env ray), one frame:   {:>7.0} ms cpu ({:.2}x less), mean luma \
          {:.4} ({:.3}x offline's), luma PSNR against offline {:.2} dB",
         rt.stats.total_cpu_ms,
         offline.stats.total_cpu_ms / rt.stats.total_cpu_ms,

@@ -6,11 +6,13 @@
 //!   ([`ShadingMode::Indirect`], issue 38), [`DEFAULT_ENV_SAMPLES`] environment rays per
 //!   sample.
 //! * [`Quality::Realtime`] — `view`'s default, what a headset would run: direct light with
-//!   **one** environment ray per sample ([`ShadingMode::Direct`]), left to temporal
-//!   accumulation and the sample-space denoiser (both on wherever frames follow each other) to
-//!   average over frames. It is the shading the resident GPU frame serves
-//!   (`fovea_gpu::frame`), so the viewer's usual settings stay on the device. What it costs in
-//!   quality against the offline preset is measured in docs/rendering.md ("Quality presets").
+//!   **one** environment ray per sample plus [`REALTIME_BOUNCES`] bounce of indirect light
+//!   ([`ShadingMode::Indirect`]), left to temporal accumulation and the sample-space denoiser
+//!   (both on wherever frames follow each other) to average over frames. The resident GPU
+//!   frame (`fovea_gpu::frame`) serves it, so the viewer's usual settings stay on the device.
+//!   The bounce is what lights a window-lit interior beyond its sunlit patches; what it costs
+//!   and gains, and what the preset gives up against the offline one, is measured in
+//!   docs/rendering.md ("Quality presets").
 //!
 //! The presets also pick VaFR's ring layout ([`Quality::vafr_rings`]): the offline preset the
 //! exact rings ([`VafrRings::Exact`], acuity-consistent at every gaze, rebuilt per gaze), the
@@ -32,6 +34,9 @@ use crate::shade::{EnvLight, ShadingMode, DEFAULT_BOUNCES, DEFAULT_ENV_SAMPLES};
 
 /// Environment rays per sample of the real-time preset.
 pub const REALTIME_ENV_SAMPLES: u32 = 1;
+/// Bounces of indirect light of the real-time preset (docs/rendering.md, "Quality presets",
+/// has the measurement that chose it).
+pub const REALTIME_BOUNCES: u32 = 1;
 
 /// A quality preset.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
@@ -41,8 +46,8 @@ pub enum Quality {
     /// frames and sequences).
     #[default]
     Offline,
-    /// Direct light and one environment ray per sample, for frames that follow each other at
-    /// a headset's rate.
+    /// Direct light, one environment ray per sample and one bounce of indirect light, for
+    /// frames that follow each other at a headset's rate.
     Realtime,
 }
 
@@ -67,8 +72,15 @@ impl Quality {
     /// The preset's kind of shading.
     pub fn shading_kind(self) -> ShadingKind {
         match self {
-            Self::Offline => ShadingKind::Indirect,
-            Self::Realtime => ShadingKind::Direct,
+            Self::Offline | Self::Realtime => ShadingKind::Indirect,
+        }
+    }
+
+    /// The preset's bounces of indirect light (with [`ShadingKind::Indirect`]).
+    pub fn bounces(self) -> u32 {
+        match self {
+            Self::Offline => DEFAULT_BOUNCES,
+            Self::Realtime => REALTIME_BOUNCES,
         }
     }
 
@@ -104,7 +116,7 @@ impl Quality {
         match self.shading_kind() {
             ShadingKind::Indirect => ShadingMode::Indirect {
                 env_light,
-                bounces: DEFAULT_BOUNCES,
+                bounces: self.bounces(),
             },
             ShadingKind::Direct => ShadingMode::Direct { env_light },
         }
@@ -126,8 +138,9 @@ mod tests {
         );
         assert_eq!(
             Quality::Realtime.shading(),
-            ShadingMode::Direct {
+            ShadingMode::Indirect {
                 env_light: EnvLight::Occluded { samples: 1 },
+                bounces: 1,
             }
         );
         for q in [Quality::Offline, Quality::Realtime] {

@@ -302,7 +302,7 @@ fn cases() -> Vec<Case> {
 }
 
 /// `--quality realtime`'s settings (`Quality::apply`: direct light, one occluded environment
-/// ray per sample, VaFR's rings in one buffer for any gaze).
+/// ray per sample, one bounce of indirect light, VaFR's rings in one buffer for any gaze).
 fn realtime(m: Method) -> FrameSettings {
     let mut f = FrameSettings::new(m);
     fovea_render::quality::Quality::Realtime.apply(&mut f);
