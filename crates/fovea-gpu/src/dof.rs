@@ -106,8 +106,8 @@ pub fn dof_bindings(n: u64, n_offsets: u64) -> [(&'static str, u64); 5] {
     ]
 }
 
-/// [`GpuError::AdapterTooSmall`]-like refusal ([`GpuError::Unsupported`]) when the adapter
-/// binds fewer storage buffers a stage than the gather needs.
+/// [`GpuError::Unsupported`] when the adapter binds fewer storage buffers a stage than the
+/// gather needs ([`GATHER_STORAGE_BUFFERS`]).
 pub(crate) fn check_gather_stage(ctx: &GpuContext) -> Result<()> {
     let have = ctx.limits().max_storage_buffers_per_shader_stage;
     if have < GATHER_STORAGE_BUFFERS {

@@ -295,8 +295,9 @@ impl ScreenSizes {
     }
 
     /// Every per-pixel storage binding, `(what, bytes)`: colour (each of three planes), depth,
-    /// the tone-mapped screen; with the DOF its planes, blurred colour and CoC map
-    /// ([`crate::dof::dof_bindings`]); with the texture the presenter's rows.
+    /// the tone-mapped screen; with the DOF its planes, blurred colour and CoC map (named as
+    /// [`crate::dof::dof_bindings`] names them for the per-call passes); with the texture the
+    /// presenter's rows.
     pub fn per_pixel_bindings(&self) -> Vec<(&'static str, u64)> {
         let mut b = vec![
             (
@@ -898,7 +899,7 @@ impl ScreenContext {
                     pad: 0,
                 };
                 ctx.write_buffer(&self.split_uniform, 0, bytemuck::bytes_of(&split_u));
-                if !self.split_bind.as_ref().is_some_and(|(b, _)| b == source) {
+                if self.split_bind.as_ref().is_none_or(|(b, _)| b != source) {
                     let bind = bind_group(
                         ctx,
                         "resident split",
