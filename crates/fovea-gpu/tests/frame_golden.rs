@@ -89,7 +89,8 @@ fn served() -> Vec<Case> {
         FocusMode::Fixed(1.0),
     ));
     // Measured on lavapipe (2026-12-05): 59.02 dB full resolution (with and without the
-    // gather DOF), 59.00 VaFR, 58.97 KFR and LaFR, 57.43 visual-polar — at the 8-bit ceiling.
+    // gather DOF), 59.00 VaFR, 58.97 KFR and LaFR, 57.43 visual-polar, 59.05 Guenter, 59.01
+    // the inset — at the 8-bit ceiling.
     vec![
         case("realtime-full-centre", realtime(Method::Full), centre, 56.0),
         case("realtime-vafr-centre", realtime(Method::Vafr), centre, 56.0),
@@ -105,6 +106,18 @@ fn served() -> Vec<Case> {
         ),
         case("realtime-vafr-no-aa", no_aa, off_centre(), 56.0),
         case("realtime-dof-gather-full-1m", dof, off_centre(), 56.0),
+        case(
+            "realtime-guenter",
+            realtime(Method::Guenter),
+            off_centre(),
+            56.0,
+        ),
+        case(
+            "realtime-inset",
+            realtime(Method::Inset),
+            off_centre(),
+            56.0,
+        ),
     ]
 }
 

@@ -282,6 +282,12 @@ fn cases() -> Vec<Case> {
             f.shading = fovea_render::quality::Quality::Realtime.shading();
             frame(s, &f, off_centre())
         }),
+        case("realtime-guenter", |s| {
+            frame(s, &realtime(Method::Guenter), off_centre())
+        }),
+        case("realtime-inset", |s| {
+            frame(s, &realtime(Method::Inset), off_centre())
+        }),
     ]
 }
 

@@ -17,8 +17,9 @@
 //!
 //! What it cannot serve is refused with [`GpuError::Unsupported`] before anything is written
 //! or recorded ([`ResidentFrame::supports`]): everything the sample side refuses
-//! ([`super::supports`]: indirect light, several rays per texel, culling, several layers), what
-//! the screen side refuses ([`ScreenContext::supports`]: Guenter, the insets, Weier),
+//! ([`super::supports`]: indirect light, several rays per texel, culling, the inset's
+//! Gaussian and Laplacian smoothings), what the screen side refuses
+//! ([`ScreenContext::supports`]: Weier),
 //! peripheral contrast, DOF filters other than the gather, and sample-space AA at full
 //! resolution.
 
@@ -403,6 +404,13 @@ impl ResidentFrame {
         let t = Instant::now();
         for e in 0..2 {
             Self::supports(plans[e], cameras[e])?;
+            if self.temporal.is_some() && plans[e].buffers.len() != 1 {
+                return Err(GpuError::Unsupported(format!(
+                    "temporal accumulation of {} sample layers ({}) in the resident frame",
+                    plans[e].buffers.len(),
+                    plans[e].method()
+                )));
+            }
         }
         for e in 0..2 {
             self.ensure_screen(e, plans[e], cameras[e])?;

@@ -241,13 +241,24 @@ pub fn compare_binocular(ctx: &GpuContext, p: &CompareParams<'_>) -> Result<Bino
     let world = p.world;
     let mut caches = [PlanCache::new(), PlanCache::new()];
     let (cams, plans, _) = plans_of(p, 0, &mut caches)?;
-    let mut route = Route::decide(
-        ctx,
-        world,
-        [&plans[0], &plans[1]],
-        [&cams[0], &cams[1]],
-        p.tone,
-    )?;
+    // The resident temporal pass accumulates one sample layer: several (Guenter's, the
+    // inset's) with temporal accumulation on are staged, with that reason.
+    let layers = plans[0].buffers.len().max(plans[1].buffers.len());
+    let mut route = if p.temporal.is_some() && layers != 1 {
+        Route::Staged(format!(
+            "not served: temporal accumulation of {layers} sample layers ({}) in the resident \
+             frame (use --temporal off)",
+            plans[0].method()
+        ))
+    } else {
+        Route::decide(
+            ctx,
+            world,
+            [&plans[0], &plans[1]],
+            [&cams[0], &cams[1]],
+            p.tone,
+        )?
+    };
     if let Route::Resident(run) = &mut route {
         run.set_temporal(p.temporal)?;
     }

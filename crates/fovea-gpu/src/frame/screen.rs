@@ -10,6 +10,7 @@
 //! | `aa` | sample-space FXAA or 3×3 Gaussian on the polar layer (when configured) | `frame_screen_split.wgsl`, `fxaa.wgsl` / `gaussian_aa.wgsl` |
 //! | `columns` | the polar layer padded column by column and angularly prefiltered | `frame_polar_columns.wgsl` |
 //! | `reconstruct` | every pixel's `u(r)`, angle, bilinear or footprint lookup (VaFR Sec. 3.4) | `polar_reconstruct.wgsl` |
+//! | `reconstruct` (layers) | Guenter's layers and the inset: every pixel's layer, bilinear, the inset's alpha blend ([`crate::frame::layers`]) | `frame_layers.wgsl` |
 //! | `split` | the screen's `vec4` pixels into planar colour (3 × f32) and depth bits | `frame_screen_split.wgsl` |
 //! | `dof` | the eye's CoC map, tile max, tile reach and the scatter-as-gather filter | `dof_coc.wgsl`, `dof_gather.wgsl` |
 //! | `tonemap` | exposure, tone curve, 8-bit sRGB, four codes a word | `tonemap.wgsl` |
@@ -229,7 +230,7 @@ pub struct ScreenContext {
     width: u32,
     height: u32,
     polar: Option<ResidentPolar>,
-    /// Guenter's layers' reconstruction (`crate::frame::layers`).
+    /// Guenter's layers' and the inset's reconstruction (`crate::frame::layers`).
     layers: Option<ResidentLayers>,
     split: wgpu::ComputePipeline,
     split_uniform: wgpu::Buffer,
