@@ -815,8 +815,13 @@ fn unsupported_methods_and_mismatched_frames_are_refused_before_recording() {
     let display = display();
     let limits = limits(&display);
     let cfg = config(ReconstructFilter::Footprint, None);
-    for method in [Method::Weier] {
-        let e = ScreenContext::new(&ctx, &display, method, cfg.clone(), limits)
+    // Weier's pull-push, and sample-space AA on Guenter's layers.
+    let with_aa = ScreenConfig {
+        aa: Some(SampleFilter::Gaussian),
+        ..cfg.clone()
+    };
+    for (method, c) in [(Method::Weier, cfg.clone()), (Method::Guenter, with_aa)] {
+        let e = ScreenContext::new(&ctx, &display, method, c, limits)
             .err()
             .unwrap();
         assert!(matches!(e, GpuError::Unsupported(_)), "{method}: {e}");
