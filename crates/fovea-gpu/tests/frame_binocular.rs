@@ -314,6 +314,16 @@ fn visual_polar_binocular_frame_denoises_as_the_cpu() {
 }
 
 #[test]
+fn guenter_binocular_frame_denoises_as_the_cpu() {
+    // The real-time preset's denoiser over Guenter's three layers (each its own grid).
+    let Some(ctx) = gpu_or_skip("guenter_binocular_frame_denoises_as_the_cpu") else {
+        return;
+    };
+    let m = Method::Guenter;
+    the_frame_with_settings_is_the_cpus(&ctx, m, denoised_settings(m), 2);
+}
+
+#[test]
 fn vafr_binocular_frame_is_the_cpus() {
     let Some(ctx) = gpu_or_skip("vafr_binocular_frame_is_the_cpus") else {
         return;

@@ -71,6 +71,19 @@ fn realtime(m: Method) -> FrameSettings {
     f
 }
 
+/// The real-time preset with direct light only (`--quality realtime --shading direct`): the
+/// layered methods' resident frame runs no bounce (one layer's G-buffer serves the bounce
+/// kernels; the layers reuse it).
+fn realtime_direct(m: Method) -> FrameSettings {
+    let mut f = realtime(m);
+    f.shading = fovea_render::shade::ShadingMode::Direct {
+        env_light: fovea_render::shade::EnvLight::Occluded {
+            samples: fovea_render::quality::REALTIME_ENV_SAMPLES,
+        },
+    };
+    f
+}
+
 /// The real-time VaFR frame with the paper's bilinear lookup instead of the pixel footprint.
 fn realtime_vafr_bilinear() -> FrameSettings {
     let mut f = realtime(Method::Vafr);
@@ -122,8 +135,9 @@ fn served() -> Vec<Case> {
     // Measured on lavapipe (2026-12-05, VaFR with the preset's rings for any gaze): 59.02 dB
     // full resolution (with and without the gather DOF at 10 cm), 59.01–59.03 VaFR with the
     // footprint reconstruction, 58.54 / 59.02 VaFR bilinear with / without FXAA, 58.97 KFR
-    // and LaFR, 57.43 visual-polar, 59.03 Weier — at the 8-bit ceiling. The variants against their base:
-    // 36.72 dB without FXAA, 25.60 dB with the DOF.
+    // and LaFR, 57.43 visual-polar, 59.03 Weier, 59.05 Guenter, 59.01 the
+    // inset — at the 8-bit ceiling. The variants against their base: 36.72 dB without FXAA,
+    // 25.60 dB with the DOF.
     vec![
         case("realtime-full-centre", realtime(Method::Full), centre, 56.0),
         case("realtime-vafr-centre", realtime(Method::Vafr), centre, 56.0),
@@ -144,6 +158,12 @@ fn served() -> Vec<Case> {
             56.0,
         ),
         case(
+            "realtime-guenter",
+            realtime_direct(Method::Guenter),
+            off_centre(),
+            56.0,
+        ),
+        case(
             "realtime-vafr-bilinear",
             realtime_vafr_bilinear(),
             off_centre(),
@@ -151,6 +171,12 @@ fn served() -> Vec<Case> {
         ),
         case("realtime-vafr-bilinear-no-aa", no_aa, off_centre(), 56.0),
         case("realtime-dof-gather-full-10cm", dof, off_centre(), 56.0),
+        case(
+            "realtime-inset",
+            realtime_direct(Method::Inset),
+            off_centre(),
+            56.0,
+        ),
     ]
 }
 

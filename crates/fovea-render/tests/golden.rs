@@ -298,7 +298,26 @@ fn cases() -> Vec<Case> {
             fovea_render::quality::Quality::Realtime.apply(&mut f);
             frame(s, &f, off_centre())
         }),
+        // The layered methods with the preset's direct light only: their resident frame runs
+        // no bounce (`--quality realtime --shading direct`).
+        case("realtime-guenter", |s| {
+            frame(s, &realtime_direct(Method::Guenter), off_centre())
+        }),
+        case("realtime-inset", |s| {
+            frame(s, &realtime_direct(Method::Inset), off_centre())
+        }),
     ]
+}
+
+/// [`realtime`] with direct light only (`--quality realtime --shading direct`).
+fn realtime_direct(m: Method) -> FrameSettings {
+    let mut f = realtime(m);
+    f.shading = fovea_render::shade::ShadingMode::Direct {
+        env_light: fovea_render::shade::EnvLight::Occluded {
+            samples: fovea_render::quality::REALTIME_ENV_SAMPLES,
+        },
+    };
+    f
 }
 
 /// `--quality realtime`'s settings (`Quality::apply`: direct light, one occluded environment

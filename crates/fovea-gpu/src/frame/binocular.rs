@@ -17,8 +17,9 @@
 //!
 //! What it cannot serve is refused with [`GpuError::Unsupported`] before anything is written
 //! or recorded ([`ResidentFrame::supports`]): everything the sample side refuses
-//! ([`super::supports`]: indirect light, several rays per texel, culling, several layers), what
-//! the screen side refuses ([`ScreenContext::supports`]: Guenter, the insets, Weier),
+//! ([`super::supports`]: indirect light, several rays per texel, culling, the inset's
+//! Gaussian and Laplacian smoothings), what the screen side refuses
+//! ([`ScreenContext::supports`]: Weier),
 //! peripheral contrast, DOF filters other than the gather, and sample-space AA at full
 //! resolution.
 
@@ -241,10 +242,20 @@ impl ResidentFrame {
 
     /// Whether the resident frame accumulates `plan`'s frames temporally (with
     /// [`Self::set_temporal`] on): `Ok`, or the [`GpuError::Unsupported`] that [`Self::render`]
-    /// returns before anything is sent — Weier's frames, which the CPU accumulates in screen
+    /// returns before anything is sent — several sample layers (Guenter's, the inset's), and
+    /// Weier's frames, which the CPU accumulates in screen
     /// space (`fovea_render::temporal::weier_taa`: the reconstructed frame kept as a pyramid
     /// history), not in sample space as the resident temporal pass does.
     pub fn supports_temporal(plan: &FramePlan) -> Result<()> {
+        // The resident temporal pass accumulates one sample layer.
+        if plan.buffers.len() != 1 {
+            return Err(GpuError::Unsupported(format!(
+                "temporal accumulation of {} sample layers ({}) in the resident frame (use \
+                 --temporal off)",
+                plan.buffers.len(),
+                plan.method()
+            )));
+        }
         if plan.method() == Method::Weier {
             return Err(GpuError::Unsupported(format!(
                 "temporal accumulation of the {} method in the resident frame (its screen-space \
@@ -416,6 +427,13 @@ impl ResidentFrame {
         let t = Instant::now();
         for e in 0..2 {
             Self::supports(plans[e], cameras[e])?;
+            if self.temporal.is_some() && plans[e].buffers.len() != 1 {
+                return Err(GpuError::Unsupported(format!(
+                    "temporal accumulation of {} sample layers ({}) in the resident frame",
+                    plans[e].buffers.len(),
+                    plans[e].method()
+                )));
+            }
         }
         if self.temporal.is_some() {
             for p in plans {

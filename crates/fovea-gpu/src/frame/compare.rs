@@ -241,7 +241,7 @@ pub fn compare_binocular(ctx: &GpuContext, p: &CompareParams<'_>) -> Result<Bino
     let world = p.world;
     let mut caches = [PlanCache::new(), PlanCache::new()];
     let (cams, plans, _) = plans_of(p, 0, &mut caches)?;
-    // Temporal accumulation the resident frame does not run (Weier's) stages the frames.
+    // Temporal accumulation the resident frame does not run (Weier's, several sample layers') stages the frames.
     let temporal_refusal = p.temporal.and_then(|_| {
         plans
             .iter()

@@ -12,7 +12,7 @@
 //!   encoder and submitted once ([`ResidentSamples`]).
 //! * [`screen`]: the screen side — reconstruction, depth of field and tone map of one eye's
 //!   [`DeviceSamples`] recorded into the caller's encoder ([`ScreenContext`]).
-//! * [`layers`]: screen-aligned layered buffers (Guenter's layers) on both sides
+//! * [`layers`]: screen-aligned layered buffers (Guenter's layers, the inset) on both sides
 //!   ([`ResidentLayers`]).
 //! * [`reconstruct`]: the polar reconstruction the screen side records ([`ResidentPolar`]).
 //! * [`pull_push`]: Weier's pull-push reconstruction the screen side records

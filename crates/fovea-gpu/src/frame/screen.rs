@@ -10,7 +10,8 @@
 //! | `aa` | sample-space FXAA or 3×3 Gaussian on the polar layer (when configured) | `frame_screen_split.wgsl`, `fxaa.wgsl` / `gaussian_aa.wgsl` |
 //! | `columns` | the polar layer padded column by column and angularly prefiltered | `frame_polar_columns.wgsl` |
 //! | `reconstruct` | every pixel's `u(r)`, angle, bilinear or footprint lookup (VaFR Sec. 3.4), into the colour and depth planes | `polar_reconstruct.wgsl::reconstruct_planes` |
-//! | `split` | full resolution: the sample layer's `vec4` pixels into the colour and depth planes | `frame_screen_split.wgsl::split_planes` |
+//! | `reconstruct` (layers) | Guenter's layers and the inset: every pixel's layer, bilinear, the inset's alpha blend ([`crate::frame::layers`]), into a `vec4` screen | `frame_layers.wgsl` |
+//! | `split` | full resolution, Weier and the layers: a `vec4` screen's pixels into the colour and depth planes | `frame_screen_split.wgsl::split_planes` |
 //! | `dof` | the eye's CoC map, tile max, tile reach and the scatter-as-gather filter | `dof_coc.wgsl`, `dof_gather.wgsl` |
 //! | `tonemap` | exposure, tone curve, 8-bit sRGB, four codes a word | `tonemap.wgsl::tonemap_planes` |
 //!
@@ -366,7 +367,7 @@ pub struct ScreenContext {
     width: u32,
     height: u32,
     polar: Option<ResidentPolar>,
-    /// Guenter's layers' reconstruction (`crate::frame::layers`).
+    /// Guenter's layers' and the inset's reconstruction (`crate::frame::layers`).
     layers: Option<ResidentLayers>,
     /// Weier's reconstruction, after the split pass over the screen's planes.
     pull_push: Option<ResidentPullPush>,
