@@ -7,6 +7,7 @@
 # Usage: scripts/perceptual-jod.sh FOVEA HEADSET FOV_H_DEG "GAZE GAZE ..." SCENE... -- VARIANT...
 #   e.g. scripts/perceptual-jod.sh target/release/fovea vive-pro-eye 104.2 "720,800 981,800 100,100" \
 #          builtin classroom -- "--method vafr" "--method vafr --periphery-rays 1"
+# (no VARIANT after "--": only the noise floor's rows, with REF_FLOOR=1)
 # A VARIANT is extra `fovea render` options, quoted ("" = the defaults), or
 # "sequence N OPTIONS": a still view (camera and gaze held) of N frames of `fovea sequence`
 # with OPTIONS (accumulation on by default), scored at frame 0 and at frame N-1.
@@ -21,7 +22,8 @@
 #   FOVEA_SHARED the shared folder with scenes/ and tools/perceptual (default ../shared)
 #   PERCEPTUAL_PYTHON  the evaluator's Python (default ~/.venvs/perceptual/bin/python)
 #   STAGE        refs: render the references only; frames: the variants' frames only (both
-#                can run at the same time, e.g. in two shells); default: all, then score
+#                can run at the same time, e.g. in two shells); score: render nothing, score
+#                the pairs whose frames are there; default: render what is missing, then score
 # The full-resolution reference does not depend on the gaze, so each scene's reference (and
 # twin) is rendered once and shared by its gazes.
 set -euo pipefail
@@ -57,10 +59,13 @@ still_csv() {
 }
 out=${OUT:-$(mktemp -d)}
 mkdir -p "$out"
-pairs=$out/pairs.txt
+# One pair list and one score file per run, so that runs can share a folder.
+pairs=$out/pairs.$$.txt
+scores=$out/scores.$$.jsonl
 : > "$pairs"
 rows=()
 add_pair() { # REF IMG GAZE ROW
+  [ "$stage" != score ] || { [ -s "$1" ] && [ -s "$2" ]; } || return 0
   echo "$1 $2 ${3%,*} ${3#*,}" >> "$pairs"
   rows+=("$4")
 }
@@ -75,7 +80,7 @@ ref_paths() {
   fi
 }
 for sc in "${scenes[@]}"; do
-  [ "$stage" != frames ] || break
+  [ "$stage" != frames ] && [ "$stage" != score ] || break
   ref_paths "$sc"
   if [ -n "$twin" ]; then
     dir=${ref%/*}
@@ -109,7 +114,7 @@ for sc in "${scenes[@]}"; do
         opts=${rest#"$n"}
         dir=$out/$sc-$g-v$k-seq
         last=$(printf '%s/frame_%05d.png' "$dir" $((n - 1)))
-        if ! [ -s "$last" ]; then
+        if [ "$stage" != score ] && ! [ -s "$last" ]; then
           # shellcheck disable=SC2046,SC2086
           "$bin" sequence --headset "$headset" --frames "$n" --gaze-csv "$(still_csv "$g")" \
             --video off $(scene_args "$sc") $opts -q --out "$dir" >/dev/null
@@ -121,17 +126,18 @@ for sc in "${scenes[@]}"; do
         # A full-resolution frame does not depend on the gaze: rendered once, scored at each.
         case " $v " in *" --method full "*) img=$out/$sc-v$k.png ;; esac
         # shellcheck disable=SC2046,SC2086
-        [ -s "$img" ] || "$bin" render --headset "$headset" --gaze "$g" $(scene_args "$sc") $v -q \
+        [ -s "$img" ] || [ "$stage" = score ] || "$bin" render --headset "$headset" --gaze "$g" $(scene_args "$sc") $v -q \
           --out "$img" >/dev/null
         rays=$(python3 -c "import json,sys; s=json.load(open(sys.argv[1])); print(s['frame']['rays_primary'])" "${img%.png}.json" 2>/dev/null || echo "?")
         add_pair "$ref" "$img" "$g" "$sc|$g|${v:-defaults}|$rays"
       fi
-      echo "rendered $sc $g variant $k" >&2
+      [ "$stage" = score ] || echo "rendered $sc $g variant $k" >&2
     done
   done
 done
 [ "$stage" != frames ] || exit 0
-"$P" "$EVAL" --batch "$pairs" --fov-h "$fov_h" --metrics fvvdp_foveated,flip > "$out/scores.jsonl"
+"$P" "$EVAL" --batch "$pairs" --fov-h "$fov_h" --metrics fvvdp_foveated,flip > "$scores" ||
+  echo "perceptual-jod: the evaluator reported an error (its line in $scores)" >&2
 echo "| scene | gaze | options | primary rays | FovVideoVDP foveated JOD | ꟻLIP |"
 echo "|---|---|---|---:|---:|---:|"
 i=0
@@ -139,5 +145,5 @@ while IFS= read -r line; do
   IFS='|' read -r sc g v rays <<< "${rows[$i]}"
   python3 -c "import json,sys; d=json.loads(sys.argv[1]); print(f\"| {sys.argv[2]} | {sys.argv[3]} | \`{sys.argv[4]}\` | {sys.argv[5]} | {d.get('fvvdp_jod_foveated', float('nan')):.3f} | {d.get('flip_mean', float('nan')):.4f} |\")" "$line" "$sc" "$g" "$v" "$rays"
   i=$((i + 1))
-done < "$out/scores.jsonl"
-echo "(frames and scores in $out)" >&2
+done < "$scores"
+echo "(frames in $out, scores in $scores)" >&2
