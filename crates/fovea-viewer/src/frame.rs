@@ -697,6 +697,15 @@ impl Resident {
                 self.fall_back(e.to_string());
                 return Ok(None);
             }
+            // The resident temporal pass accumulates one sample layer (not Guenter's or the
+            // inset's several).
+            if accumulate && plan.buffers.len() != 1 {
+                self.fall_back(format!(
+                    "temporal accumulation (T) of {} sample layers in the resident frame",
+                    plan.buffers.len()
+                ));
+                return Ok(None);
+            }
             plans.push(plan);
         }
         let plans = [&plans[0], &plans[1]];

@@ -198,12 +198,17 @@ fn views_it_does_not_serve_fall_back_to_the_staged_path() {
     let f = r.render(&request(0, &view, &display, pose)).unwrap();
     assert!(f.resident.is_none());
     assert_eq!(f.rgba.len(), (W * H * 4) as usize);
-    // Guenter's layers: refused by the resident frame itself.
-    let mut g = ViewSettings::new(ViewMethod::Method(Method::Guenter), None, 1.0);
-    g.eyes = EyesChoice::Both;
+    // Guenter's layers with temporal accumulation (T, on at start) on one eye: the resident
+    // temporal pass accumulates one layer, so the frame is staged.
+    let g = ViewSettings::new(ViewMethod::Method(Method::Guenter), None, 1.0);
+    assert!(g.temporal);
     let f = r.render(&request(1, &g, &display, pose)).unwrap();
     assert!(f.resident.is_none());
-    assert_eq!(f.stats.len(), 2);
+    // Both eyes (no accumulation there): Guenter's layers are resident.
+    let mut g = g.clone();
+    g.eyes = EyesChoice::Both;
+    let f = r.render(&request(1, &g, &display, pose)).unwrap();
+    assert_eq!(f.resident.as_ref().expect("served").textures.len(), 2);
     // The same view without the overlay is served, one eye with temporal accumulation (on
     // at start) included: the resident frame's temporal pass.
     let mut v = view.clone();
