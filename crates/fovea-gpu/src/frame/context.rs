@@ -33,8 +33,8 @@ use fovea_render::shade::frame_noise::with_frame;
 use fovea_render::shade::{texel_key, EnvLight};
 use fovea_render::world::World;
 
-use super::layers::{self, LayerPass, ShadeLayerGpu};
 use super::bounce::{plan_bounces, BounceKernels, EyeBounce};
+use super::layers::{self, LayerPass, ShadeLayerGpu};
 use super::samples::DeviceSamples;
 use super::shade::{
     supports, FrameColumnGpu, FrameLayerGpu, FrameUniform, RayLayout, ShadeScene,

@@ -54,8 +54,8 @@ pub use compare::{compare_binocular, BinocularComparison, CompareParams, PathSum
 pub use context::{EyeShade, RecordTimes, ResidentSamples};
 pub use gaze_path::{GazePath, SACCADE_STEP_DEG};
 pub use layers::ResidentLayers;
-pub use reconstruct::{PolarCapacity, ResidentPolar, ScreenPlanes, TableUpload};
 pub use pull_push::ResidentPullPush;
+pub use reconstruct::{PolarCapacity, ResidentPolar, ScreenPlanes, TableUpload};
 pub use run::{refusal, FrameCounts, ResidentRun, Route};
 pub use samples::{DeviceSamples, SampleLayer};
 pub use screen::{

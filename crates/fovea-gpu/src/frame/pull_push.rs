@@ -141,7 +141,8 @@ impl ResidentPullPush {
             let mut p = MASK_SHADER.pipelines(device);
             p.extend(crate::pull_push::SHADER.pipelines(device));
             p.extend(
-                super::screen::SPLIT_SHADER.pipelines_of(device, &["planes_to_rgb", "rgb_to_planes"]),
+                super::screen::SPLIT_SHADER
+                    .pipelines_of(device, &["planes_to_rgb", "rgb_to_planes"]),
             );
             p
         })?;

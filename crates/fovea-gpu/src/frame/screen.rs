@@ -72,7 +72,12 @@ pub const SPLIT_SHADER: ShaderSource = ShaderSource {
         include_str!("../../shaders/common.wgsl"),
         include_str!("../../shaders/frame_screen_split.wgsl")
     ),
-    entry_points: &["split_screen", "split_planes", "planes_to_rgb", "rgb_to_planes"],
+    entry_points: &[
+        "split_screen",
+        "split_planes",
+        "planes_to_rgb",
+        "rgb_to_planes",
+    ],
     uniform: ("SplitParams", std::mem::size_of::<SplitUniform>()),
 };
 
