@@ -4,7 +4,7 @@
 //!
 //! **The viewer's shading** ([`MeasuredShading::Viewer`]): the real-time preset
 //! (`fovea_render::quality::Quality::Realtime`: direct light, one environment ray per sample
-//! through shadow rays) with the sample-space denoiser at its defaults (3×3 kernel, 4
+//! through shadow rays, one bounce of indirect light) with the sample-space denoiser at its defaults (3×3 kernel, 4
 //! iterations), as `fovea view` renders; where frames follow each other the measurement adds
 //! temporal accumulation, as the viewer does. [`MeasuredShading::NoiseFree`] is the old
 //! behaviour: the unshadowed environment (`ShadingMode::NOISE_FREE`), no Monte Carlo noise, no
@@ -54,7 +54,7 @@ pub const DEFAULT_REFERENCE_SEEDS: [u64; 2] = [0, 1];
 #[serde(rename_all = "kebab-case")]
 pub enum MeasuredShading {
     /// What a viewer gets by default: the real-time preset (direct light, one environment ray
-    /// per sample) with the sample-space denoiser; noisy, so scored against a converged
+    /// per sample, one bounce of indirect light) with the sample-space denoiser; noisy, so scored against a converged
     /// reference with its noise floor.
     #[default]
     Viewer,

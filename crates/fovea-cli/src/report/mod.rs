@@ -72,7 +72,7 @@ pub struct ReportArgs {
     pub bench_res: Option<String>,
     /// The shading the quality, DOF and inset sections score: `viewer` (the default: what
     /// `fovea view` renders — the real-time preset, direct light with one environment ray per
-    /// sample, and the sample-space denoiser — against a converged full-resolution reference
+    /// sample and one bounce of indirect light, and the sample-space denoiser — against a converged full-resolution reference
     /// of the same shading without the denoiser, beside that reference's noise floor: a twin
     /// of another seed scored like the methods) or `noise-free` (the unshadowed environment,
     /// no Monte Carlo noise, no denoiser: the foveation's error alone, the tables before

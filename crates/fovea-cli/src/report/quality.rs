@@ -252,7 +252,7 @@ pub fn run(ctx: &mut Ctx, sec: &mut Section) -> Result<()> {
         )
     };
     let shading_words = if shading.is_noisy() {
-        "Shading as a viewer gets it (`--shading viewer`): the real-time preset (direct light, one environment ray per sample through shadow rays) with the sample-space denoiser on every method's frame; the reference has the same shading without the denoiser"
+        "Shading as a viewer gets it (`--shading viewer`): the real-time preset (direct light, one environment ray per sample through shadow rays, one bounce of indirect light) with the sample-space denoiser on every method's frame; the reference has the same shading without the denoiser"
     } else {
         "Noise-free shading (`--shading noise-free`: the unshadowed environment, no denoiser): the foveation's error alone"
     };
