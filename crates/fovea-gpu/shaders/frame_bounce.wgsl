@@ -53,13 +53,13 @@ struct BounceParams {
     env_keys: array<vec4<u32>, 16>,
 }
 
-@group(0) @binding(30) var<uniform> bounce: BounceParams;
+@group(0) @binding(31) var<uniform> bounce: BounceParams;
 // A texel's path (u32 bits), in three bindings of at most 32 bytes a texel as the G-buffer's
 // (a binding's size bounds the texels): (throughput, bounces done), (vertex position, `later`
 // low word); (vertex `to_eye`, `later` high word), (sum, 0); (emission plus lights, 0).
-@group(0) @binding(31) var<storage, read_write> frame_paths_a: array<vec4<u32>>;
-@group(0) @binding(32) var<storage, read_write> frame_paths_b: array<vec4<u32>>;
-@group(0) @binding(33) var<storage, read_write> frame_paths_c: array<vec4<u32>>;
+@group(0) @binding(32) var<storage, read_write> frame_paths_a: array<vec4<u32>>;
+@group(0) @binding(33) var<storage, read_write> frame_paths_b: array<vec4<u32>>;
+@group(0) @binding(34) var<storage, read_write> frame_paths_c: array<vec4<u32>>;
 
 const STATE_BOUNCE: f32 = 3.0;
 const STATE_DONE: f32 = 4.0;

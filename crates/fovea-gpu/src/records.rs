@@ -82,59 +82,61 @@ fn records() -> Vec<Record> {
     use crate::{dof, environment_light as env, mapping, pull_push, reconstruct, sample_aa};
     use crate::{surface, tonemap, trace};
     let (tr, sf, fs) = (trace::SHADER, surface::SHADER, frame::shade::SHADER);
+    // The bounce kernels' module is the shade module's files with frame_bounce.wgsl appended.
+    let bo = frame::bounce::SHADER;
     vec![
-        record!(trace::TraceUniform => "TraceParams" in [tr, sf, fs] {
+        record!(trace::TraceUniform => "TraceParams" in [tr, sf, fs, bo] {
             ray_count, light_count, pi = model.pi, offset_per_t = model.offset_per_t,
             offset_t_cap = model.offset_t_cap, shadow_shorten = model.shadow_shorten,
             min_light_distance = model.min_light_distance,
             spot_min_width = model.spot_min_width, min_nv = model.min_nv,
             d_floor = model.d_floor, vis_floor = model.vis_floor, max_distance,
         }),
-        record!(trace::NodeGpu => "Node" in [tr, sf, fs] { min, prim_count, max, first_index }),
-        record!(trace::TriGpu => "Tri" in [tr, sf, fs] { v0, v1, v2 }),
-        record!(trace::GpuRay => "Ray" in [tr, sf, fs] { origin, t_min, dir, t_max }),
-        record!(trace::HitGpu => "Hit" in [tr, sf, fs] { t, prim, u, v }),
-        record!(crate::RayGenCamera => "RayGenCamera" in [tr, sf, fs] {
+        record!(trace::NodeGpu => "Node" in [tr, sf, fs, bo] { min, prim_count, max, first_index }),
+        record!(trace::TriGpu => "Tri" in [tr, sf, fs, bo] { v0, v1, v2 }),
+        record!(trace::GpuRay => "Ray" in [tr, sf, fs, bo] { origin, t_min, dir, t_max }),
+        record!(trace::HitGpu => "Hit" in [tr, sf, fs, bo] { t, prim, u, v }),
+        record!(crate::RayGenCamera => "RayGenCamera" in [tr, sf, fs, bo] {
             origin, fx, forward, fy, right, rad_per_turn, up, px_per_q, centre, centre_lo,
         }),
-        record!(crate::GpuPolarRay => "PolarRay" in [tr, sf, fs] { offset_q }),
-        record!(crate::GpuScreenRay => "ScreenRay" in [tr, sf, fs] { x_px, y_px }),
-        record!(crate::ray_generation::GeneratedHitGpu => "GeneratedHit" in [tr, sf, fs] {
+        record!(crate::GpuPolarRay => "PolarRay" in [tr, sf, fs, bo] { offset_q }),
+        record!(crate::GpuScreenRay => "ScreenRay" in [tr, sf, fs, bo] { x_px, y_px }),
+        record!(crate::ray_generation::GeneratedHitGpu => "GeneratedHit" in [tr, sf, fs, bo] {
             hit, dir,
         }),
-        record!(crate::GpuSurface => "Surface" in [tr, fs] {
+        record!(crate::GpuSurface => "Surface" in [tr, fs, bo] {
             position, t, normal, metallic, face_normal, roughness, to_eye, key_lo, albedo,
             key_hi, specular,
         }),
-        record!(crate::GpuLight => "Light" in [tr, fs] {
+        record!(crate::GpuLight => "Light" in [tr, fs, bo] {
             position, kind, direction, range, intensity, cos_inner, cos_outer,
         }),
-        record!(env::EnvUniform => "EnvParams" in [tr, fs] {
+        record!(env::EnvUniform => "EnvParams" in [tr, fs, bo] {
             samples, n_map, n_brdf, kind, salt, mix_increment, mix_mul0, mix_mul1, mix_shifts,
             r2_a1, r2_a2, r2_half, width, height, luminance, constant, map_from_world,
             world_from_map, tau, below_one, x_max, turns_per_rad, off_marginal_cdf,
             off_marginal_func, off_cond_cdf, off_cond_func, off_cond_int, off_cos_edge,
             marginal_int, frame_mask_hi,
         }),
-        record!(crate::GpuSurfaceRay => "SurfaceRay" in [sf, fs] { a, b, spread }),
-        record!(surface::SurfaceTriGpu => "SurfaceTri" in [sf, fs] {
+        record!(crate::GpuSurfaceRay => "SurfaceRay" in [sf, fs, bo] { a, b, spread }),
+        record!(surface::SurfaceTriGpu => "SurfaceTri" in [sf, fs, bo] {
             v0 = v[0], v1 = v[1], v2 = v[2], material, slot, uv_per_metre, flags,
         }),
-        record!(surface::SurfaceVertexGpu => "SurfaceVertex" in [sf, fs] {
+        record!(surface::SurfaceVertexGpu => "SurfaceVertex" in [sf, fs, bo] {
             normal, u, tangent, color, v,
         }),
-        record!(surface::SurfaceMaterialGpu => "SurfaceMaterial" in [sf, fs] {
+        record!(surface::SurfaceMaterialGpu => "SurfaceMaterial" in [sf, fs, bo] {
             base_color, metallic, specular, roughness, emissive, normal_scale,
             base_mip = base[0], base_levels = base[1],
             mr_mip = metallic_roughness[0], mr_levels = metallic_roughness[1],
             normal_mip = normal_map[0], normal_levels = normal_map[1],
         }),
-        record!(surface::MipGpu => "Mip" in [sf, fs] { offset, width, height }),
-        record!(surface::SurfaceModelGpu => "SurfaceModel" in [sf, fs] {
+        record!(surface::MipGpu => "Mip" in [sf, fs, bo] { offset, width, height }),
+        record!(surface::SurfaceModelGpu => "SurfaceModel" in [sf, fs, bo] {
             min_cos, min_footprint_texels, trilinear_min_fraction, min_roughness,
             tangent_det_floor,
         }),
-        record!(surface::GRecordGpu => "GRecord" in [sf, fs] {
+        record!(surface::GRecordGpu => "GRecord" in [sf, fs, bo] {
             position, t, normal, metallic, face_normal, roughness, to_eye, material, albedo,
             specular, emissive,
         }),
@@ -185,16 +187,32 @@ fn records() -> Vec<Record> {
         record!(tonemap::ToneUniform => "ToneParams" in [tonemap::SHADER] {
             n_values, n_words, scale, curve,
         }),
-        record!(frame::shade::FrameLayerGpu => "FrameLayer" in [fs] {
+        record!(frame::shade::FrameLayerGpu => "FrameLayer" in [fs, bo] {
             offset, width, height, key_hi,
         }),
-        record!(frame::shade::FrameUniform => "FrameParams" in [fs] {
+        record!(frame::shade::FrameUniform => "FrameParams" in [fs, bo] {
             texels, kind, inf_bits, unshadowed, layer, offset, pixel_spread, row_invocations,
             ambient, rank, guides,
         }),
-        record!(frame::shade::FrameColumnGpu => "FrameColumn" in [fs] {
+        record!(frame::shade::FrameColumnGpu => "FrameColumn" in [fs, bo] {
             r_px, period, spread, runs,
         }),
+        record!(frame::layers::ShadeLayerGpu => "FrameScreenLayer" in [fs, bo] {
+            origin, scale, steps, shaded, gaze, c_r, floor_rad, max_rad, pad0 = pad[0],
+            pad1 = pad[1], pad2 = pad[2], step_r, step_scale,
+        }),
+        record!(frame::bounce::BounceUniform => "BounceParams" in [bo] {
+            bounces, unit_bits, roulette_max, spread, first_salt, later_salt, env_keys,
+        }),
+        record!(frame::layers::LayerRecordGpu => "LayerRecord" in [frame::layers::SHADER] {
+            origin, size, disc, rect, scale, offset, width, pad,
+        }),
+        record!(frame::layers::LayersUniform => "LayersParams" in [frame::layers::SHADER] {
+            width, height, count, inf_bits, inset, strip, pad0 = pad[0], pad1 = pad[1],
+            pad2 = pad[2], layers,
+        }),
+        record!(frame::pull_push::MaskUniform => "MaskParams"
+            in [frame::pull_push::MASK_SHADER] { pixels, width, words, pad }),
         record!(frame::reconstruct::PadUniform => "PadParams" in [frame::reconstruct::PAD_SHADER] {
             offset, width, n_columns, stored_max, aa,
         }),

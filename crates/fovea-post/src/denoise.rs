@@ -339,12 +339,16 @@ fn column_at(grid: &Grid, i: u32, j: u32, turn: f64, di: i32) -> Option<(u32, i6
     }
 }
 
-/// The texel's angle in turns, `(j + ½)/period[i]` (0 on a rect grid).
+/// The texel's angle in turns, `(j + ½)/period[i]` (0 on a rect grid, and past the grid's
+/// columns: the eight-lane passes ask for every lane of a block, whose lanes past the last
+/// column with a period — a padded buffer's — are passive and never read).
 #[inline]
 fn turn_of(grid: &Grid, i: u32, j: u32) -> f64 {
     match grid {
         Grid::Rect { .. } => 0.0,
-        Grid::Polar { period, .. } => (j as f64 + 0.5) / period[i as usize].max(1e-12),
+        Grid::Polar { period, .. } => period
+            .get(i as usize)
+            .map_or(0.0, |p| (j as f64 + 0.5) / p.max(1e-12)),
     }
 }
 

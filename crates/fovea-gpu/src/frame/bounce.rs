@@ -15,7 +15,7 @@
 //! recorded before. Their module is separate from the direct kernels' (compiled when a plan
 //! first asks for bounces), and so is their bind group: the direct kernels' bindings, but an
 //! environment block with the bounce's ray count ([`bounce_env_light`]), plus
-//! [`BounceUniform`] (binding 30) and the paths (bindings 31–33, [`PATH_TEXEL_BYTES`] a texel
+//! [`BounceUniform`] (binding 31) and the paths (bindings 32–34, [`PATH_TEXEL_BYTES`] a texel
 //! in three buffers of at most 32 bytes a texel, as the G-buffer's two: a binding's size
 //! bounds the texels, 4.19 M on lavapipe's 128 MiB).
 
@@ -43,7 +43,9 @@ pub const SHADER: ShaderSource = ShaderSource {
         include_str!("../../shaders/ray_generation.wgsl"),
         include_str!("../../shaders/surface.wgsl"),
         include_str!("../../shaders/environment_light.wgsl"),
+        include_str!("../../shaders/frame_shade_layers.wgsl"),
         include_str!("../../shaders/frame_shade.wgsl"),
+        include_str!("../../shaders/frame_sparse.wgsl"),
         include_str!("../../shaders/frame_bounce.wgsl")
     ),
     entry_points: &[
@@ -155,10 +157,10 @@ pub fn bounce_env_samples(env_light: EnvLight) -> u32 {
 fn bindings() -> Vec<(u32, bool, bool)> {
     let mut b = BINDINGS.to_vec();
     b.extend([
-        (30, true, true),
-        (31, false, false),
+        (31, true, true),
         (32, false, false),
         (33, false, false),
+        (34, false, false),
     ]);
     b
 }
@@ -281,10 +283,10 @@ impl EyeBounce {
                 shared.iter().copied().filter(|&(b, _)| b != 16).collect();
             entries.extend([
                 (16, &env),
-                (30, &params),
-                (31, &paths[0]),
-                (32, &paths[1]),
-                (33, &paths[2]),
+                (31, &params),
+                (32, &paths[0]),
+                (33, &paths[1]),
+                (34, &paths[2]),
             ]);
             let bind_group = crate::transfer::bind_group(
                 ctx,

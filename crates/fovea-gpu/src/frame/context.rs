@@ -499,6 +499,8 @@ impl EyeShade {
                 (27, guides[0]),
                 (28, guides[1]),
                 (29, guides[2]),
+                // The layer block (a stand-in: bounces never run on layers).
+                (30, &self.layer_block),
             ];
             self.bounce = Some(EyeBounce::new(
                 scene,
