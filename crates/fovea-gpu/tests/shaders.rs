@@ -206,7 +206,7 @@ fn every_wgsl_file_is_compiled_by_some_module() {
     // appended direct_light.wgsl, ray_generation.wgsl, environment_light.wgsl and
     // frame_shade_layers.wgsl, the AA modules' shared sample_grid.wgsl, and frame_sparse.wgsl
     // (the shade and Weier mask modules').
-    assert_eq!(seen, ALL.len() + 5 + 1);
+    assert_eq!(seen, ALL.len() + 6 + 1);
 }
 
 #[test]
