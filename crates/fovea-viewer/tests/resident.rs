@@ -204,10 +204,29 @@ fn views_it_does_not_serve_fall_back_to_the_staged_path() {
     assert!(g.temporal);
     let f = r.render(&request(1, &g, &display, pose)).unwrap();
     assert!(f.resident.is_none());
-    // Both eyes (no accumulation there): Guenter's layers are resident.
+    // Both eyes (no accumulation there) with the real-time preset's bounce: staged too (the
+    // bounce kernels read one layer's G-buffer, which the layers reuse) ...
     let mut g = g.clone();
     g.eyes = EyesChoice::Both;
     let f = r.render(&request(1, &g, &display, pose)).unwrap();
+    assert!(f.resident.is_none());
+    // ... and resident with the preset's direct light (`--shading direct`).
+    let (world2, _, _) = setup();
+    let mut direct = base();
+    direct.shading = fovea_render::shade::ShadingMode::Direct {
+        env_light: fovea_render::shade::EnvLight::Occluded {
+            samples: fovea_render::quality::REALTIME_ENV_SAMPLES,
+        },
+    };
+    let Some(ctx2) = context(
+        &world2,
+        "views_it_does_not_serve_fall_back_to_the_staged_path",
+    ) else {
+        return;
+    };
+    let mut r2 = FrameRenderer::new(world2, direct, 0.063, Executors::default(), None).unwrap();
+    r2.set_resident(ctx2, true);
+    let f = r2.render(&request(1, &g, &display, pose)).unwrap();
     assert_eq!(f.resident.as_ref().expect("served").textures.len(), 2);
     // The same view without the overlay is served, one eye with temporal accumulation (on
     // at start) included: the resident frame's temporal pass.
