@@ -27,7 +27,7 @@ use fovea_render::shade::{
     BOUNCE_SPREAD_RAD, ROULETTE_MAX,
 };
 
-use super::shade::{ShadeScene, BINDINGS};
+use super::shade::{declared_pipelines, ShadeScene, BINDINGS};
 use crate::environment_light::EnvUniform;
 use crate::error::{GpuError, Result};
 use crate::shaders::ShaderSource;
@@ -185,47 +185,13 @@ impl BounceKernels {
             )));
         }
         let pipelines = ctx.scoped("building the resident frame's bounce kernels", || {
-            let device = ctx.device();
-            let entries: Vec<wgpu::BindGroupLayoutEntry> = bindings()
-                .into_iter()
-                .map(|(binding, uniform, read_only)| wgpu::BindGroupLayoutEntry {
-                    binding,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: if uniform {
-                            wgpu::BufferBindingType::Uniform
-                        } else {
-                            wgpu::BufferBindingType::Storage { read_only }
-                        },
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                })
-                .collect();
-            let group = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("resident frame bounces"),
-                entries: &entries,
-            });
-            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("resident frame bounces"),
-                bind_group_layouts: &[Some(&group)],
-                immediate_size: 0,
-            });
-            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(SHADER.file),
-                source: wgpu::ShaderSource::Wgsl(SHADER.source.into()),
-            });
-            ENTRY_POINTS.map(|entry| {
-                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(entry),
-                    layout: Some(&layout),
-                    module: &module,
-                    entry_point: Some(entry),
-                    compilation_options: Default::default(),
-                    cache: None,
-                })
-            })
+            declared_pipelines(
+                ctx.device(),
+                "resident frame bounces",
+                &bindings(),
+                &SHADER,
+                ENTRY_POINTS,
+            )
         })?;
         Ok(Self { pipelines })
     }

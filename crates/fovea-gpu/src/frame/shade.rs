@@ -293,7 +293,21 @@ pub const BINDINGS: [(u32, bool, bool); 25] = [
 /// The kernels' pipelines with their declared layout ([`BINDINGS`]), in the order of
 /// [`ENTRY_POINTS`]. Call inside an error scope.
 fn pipelines(device: &wgpu::Device) -> [wgpu::ComputePipeline; 3] {
-    let entries: Vec<wgpu::BindGroupLayoutEntry> = BINDINGS
+    declared_pipelines(device, "resident frame", &BINDINGS, &SHADER, ENTRY_POINTS)
+}
+
+/// `entry_points` of `shader`, one pipeline each, over one bind group laid out as `bindings`
+/// declares (`(binding, uniform, read-only)`; see [`BINDINGS`]) rather than as the entry
+/// points happen to read: the resident kernels' and the bounce kernels' shared layout rule.
+/// Call inside an error scope.
+pub(crate) fn declared_pipelines<const N: usize>(
+    device: &wgpu::Device,
+    label: &str,
+    bindings: &[(u32, bool, bool)],
+    shader: &ShaderSource,
+    entry_points: [&str; N],
+) -> [wgpu::ComputePipeline; N] {
+    let entries: Vec<wgpu::BindGroupLayoutEntry> = bindings
         .iter()
         .map(
             |&(binding, uniform, read_only)| wgpu::BindGroupLayoutEntry {
@@ -313,19 +327,19 @@ fn pipelines(device: &wgpu::Device) -> [wgpu::ComputePipeline; 3] {
         )
         .collect();
     let group = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("resident frame"),
+        label: Some(label),
         entries: &entries,
     });
     let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some("resident frame"),
+        label: Some(label),
         bind_group_layouts: &[Some(&group)],
         immediate_size: 0,
     });
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some(SHADER.file),
-        source: wgpu::ShaderSource::Wgsl(SHADER.source.into()),
+        label: Some(shader.file),
+        source: wgpu::ShaderSource::Wgsl(shader.source.into()),
     });
-    ENTRY_POINTS.map(|entry| {
+    entry_points.map(|entry| {
         device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some(entry),
             layout: Some(&layout),
