@@ -122,6 +122,34 @@ pub(crate) struct Level {
     pub(crate) wt_off: u64,
 }
 
+/// The uniform block's fields every dispatch shares: the depth fill's radius and the miss
+/// depth's bits.
+pub(crate) fn uniform_base() -> PullPushUniform {
+    PullPushUniform {
+        max_radius: DEPTH_FILL_RADIUS_PX,
+        miss_depth_bits: f32::INFINITY.to_bits(),
+        ..PullPushUniform::default()
+    }
+}
+
+/// The uniform block of level `l` and `l + 1` of `levels` over `n` invocations: the pull from
+/// `l` to `l + 1` and the push back read the same pair.
+pub(crate) fn level_pair(levels: &[Level], l: usize, n: u64) -> PullPushUniform {
+    PullPushUniform {
+        fine_w: levels[l].w,
+        fine_h: levels[l].h,
+        fine_off: levels[l].off as u32,
+        fine_level: l as u32,
+        coarse_w: levels[l + 1].w,
+        coarse_h: levels[l + 1].h,
+        coarse_off: levels[l + 1].off as u32,
+        coarse_wt_off: levels[l + 1].wt_off as u32,
+        fine_wt_off: if l == 0 { 0 } else { levels[l].wt_off as u32 },
+        n: n as u32,
+        ..uniform_base()
+    }
+}
+
 /// The pyramid of a `w`×`h` screen (the CPU's: halve, rounding up, down to 1×1), with the
 /// colour buffer's and the weight buffer's lengths in pixels.
 pub(crate) fn pyramid(w: u32, h: u32) -> (Vec<Level>, u64, u64) {
@@ -279,25 +307,8 @@ impl GpuPullPush {
             let gx = g.min(u64::from(max_groups));
             (gx as u32, g.div_ceil(gx) as u32)
         };
-        let uniform_base = PullPushUniform {
-            max_radius: DEPTH_FILL_RADIUS_PX,
-            miss_depth_bits: f32::INFINITY.to_bits(),
-            ..PullPushUniform::default()
-        };
-        // Level l → l + 1 (pull) and back (push) read the same pair.
-        let pair = |l: usize, n: u64| PullPushUniform {
-            fine_w: levels[l].w,
-            fine_h: levels[l].h,
-            fine_off: levels[l].off as u32,
-            fine_level: l as u32,
-            coarse_w: levels[l + 1].w,
-            coarse_h: levels[l + 1].h,
-            coarse_off: levels[l + 1].off as u32,
-            coarse_wt_off: levels[l + 1].wt_off as u32,
-            fine_wt_off: if l == 0 { 0 } else { levels[l].wt_off as u32 },
-            n: n as u32,
-            ..uniform_base
-        };
+        let uniform_base = uniform_base();
+        let pair = |l: usize, n: u64| level_pair(&levels, l, n);
         let what = format!("the pull-push reconstruction at {w}x{h}");
         let device = self.ctx.device();
         let (colour_read, depth_read, timers) = self.ctx.scoped(&what, || {

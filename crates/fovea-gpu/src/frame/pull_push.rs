@@ -27,12 +27,11 @@
 //! pattern's four words go up (16 bytes), and its tables with the first frame.
 
 use fovea_core::mapping::FoveationMapping;
-use fovea_post::inverse_map::DEPTH_FILL_RADIUS_PX;
 
 use super::weier_pattern::{words_len, DevicePattern};
 use crate::device::GpuContext;
 use crate::error::{GpuError, Result};
-use crate::pull_push::{pyramid, PullPushUniform, RGB_BYTES};
+use crate::pull_push::{level_pair, pyramid, uniform_base, PullPushUniform, RGB_BYTES};
 use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
 use crate::transfer::{bind_group, empty};
 
@@ -159,24 +158,8 @@ impl ResidentPullPush {
         let mask = modules.remove(0);
         let storage = wgpu::BufferUsages::STORAGE;
         let uniform_usage = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
-        let base = PullPushUniform {
-            max_radius: DEPTH_FILL_RADIUS_PX,
-            miss_depth_bits: f32::INFINITY.to_bits(),
-            ..PullPushUniform::default()
-        };
-        let pair = |l: usize, n: u64| PullPushUniform {
-            fine_w: levels[l].w,
-            fine_h: levels[l].h,
-            fine_off: levels[l].off as u32,
-            fine_level: l as u32,
-            coarse_w: levels[l + 1].w,
-            coarse_h: levels[l + 1].h,
-            coarse_off: levels[l + 1].off as u32,
-            coarse_wt_off: levels[l + 1].wt_off as u32,
-            fine_wt_off: if l == 0 { 0 } else { levels[l].wt_off as u32 },
-            n: n as u32,
-            ..base
-        };
+        let base = uniform_base();
+        let pair = |l: usize, n: u64| level_pair(&levels, l, n);
         let coarsest = levels.len() - 1;
         let pull_groups: Vec<(u32, u32)> = (0..coarsest)
             .map(|l| groups(u64::from(levels[l + 1].w) * u64::from(levels[l + 1].h)))
