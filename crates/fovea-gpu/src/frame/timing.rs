@@ -162,29 +162,41 @@ impl FrameTimer {
     }
 
     /// Records the resolve and the copy into the slot's readback (after the frame's passes,
-    /// into the same encoder).
+    /// into the same encoder): only the span from the first to the last pass the frame wrote,
+    /// so a timer whose passes did not run this frame (the denoiser off, no history) reads
+    /// nothing back.
     pub fn end_frame(&self, encoder: &mut wgpu::CommandEncoder) {
         let Some(k) = self.current else {
             return;
         };
         let slot = &self.slots[k];
-        let n = 2 * self.passes.len() as u32;
-        encoder.resolve_query_set(&slot.set, 0..n, &slot.resolve, 0);
-        encoder.copy_buffer_to_buffer(&slot.resolve, 0, &slot.read, 0, slot.read.size());
+        let Some(span) = written_span(slot.written) else {
+            return;
+        };
+        let queries = 2 * span.start as u32..2 * span.end as u32;
+        encoder.resolve_query_set(&slot.set, queries, &slot.resolve, 0);
+        let bytes = span.len() as u64 * PASS_STAMP_BYTES;
+        encoder.copy_buffer_to_buffer(&slot.resolve, 0, &slot.read, 0, bytes);
     }
 
-    /// After the caller submitted the frame's encoder: starts mapping the slot's readback.
-    /// Does not wait.
+    /// After the caller submitted the frame's encoder: starts mapping the slot's readback (the
+    /// written span's stamps). Does not wait; a frame that wrote no pass is ready at once.
     pub fn submitted(&mut self) {
         let Some(k) = self.current.take() else {
             return;
         };
         let slot = &self.slots[k];
+        let Some(span) = written_span(slot.written) else {
+            slot.state.store(MAPPED, Ordering::Release);
+            return;
+        };
         slot.state.store(MAPPING, Ordering::Release);
         let state = slot.state.clone();
-        slot.read.map_async(wgpu::MapMode::Read, .., move |r| {
-            state.store(if r.is_ok() { MAPPED } else { FAILED }, Ordering::Release);
-        });
+        let bytes = span.len() as u64 * PASS_STAMP_BYTES;
+        slot.read
+            .map_async(wgpu::MapMode::Read, 0..bytes, move |r| {
+                state.store(if r.is_ok() { MAPPED } else { FAILED }, Ordering::Release);
+            });
     }
 
     /// The frames whose timestamps have arrived since the last call, oldest first. Polls the
@@ -196,14 +208,20 @@ impl FrameTimer {
         for slot in &mut self.slots {
             match slot.state.load(Ordering::Acquire) {
                 MAPPED => {
-                    let stamps: Option<Vec<u64>> =
-                        slot.read.get_mapped_range(..).ok().map(|view| {
+                    let span = written_span(slot.written).unwrap_or(0..0);
+                    let stamps: Option<Vec<u64>> = if span.is_empty() {
+                        Some(Vec::new())
+                    } else {
+                        let bytes = span.len() as u64 * PASS_STAMP_BYTES;
+                        let stamps = slot.read.get_mapped_range(0..bytes).ok().map(|view| {
                             self.ctx.traffic_counters().read_back(view.len() as u64);
                             bytemuck::pod_collect_to_vec::<u8, u64>(&view)
                         });
-                    slot.read.unmap();
+                        slot.read.unmap();
+                        stamps
+                    };
                     slot.state.store(FREE, Ordering::Release);
-                    let Some(stamps) = stamps.filter(|s| s.len() >= 2 * self.passes.len()) else {
+                    let Some(stamps) = stamps.filter(|s| s.len() >= 2 * span.len()) else {
                         continue;
                     };
                     let passes = self
@@ -213,9 +231,8 @@ impl FrameTimer {
                         .map(|(p, &name)| {
                             let ran = slot.written & (1 << p) != 0;
                             let ms = ran.then(|| {
-                                stamps[2 * p + 1].saturating_sub(stamps[2 * p]) as f64
-                                    * period_ns
-                                    * 1e-6
+                                let q = 2 * (p - span.start);
+                                stamps[q + 1].saturating_sub(stamps[q]) as f64 * period_ns * 1e-6
                             });
                             (name, ms)
                         })
@@ -231,5 +248,25 @@ impl FrameTimer {
         }
         done.sort_by_key(|t| t.frame);
         Ok(done)
+    }
+}
+
+/// The passes from the first to the last one `written` (bit k: pass k) names, or `None` when
+/// it names none.
+fn written_span(written: u32) -> Option<std::ops::Range<usize>> {
+    (written != 0).then(|| written.trailing_zeros() as usize..32 - written.leading_zeros() as usize)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::written_span;
+
+    #[test]
+    fn the_written_span_runs_from_the_first_to_the_last_written_pass() {
+        assert_eq!(written_span(0), None);
+        assert_eq!(written_span(0b1), Some(0..1));
+        assert_eq!(written_span(0b1011_0100), Some(2..8));
+        assert_eq!(written_span(1 << 31), Some(31..32));
+        assert_eq!(written_span(u32::MAX), Some(0..32));
     }
 }
