@@ -189,6 +189,12 @@ impl ResidentRun {
         self.frame.set_temporal(settings)
     }
 
+    /// Forgets the temporal history (a resumed sequence's gap): the next frame is
+    /// accumulated afresh; see [`ResidentFrame::reset_temporal`].
+    pub fn reset_temporal(&mut self) {
+        self.frame.reset_temporal();
+    }
+
     /// Waits until the device has finished the submitted frames — for a benchmark's wall
     /// clock only, outside any frame's counts (it is a counted blocking wait).
     pub fn finish(&self) -> Result<()> {
