@@ -80,6 +80,8 @@ pub fn render(
         Route::Resident(run) => run,
         Route::Staged(why) => return Ok(Rendered::Staged(Some(why))),
     };
+    // One eye: its plan on both sides, the left one recorded.
+    run.set_eyes(eyes)?;
     let counts = run.render(world, p2, c2)?;
     let before = ctx.traffic();
     if out
@@ -109,11 +111,7 @@ pub fn render(
         counts.bytes_uploaded as f64 / 1e3,
         counts.bytes_read_back,
         counts.host_ms,
-        if eyes == 1 {
-            " (one eye rendered twice)"
-        } else {
-            ""
-        },
+        if eyes == 1 { " (one eye)" } else { "" },
         image.bytes_read_back as f64 / 1e3,
     );
     let json = serde_json::json!({
@@ -459,8 +457,8 @@ fn sequence_line(r: &fovea_gpu::frame::SequenceReport) -> String {
     let mut line = match (&r.resident_most, &r.image_readback_most) {
         (Some(m), Some(img)) => format!(
             "resident frame: {} frames, each at most {} submission, {} blocking waits, {:.1} \
-             KB up, {} B back, host {:.2} ms (one eye rendered on both sides); each image read \
-             back for its file ({:.1} KB, {} wait)",
+             KB up, {} B back, host {:.2} ms; each image read back for its file ({:.1} KB, {} \
+             wait)",
             r.resident_frames,
             m.submissions,
             m.blocking_waits,

@@ -767,7 +767,8 @@ fn png_luma_psnr_db(a: &Path, b: &Path) -> f64 {
 /// resolution at 160×180, the real-time preset without the denoiser, temporal accumulation
 /// with the accumulator's sub-texel jitter on a still gaze, three frames. `stats.json` says
 /// every frame went resident — 1 submission, no blocking wait and nothing read back for the
-/// frame, then its one image read back for the file (3·w·h bytes, one wait) — the manifest
+/// frame, then its one image read back for the file (3·w·h bytes, one wait), no pass of the
+/// right eye recorded (the sequence's one eye is the frame's left side) — the manifest
 /// records the route, and each frame is the CPU's (`--backend cpu`, the same settings) within
 /// a luma PSNR of 40 dB (the jitter of each frame included). A deleted frame is rendered
 /// again after the one warm-up frame its history needs, to the same bytes. `--staged` and
@@ -826,6 +827,10 @@ fn gpu_sequence_goes_resident_with_temporal_accumulation() {
         assert_eq!(image["bytes_read_back"], 3 * 160 * 180, "{f}");
         assert_eq!(image["blocking_waits"], 1, "{f}");
     }
+    // One eye: the binocular frame's left side only (`set_eyes(1)`), no right pass timed.
+    let passes = b["resident_gpu_pass_ms"].as_object().unwrap();
+    assert!(passes.keys().all(|k| !k.starts_with("right")), "{b}");
+    eprintln!("[fovea-cli] resident sequence GPU passes (ms): {passes:?}");
     // After the first frame nothing is created and only the uniforms go up.
     for f in &frames[1..] {
         assert_eq!(f["counts"]["buffers_created"], 0, "{f}");

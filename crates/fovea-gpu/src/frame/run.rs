@@ -189,6 +189,12 @@ impl ResidentRun {
         self.frame.set_temporal(settings)
     }
 
+    /// Records both eyes (2) or the left eye only (1) from the next frame; see
+    /// [`ResidentFrame::set_eyes`].
+    pub fn set_eyes(&mut self, eyes: usize) -> Result<()> {
+        self.frame.set_eyes(eyes)
+    }
+
     /// Forgets the temporal history (a resumed sequence's gap): the next frame is
     /// accumulated afresh; see [`ResidentFrame::reset_temporal`].
     pub fn reset_temporal(&mut self) {

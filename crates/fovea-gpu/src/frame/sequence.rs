@@ -12,7 +12,8 @@
 //! included); a frame after a gap (a resumed run) resets the history
 //! ([`ResidentRun::reset_temporal`]) and renders the up to [`WARMUP_FRAMES`] frames before it
 //! first, unwritten. The resident frame is binocular and a sequence has one eye: its plan and
-//! camera go to both sides, and only the left side's image is read back.
+//! camera go to both sides, and only the left side is recorded
+//! ([`ResidentRun::set_eyes`]`(1)`) and its image read back.
 //!
 //! **Decided once, before the first pass** ([`SequenceRoute::decide`]): from frame 0's plan
 //! ([`super::refusal`], and with temporal accumulation [`ResidentFrame::supports_temporal`]
@@ -114,6 +115,7 @@ impl SequenceRoute {
             Route::Staged(why) => return Ok(SequenceRoute::Staged(why)),
         };
         run.set_temporal(p.temporal)?;
+        run.set_eyes(1)?;
         Ok(SequenceRoute::Resident(Box::new(ResidentSequence {
             run: *run,
             temporal: p.temporal,
