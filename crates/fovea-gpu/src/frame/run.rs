@@ -80,7 +80,8 @@ pub enum Route {
 
 impl Route {
     /// The resident frame when it serves `plans` seen by `cameras` (index = eye: left,
-    /// right; a one-eye frame passes its plan twice), made on `ctx` for `world` with `tone`;
+    /// right; a one-eye frame passes its plan twice and records one side,
+    /// [`ResidentRun::set_eyes`]), made on `ctx` for `world` with `tone`;
     /// otherwise [`Route::Staged`] with the refusal's line. Nothing is uploaded for a refusal
     /// of the plans; a device too small for the frame's buffers (found while making them) is
     /// staged too, with the binding it lacks.
