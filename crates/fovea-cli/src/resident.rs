@@ -80,6 +80,8 @@ pub fn render(
         Route::Resident(run) => run,
         Route::Staged(why) => return Ok(Rendered::Staged(Some(why))),
     };
+    // One eye: its plan on both sides, the left one recorded.
+    run.set_eyes(eyes)?;
     let counts = run.render(world, p2, c2)?;
     let before = ctx.traffic();
     if out
@@ -109,11 +111,7 @@ pub fn render(
         counts.bytes_uploaded as f64 / 1e3,
         counts.bytes_read_back,
         counts.host_ms,
-        if eyes == 1 {
-            " (one eye rendered twice)"
-        } else {
-            ""
-        },
+        if eyes == 1 { " (one eye)" } else { "" },
         image.bytes_read_back as f64 / 1e3,
     );
     let json = serde_json::json!({
@@ -283,4 +281,202 @@ fn bench_line(c: &fovea_gpu::frame::BinocularComparison) -> String {
         if c.temporal { "on" } else { "off" },
         c.frames
     )
+}
+
+/// A written frame of `fovea sequence` on a GPU, for the caller's file.
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub enum SequenceImage<'a> {
+    /// The resident frame's tone-mapped 8-bit sRGB image (read back).
+    Srgb8(&'a fovea_core::Image<[u8; 3]>),
+    /// A staged frame: linear colour, tone-mapped by the caller.
+    Linear(&'a fovea_render::pipeline::Frame),
+}
+
+/// What `fovea sequence` asks of the GPU: the frames and how they end.
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+pub struct SequenceInputs<'a> {
+    pub world: &'a World,
+    pub seq: &'a fovea_render::sequence::Sequence,
+    pub settings: &'a fovea_render::pipeline::FrameSettings,
+    pub temporal: Option<fovea_render::temporal::TemporalSettings>,
+    /// The one exposure of every frame, stops (the tone curve is Reinhard).
+    pub exposure_stops: f32,
+}
+
+/// Where `fovea sequence --backend gpu`'s frames go (`fovea_gpu::frame::SequenceRoute`).
+#[cfg(feature = "gpu")]
+pub struct SequenceRun {
+    ctx: fovea_gpu::GpuContext,
+    route: fovea_gpu::frame::SequenceRoute,
+}
+
+/// Without the `gpu` feature no sequence runs on a GPU.
+#[cfg(not(feature = "gpu"))]
+pub enum SequenceRun {}
+
+/// What a sequence on the GPU did: the counts, the stats JSON's `backend` and the printed
+/// line.
+pub struct SequenceDone {
+    pub counts: fovea_render::sequence::RunCounts,
+    pub json: Value,
+    pub line: String,
+}
+
+#[cfg(feature = "gpu")]
+impl SequenceRun {
+    /// `"resident"` or `"staged"`.
+    pub fn name(&self) -> &'static str {
+        self.route.name()
+    }
+
+    /// Why the frames are staged (`None` when resident).
+    pub fn staged_because(&self) -> Option<&str> {
+        self.route.staged_because()
+    }
+}
+
+#[cfg(not(feature = "gpu"))]
+impl SequenceRun {
+    pub fn name(&self) -> &'static str {
+        match *self {}
+    }
+
+    pub fn staged_because(&self) -> Option<&str> {
+        match *self {}
+    }
+}
+
+/// On a GPU, where `inp`'s frames go: the library's route (`SequenceRoute::decide`, once,
+/// before the first frame), or staged because `staged` (`--staged`) asks; `None` on the CPU.
+#[cfg(feature = "gpu")]
+pub fn sequence_route(
+    backend: &Backend,
+    staged: bool,
+    inp: &SequenceInputs<'_>,
+) -> Result<Option<SequenceRun>> {
+    use fovea_gpu::frame::SequenceRoute;
+    let Some(ctx) = &backend.gpu else {
+        return Ok(None);
+    };
+    let route = if staged {
+        SequenceRoute::Staged("--staged asked for".into())
+    } else {
+        SequenceRoute::decide(ctx, &gpu_params(inp))?
+    };
+    Ok(Some(SequenceRun {
+        ctx: ctx.clone(),
+        route,
+    }))
+}
+
+/// Without the `gpu` feature there is no GPU.
+#[cfg(not(feature = "gpu"))]
+pub fn sequence_route(
+    _backend: &Backend,
+    _staged: bool,
+    _inp: &SequenceInputs<'_>,
+) -> Result<Option<SequenceRun>> {
+    Ok(None)
+}
+
+#[cfg(feature = "gpu")]
+fn gpu_params<'a>(inp: &SequenceInputs<'a>) -> fovea_gpu::frame::SequenceParams<'a> {
+    fovea_gpu::frame::SequenceParams {
+        world: inp.world,
+        seq: inp.seq,
+        settings: inp.settings,
+        temporal: inp.temporal,
+        tone: fovea_gpu::frame::ToneSettings {
+            exposure_stops: inp.exposure_stops,
+            curve: ToneCurve::Reinhard,
+        },
+    }
+}
+
+/// Renders `inp`'s frames along `run` (`fovea_gpu::frame::run_sequence`; `track`, on the GPU
+/// executors, renders what is staged), each written frame handed to `write`, frames where
+/// `skip` holds left out; `progress` is told of every frame.
+#[cfg(feature = "gpu")]
+pub fn run_sequence(
+    run: SequenceRun,
+    backend: &Backend,
+    inp: &SequenceInputs<'_>,
+    track: &mut fovea_render::sequence::Track,
+    skip: &dyn Fn(usize) -> bool,
+    write: &mut dyn FnMut(usize, SequenceImage<'_>) -> Result<()>,
+    progress: &mut dyn FnMut(usize),
+) -> Result<SequenceDone> {
+    use fovea_gpu::frame::{run_sequence, SequenceImage as Gpu};
+    let report = run_sequence::<anyhow::Error>(
+        &run.ctx,
+        &gpu_params(inp),
+        run.route,
+        track,
+        skip,
+        &mut |o| match o.image {
+            Gpu::Srgb8(img) => write(o.index, SequenceImage::Srgb8(&img)),
+            Gpu::Staged(frame) => write(o.index, SequenceImage::Linear(frame)),
+        },
+        progress,
+    )?;
+    let mut json = serde_json::json!({
+        "requested": backend.requested,
+        "resolved": backend.describe,
+        "adapter": backend.adapter,
+        "cpu_emulated": backend.cpu_emulated,
+    });
+    if let (Value::Object(j), Value::Object(r)) = (&mut json, serde_json::to_value(&report)?) {
+        j.extend(r);
+    }
+    let line = sequence_line(&report);
+    Ok(SequenceDone {
+        counts: report.counts(),
+        json,
+        line,
+    })
+}
+
+/// Without the `gpu` feature no sequence runs on a GPU.
+#[cfg(not(feature = "gpu"))]
+pub fn run_sequence(
+    run: SequenceRun,
+    _backend: &Backend,
+    _inp: &SequenceInputs<'_>,
+    _track: &mut fovea_render::sequence::Track,
+    _skip: &dyn Fn(usize) -> bool,
+    _write: &mut dyn FnMut(usize, SequenceImage<'_>) -> Result<()>,
+    _progress: &mut dyn FnMut(usize),
+) -> Result<SequenceDone> {
+    match run {}
+}
+
+/// One line: the route, and per written frame at most what the resident frame moved, the
+/// image readback; or why staged.
+#[cfg(feature = "gpu")]
+fn sequence_line(r: &fovea_gpu::frame::SequenceReport) -> String {
+    let mut line = match (&r.resident_most, &r.image_readback_most) {
+        (Some(m), Some(img)) => format!(
+            "resident frame: {} frames, each at most {} submission, {} blocking waits, {:.1} \
+             KB up, {} B back, host {:.2} ms; each image read back for its file ({:.1} KB, {} \
+             wait)",
+            r.resident_frames,
+            m.submissions,
+            m.blocking_waits,
+            m.bytes_uploaded as f64 / 1e3,
+            m.bytes_read_back,
+            m.host_ms,
+            img.bytes_read_back as f64 / 1e3,
+            img.blocking_waits,
+        ),
+        _ => String::new(),
+    };
+    if let Some(why) = &r.staged_because {
+        line = format!("staged GPU path ({why}): {} frames", r.staged_frames);
+    } else if let Some((i, why)) = &r.fell_back {
+        line += &format!(
+            "; from frame {i} the staged GPU path ({why}): {} frames",
+            r.staged_frames
+        );
+    }
+    line
 }

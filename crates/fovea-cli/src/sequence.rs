@@ -38,6 +38,7 @@ use crate::dof_args::DofArgs;
 use crate::exposure_args::ExposureArgs;
 use crate::output::write_file;
 use crate::render::memory_limit;
+use crate::resident::SequenceImage;
 use crate::scene_args::{prepare, SceneArgs};
 use crate::temporal_args::TemporalArgs;
 
@@ -69,6 +70,11 @@ pub struct SequenceArgs {
     /// as `fovea render --backend` (the GPU needs a fovea built with `--features gpu`).
     #[arg(long, value_enum, ignore_case = true, default_value_t = BackendArg::Auto)]
     pub backend: BackendArg,
+    /// With a GPU backend: the staged path (the CPU pipeline with its stages lent to the GPU
+    /// call by call) even where the resident frame (the whole frame on the device, one
+    /// submission, the image read back for its file) serves the sequence; for comparison.
+    #[arg(long)]
+    pub staged: bool,
     /// Frames to render.
     #[arg(long, default_value_t = 120)]
     pub frames: u32,
@@ -298,6 +304,27 @@ pub fn run(args: SequenceArgs) -> Result<()> {
     FramePlan::new(world, &seq.cameras[0], &settings, &seq.eyes[0], [0.0, 0.0])?;
     let mut backend = crate::backend::resolve(args.backend, world)?;
     let backend_name = if backend.on_gpu() { "gpu" } else { "cpu" };
+    // On a GPU, the resident frame when it serves the settings (decided once, on frame 0's
+    // plan), else the staged path; its frames differ from the staged ones in the last bits,
+    // so the route is part of the manifest too.
+    let inputs = crate::resident::SequenceInputs {
+        world,
+        seq: &seq,
+        settings: &settings,
+        temporal,
+        exposure_stops,
+    };
+    let gpu_route = crate::resident::sequence_route(&backend, args.staged, &inputs)?;
+    if let Some(why) = gpu_route
+        .as_ref()
+        .and_then(|r| r.staged_because())
+        .filter(|_| !args.staged)
+    {
+        eprintln!(
+            "note: the resident GPU frame does not render this sequence ({why}); rendering it \
+             with the staged GPU path"
+        );
+    }
     // The settings the frames depend on: a folder rendered with others is not resumed.
     let method_name = choices::name(&args.method);
     let scenario_name = choices::name(&args.scenario);
@@ -320,6 +347,7 @@ pub fn run(args: SequenceArgs) -> Result<()> {
         camera_path: &camera_path_text,
         exposure_stops,
         backend: backend_name,
+        route: gpu_route.as_ref().map(|r| r.name()),
     };
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create directory {}", args.out.display()))?;
@@ -341,27 +369,59 @@ pub fn run(args: SequenceArgs) -> Result<()> {
         pb.set_message("sequence");
         pb
     };
-    let mut track = Track::new(method.name(), settings, temporal)?;
+    let mut track = Track::new(method.name(), settings.clone(), temporal)?;
     backend.install(track.context_mut());
-    let mut driver = SequenceDriver::new(world, &seq, vec![track])?;
     let out = &args.out;
     let mut tone_map = backend.tone_map.take();
     // A frame that cannot be written (a full disk) stops the run: the frames before it are
     // complete under their names, and a rerun resumes from it.
-    let counts = driver.run(
-        &|i| frame_is_complete(&frame_path(out, i), &display),
-        &mut |e| {
-            write_png(
-                &frame_path(out, e.index),
-                &e.frames[0].color,
-                exposure_stops,
-                tone_map.as_deref_mut(),
-            )
-        },
-        &mut |_| pb.inc(1),
-    );
+    let mut write = |i: usize, image: SequenceImage<'_>| -> Result<()> {
+        let path = frame_path(out, i);
+        match image {
+            SequenceImage::Srgb8(img) => {
+                let bytes: Vec<u8> = img.data().iter().flatten().copied().collect();
+                let png = crate::output::png_bytes(&path, img.width(), img.height(), bytes)?;
+                write_file(&path, &png)
+            }
+            SequenceImage::Linear(frame) => {
+                write_png(&path, &frame.color, exposure_stops, tone_map.as_deref_mut())
+            }
+        }
+    };
+    let skip = |i: usize| frame_is_complete(&frame_path(out, i), &display);
+    let done = match gpu_route {
+        Some(run) => crate::resident::run_sequence(
+            run,
+            &backend,
+            &inputs,
+            &mut track,
+            &skip,
+            &mut write,
+            &mut |_| pb.inc(1),
+        )
+        .map(|d| (d.counts, Some((d.json, d.line)))),
+        None => SequenceDriver::new(world, &seq, vec![track])
+            .map_err(anyhow::Error::from)
+            .and_then(|mut driver| {
+                driver.run(
+                    &skip,
+                    &mut |e| write(e.index, SequenceImage::Linear(e.frames[0])),
+                    &mut |_| pb.inc(1),
+                )
+            })
+            .map(|counts| (counts, None)),
+    };
     pb.finish_and_clear();
-    let counts = counts?;
+    let (counts, gpu) = done?;
+    // On a GPU, which route each written frame took and what it moved (`stats.json`; not
+    // part of the manifest, which decides what a rerun resumes).
+    if let Some((json, _)) = &gpu {
+        let stats = serde_json::json!({ "backend": json });
+        write_file(
+            &args.out.join("stats.json"),
+            (serde_json::to_string_pretty(&stats)? + "\n").as_bytes(),
+        )?;
+    }
     println!(
         "{} frames in {}: {} rendered, {} already there",
         args.frames,
@@ -370,7 +430,10 @@ pub fn run(args: SequenceArgs) -> Result<()> {
         counts.skipped
     );
     if !args.quiet {
-        println!("backend: {}", backend.describe);
+        match &gpu {
+            Some((_, line)) => println!("backend: {}: {line}", backend.describe),
+            None => println!("backend: {}", backend.describe),
+        }
     }
     make_video(&args.out, args.fps, args.video)?;
     Ok(())
@@ -396,6 +459,9 @@ struct Manifest<'a> {
     exposure_stops: f32,
     /// Where the primary rays and the reconstruction ran: `cpu` or `gpu`.
     backend: &'a str,
+    /// On a GPU, the route decided before the first frame: `resident` or `staged`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    route: Option<&'a str>,
 }
 
 /// The one exposure of a sequence's frames (a per-frame auto exposure would flicker): the

@@ -667,7 +667,9 @@ fn gpu_lockstep_submits_both_eyes_together_and_changes_no_pixel() {
 }
 
 /// `fovea sequence --backend`: the folder records where its frames were made, and a sequence
-/// on the GPU writes the CPU's frames within 8-bit rounding of the render test's bounds.
+/// on the GPU's staged path (`--staged`; the resident frame's test is
+/// `gpu_sequence_goes_resident_…` below) writes the CPU's frames within 8-bit rounding of the
+/// render test's bounds.
 fn sequence(dir: &Path, name: &str, backend: &str) -> std::process::Output {
     fovea()
         .args([
@@ -679,6 +681,7 @@ fn sequence(dir: &Path, name: &str, backend: &str) -> std::process::Output {
             "--video",
             "off",
             "-q",
+            "--staged",
             "--backend",
             backend,
             "--out",
@@ -737,6 +740,178 @@ fn gpu_sequence_frames_equal_the_cpu_ones() {
         // curve's steepest part; the mean stays far below one code.
         assert!(max <= 9, "{max}");
         assert!(mean <= 0.05, "{mean}");
+    }
+}
+
+/// Luma PSNR (dB, peak 255; Rec. 709 weights on the 8-bit codes) of two PNGs of the same size.
+#[cfg(feature = "gpu")]
+fn png_luma_psnr_db(a: &Path, b: &Path) -> f64 {
+    let (a, b) = (
+        image::open(a).unwrap().into_rgb8(),
+        image::open(b).unwrap().into_rgb8(),
+    );
+    assert_eq!(a.dimensions(), b.dimensions());
+    let luma = |p: &image::Rgb<u8>| {
+        0.2126 * f64::from(p[0]) + 0.7152 * f64::from(p[1]) + 0.0722 * f64::from(p[2])
+    };
+    let se: f64 = a
+        .pixels()
+        .zip(b.pixels())
+        .map(|(x, y)| (luma(x) - luma(y)).powi(2))
+        .sum();
+    let mse = se / f64::from(a.width() * a.height());
+    10.0 * (255.0f64 * 255.0 / mse.max(1e-12)).log10()
+}
+
+/// `fovea sequence --backend gpu` through the resident frame (issue 37, item 7): full
+/// resolution at 160×180, the real-time preset without the denoiser, temporal accumulation
+/// with the accumulator's sub-texel jitter on a still gaze, three frames. `stats.json` says
+/// every frame went resident — 1 submission, no blocking wait and nothing read back for the
+/// frame, then its one image read back for the file (3·w·h bytes, one wait), no pass of the
+/// right eye recorded (the sequence's one eye is the frame's left side) — the manifest
+/// records the route, and each frame is the CPU's (`--backend cpu`, the same settings) within
+/// a luma PSNR of 40 dB (the jitter of each frame included). A deleted frame is rendered
+/// again after the one warm-up frame its history needs, to the same bytes. `--staged` and
+/// settings the resident frame refuses (Weier's accumulation; the denoiser after the
+/// accumulation) go staged, the reason in the stats.
+#[cfg(feature = "gpu")]
+#[test]
+fn gpu_sequence_goes_resident_with_temporal_accumulation() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |name: &str, frames: &str, extra: &[&str]| {
+        fovea()
+            .args(["sequence", "--res", "160x180", "--lights", "1"])
+            .args([
+                "--scenario",
+                "fixation",
+                "--temporal",
+                "on",
+                "--frames",
+                frames,
+            ])
+            .args(["--quality", "realtime", "--jitter", "on"])
+            .args(["--video", "off", "-q"])
+            .args(extra)
+            .arg("--out")
+            .arg(dir.path().join(name))
+            .env("XDG_RUNTIME_DIR", dir.path())
+            .output()
+            .unwrap()
+    };
+    let json = |name: &str, file: &str| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(dir.path().join(name).join(file)).unwrap()).unwrap()
+    };
+    let full = ["--method", "full", "--denoise", "off", "--backend"];
+    let out = run("gpu", "3", &[&full[..], &["gpu"]].concat());
+    if !gpu_ran(
+        &out,
+        "gpu_sequence_goes_resident_with_temporal_accumulation",
+    ) {
+        return;
+    }
+    assert_eq!(json("gpu", "sequence.json")["route"], "resident");
+    let b = json("gpu", "stats.json")["backend"].clone();
+    assert_eq!(b["route"], "resident", "{b}");
+    assert!(b["staged_because"].is_null(), "{b}");
+    assert_eq!(b["resident_frames"], 3, "{b}");
+    assert_eq!(b["staged_frames"], 0, "{b}");
+    let frames = b["frames"].as_array().unwrap();
+    assert_eq!(frames.len(), 3, "{b}");
+    for f in frames {
+        assert_eq!(f["route"], "resident", "{f}");
+        assert_eq!(f["counts"]["submissions"], 1, "{f}");
+        assert_eq!(f["counts"]["blocking_waits"], 0, "{f}");
+        assert_eq!(f["counts"]["bytes_read_back"], 0, "{f}");
+        assert_eq!(f["warmup_frames"], 0, "{f}");
+        let image = &f["image_readback"];
+        assert_eq!(image["bytes_read_back"], 3 * 160 * 180, "{f}");
+        assert_eq!(image["blocking_waits"], 1, "{f}");
+    }
+    // One eye: the binocular frame's left side only (`set_eyes(1)`), no right pass timed.
+    let passes = b["resident_gpu_pass_ms"].as_object().unwrap();
+    assert!(passes.keys().all(|k| !k.starts_with("right")), "{b}");
+    eprintln!("[fovea-cli] resident sequence GPU passes (ms): {passes:?}");
+    // After the first frame nothing is created and only the uniforms go up.
+    for f in &frames[1..] {
+        assert_eq!(f["counts"]["buffers_created"], 0, "{f}");
+        assert!(
+            f["counts"]["bytes_uploaded"].as_u64().unwrap() <= 256 * 1024,
+            "{f}"
+        );
+    }
+    let out = run("cpu", "3", &[&full[..], &["cpu"]].concat());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(!dir.path().join("cpu/stats.json").exists());
+    for i in 0..3 {
+        let frame = |name: &str| dir.path().join(format!("{name}/frame_{i:05}.png"));
+        let db = png_luma_psnr_db(&frame("gpu"), &frame("cpu"));
+        eprintln!("[fovea-cli] resident sequence frame {i} against the CPU: luma PSNR {db:.1} dB");
+        assert!(db >= 40.0, "frame {i}: {db} dB");
+    }
+    // Resumed: frame 1 deleted is rendered again after frame 0 (its history), unwritten.
+    let frame1 = dir.path().join("gpu/frame_00001.png");
+    let before = std::fs::read(&frame1).unwrap();
+    std::fs::remove_file(&frame1).unwrap();
+    let out = run("gpu", "3", &[&full[..], &["gpu"]].concat());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(std::fs::read(&frame1).unwrap(), before);
+    let b = json("gpu", "stats.json")["backend"].clone();
+    assert_eq!(
+        (b["rendered"].as_u64(), b["skipped"].as_u64()),
+        (Some(1), Some(2)),
+        "{b}"
+    );
+    let f = &b["frames"][0];
+    assert_eq!(
+        (f["frame"].as_u64(), f["route"].as_str()),
+        (Some(1), Some("resident")),
+        "{f}"
+    );
+    assert_eq!(f["warmup_frames"], 1, "{f}");
+    assert_eq!(f["warmup"]["submissions"], 1, "{f}");
+    // Staged: asked for, and refused by the resident frame (Weier accumulates in screen space
+    // on the CPU), each with its reason.
+    for (name, extra, why) in [
+        (
+            "staged",
+            &[&full[..], &["gpu", "--staged"]].concat()[..],
+            "--staged",
+        ),
+        (
+            "weier",
+            &["--method", "weier", "--denoise", "off", "--backend", "gpu"][..],
+            "temporal accumulation of the weier method",
+        ),
+        (
+            "denoised",
+            &["--method", "full", "--backend", "gpu"][..],
+            "the denoiser after temporal accumulation",
+        ),
+    ] {
+        let out = run(name, "1", extra);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert_eq!(json(name, "sequence.json")["route"], "staged");
+        let b = json(name, "stats.json")["backend"].clone();
+        assert_eq!(b["route"], "staged", "{b}");
+        let because = b["staged_because"].as_str().unwrap();
+        assert!(
+            because.contains(why) && !because.contains('\n'),
+            "{because}"
+        );
+        assert_eq!(b["frames"][0]["route"], "staged", "{b}");
+        assert_eq!(b["resident_frames"], 0, "{b}");
     }
 }
 

@@ -144,6 +144,8 @@ pub struct ResidentFrame {
     /// Temporal accumulation between the shading and the screen side, when set
     /// ([`Self::set_temporal`]).
     temporal: Option<ResidentTemporal>,
+    /// The eyes [`Self::render`] records: 2, or 1 (the left only, [`Self::set_eyes`]).
+    eyes: usize,
 }
 
 /// The screen side's settings of `plan` seen by `camera`, or why the resident frame does not
@@ -306,6 +308,7 @@ impl ResidentFrame {
             pending: Vec::new(),
             frames: 0,
             temporal: None,
+            eyes: 2,
         };
         for e in 0..2 {
             frame.ensure_screen(e, plans[e], cameras[e])?;
@@ -440,7 +443,7 @@ impl ResidentFrame {
                 Self::supports_temporal(p)?;
             }
         }
-        for e in 0..2 {
+        for e in 0..self.eyes {
             self.ensure_screen(e, plans[e], cameras[e])?;
         }
         let t_tables = self.samples_tables_ms();
@@ -450,11 +453,11 @@ impl ResidentFrame {
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                     label: Some("resident binocular frame"),
                 });
-        for e in 0..2 {
+        for e in 0..self.eyes {
             self.samples.prepare_eye(e, world, cameras[e], plans[e])?;
         }
         if let Some(t) = &mut self.temporal {
-            for e in 0..2 {
+            for e in 0..self.eyes {
                 let shade = self.samples.eye(e).ok_or_else(|| {
                     GpuError::Input(format!("eye {e} of the resident frame was not prepared"))
                 })?;
@@ -473,7 +476,7 @@ impl ResidentFrame {
                         timer.begin_frame();
                     }
                 }
-                for e in 0..2 {
+                for e in 0..self.eyes {
                     let eye = self.samples.eye(e).ok_or_else(|| {
                         GpuError::Input(format!("eye {e} of the resident frame was not prepared"))
                     })?;
@@ -482,21 +485,21 @@ impl ResidentFrame {
                 }
                 // Temporal accumulation: after the shading, before the screen side.
                 if let Some(t) = &mut self.temporal {
-                    for e in 0..2 {
+                    for e in 0..self.eyes {
                         let writes = self.timers.as_mut().and_then(|t| t[4].writes(e));
                         t.record(e, &mut encoder, writes)?;
                     }
                 }
                 // The sample-space denoiser, after shading and temporal accumulation, before
                 // the screen side (issue 38).
-                for (e, plan) in plans.iter().enumerate() {
+                for (e, plan) in plans.iter().enumerate().take(self.eyes) {
                     let writes = match plan.settings.denoise {
                         Some(_) => self.timers.as_mut().and_then(|t| t[3].writes(e)),
                         None => None,
                     };
                     self.samples.record_denoise(e, plan, &mut encoder, writes)?;
                 }
-                for e in 0..2 {
+                for e in 0..self.eyes {
                     let samples = self.samples.samples(e).ok_or_else(|| {
                         GpuError::Input(format!("eye {e} of the resident frame has no samples"))
                     })?;
@@ -542,10 +545,31 @@ impl ResidentFrame {
         self.samples.tables_ms()
     }
 
+    /// From the next frame on, record both eyes (`2`, the default) or the left eye's passes
+    /// only (`1`: a one-eye frame — `fovea sequence` — whose right plan and camera are
+    /// checked and not rendered, so the device does the eye's work once). A change forgets
+    /// the temporal history.
+    pub fn set_eyes(&mut self, eyes: usize) -> Result<()> {
+        if !(1..=2).contains(&eyes) {
+            return Err(GpuError::Input(format!("{eyes} eyes (1 or 2)")));
+        }
+        if eyes != self.eyes {
+            self.eyes = eyes;
+            self.reset_temporal();
+        }
+        Ok(())
+    }
+
     /// Eye `eye`'s (0 left, 1 right) tone-mapped image of the last submitted frame: 8-bit
     /// sRGB, 3 bytes a pixel, row-major (`to_srgb8`'s bytes) — a counted, blocking readback,
     /// for `render --out`, screenshots and sequences only.
     pub fn image(&mut self, eye: usize) -> Result<Vec<u8>> {
+        if eye >= self.eyes {
+            return Err(GpuError::Input(format!(
+                "eye {eye} of a frame that renders {} eye",
+                self.eyes
+            )));
+        }
         let Some(Some(s)) = self.screens.get_mut(eye) else {
             return Err(GpuError::Input(format!("eye {eye} (0 left, 1 right)")));
         };

@@ -28,6 +28,8 @@
 //! * [`gaze_path`]: how a benchmark's gaze moves from frame to frame ([`GazePath`]).
 //! * [`compare`]: the binocular frame resident against staged, side by side
 //!   ([`compare_binocular`]).
+//! * [`sequence`]: a sequence's frames through the resident frame, or the staged track where
+//!   it does not serve them ([`SequenceRoute`], [`run_sequence`]).
 
 pub mod binocular;
 pub mod bounce;
@@ -42,6 +44,7 @@ pub mod run;
 // and the frame records the denoiser.
 pub use crate::samples;
 pub mod screen;
+pub mod sequence;
 pub mod shade;
 pub mod temporal;
 pub mod timing;
@@ -60,6 +63,10 @@ pub use run::{refusal, FrameCounts, ResidentRun, Route};
 pub use samples::{DeviceSamples, SampleLayer};
 pub use screen::{
     ScreenConfig, ScreenContext, ScreenDof, ScreenInput, ScreenLimits, ScreenSizes, SCREEN_PASSES,
+};
+pub use sequence::{
+    run_sequence, ImageReadback, ResidentSequence, SequenceFrameStats, SequenceImage,
+    SequenceOutput, SequenceParams, SequenceReport, SequenceRoute,
 };
 pub use shade::{supports, RayLayout, ShadeScene};
 pub use temporal::ResidentTemporal;

@@ -80,7 +80,8 @@ pub enum Route {
 
 impl Route {
     /// The resident frame when it serves `plans` seen by `cameras` (index = eye: left,
-    /// right; a one-eye frame passes its plan twice), made on `ctx` for `world` with `tone`;
+    /// right; a one-eye frame passes its plan twice and records one side,
+    /// [`ResidentRun::set_eyes`]), made on `ctx` for `world` with `tone`;
     /// otherwise [`Route::Staged`] with the refusal's line. Nothing is uploaded for a refusal
     /// of the plans; a device too small for the frame's buffers (found while making them) is
     /// staged too, with the binding it lacks.
@@ -187,6 +188,18 @@ impl ResidentRun {
         settings: Option<fovea_render::temporal::TemporalSettings>,
     ) -> Result<()> {
         self.frame.set_temporal(settings)
+    }
+
+    /// Records both eyes (2) or the left eye only (1) from the next frame; see
+    /// [`ResidentFrame::set_eyes`].
+    pub fn set_eyes(&mut self, eyes: usize) -> Result<()> {
+        self.frame.set_eyes(eyes)
+    }
+
+    /// Forgets the temporal history (a resumed sequence's gap): the next frame is
+    /// accumulated afresh; see [`ResidentFrame::reset_temporal`].
+    pub fn reset_temporal(&mut self) {
+        self.frame.reset_temporal();
     }
 
     /// Waits until the device has finished the submitted frames — for a benchmark's wall

@@ -127,6 +127,18 @@ impl TemporalSettings {
         }
         Ok(())
     }
+
+    /// The sample-space jitter of the frame accumulated after `frame` others, in buffer
+    /// texels (zero for Weier's pattern and when jitter is off): the Halton (2, 3) point
+    /// `frame mod 16 + 1`, centred — what [`TemporalAccumulator::jitter`] gives at its
+    /// `frame()`, for an accumulator kept elsewhere (the resident GPU frame's).
+    pub fn jitter_at(&self, method: Method, frame: u64) -> [f64; 2] {
+        if !self.jitter || method == Method::Weier {
+            return [0.0, 0.0];
+        }
+        let (a, b) = halton2(frame % JITTER_PERIOD + 1, (0.0, 0.0));
+        [a - 0.5, b - 0.5]
+    }
 }
 
 /// What the accumulation did in one frame.
@@ -206,11 +218,7 @@ impl TemporalAccumulator {
     /// The sample-space jitter of the next frame, in buffer texels (zero for Weier's pattern
     /// and when jitter is off): the Halton (2, 3) point `frame mod 16 + 1`, centred.
     pub fn jitter(&self, method: Method) -> [f64; 2] {
-        if !self.settings.jitter || method == Method::Weier {
-            return [0.0, 0.0];
-        }
-        let (a, b) = halton2(self.frame % JITTER_PERIOD + 1, (0.0, 0.0));
-        [a - 0.5, b - 0.5]
+        self.settings.jitter_at(method, self.frame)
     }
 
     /// Blends the previous frame into this frame's freshly shaded samples (before AA) of the
