@@ -412,10 +412,11 @@ pub fn remodulate(l: Rgb, albedo: Rgb) -> Rgb {
     std::array::from_fn(|k| l[k] * albedo[k].max(ALBEDO_FLOOR))
 }
 
-/// Texel `k`'s Monte Carlo part: `noisy`'s where given and finite, else its whole colour `c`.
+/// A texel's Monte Carlo part: `m` (its `noisy` value) where given and finite, else its whole
+/// colour `c`.
 #[inline]
-fn noisy_part(noisy: Option<&Image<Rgb>>, k: usize, c: Rgb) -> Rgb {
-    match noisy.map(|n| n.data()[k]) {
+fn noisy_part(m: Option<Rgb>, c: Rgb) -> Rgb {
+    match m {
         Some(m) if m.iter().all(|v| v.is_finite()) => m,
         _ => c,
     }
@@ -536,16 +537,28 @@ pub fn denoise_with_variance(
         .enumerate()
         .for_each(|(j, ((g, r), l))| {
             let j = j as u32;
+            // The row's slices, their lengths checked once.
+            let row = j as usize * wu..(j as usize + 1) * wu;
+            let (depth, normal) = (&depth.data()[row.clone()], &normal.data()[row.clone()]);
+            let (color, albedo) = (&color.data()[row.clone()], &albedo.data()[row.clone()]);
+            let noisy = noisy.map(|m| &m.data()[row]);
+            let (g, r, l) = (&mut g[..wu], &mut r[..wu], &mut l[..wu]);
+            // The columns with a texel in row `j`.
+            let valid = match grid {
+                Grid::Rect { width, height } => (j < *height).then_some(*width as usize),
+                Grid::Polar { .. } => None,
+            };
             for i in 0..wu {
-                let k = j as usize * wu + i;
-                let z = depth.data()[k];
-                let nv = normal.data()[k];
-                let c = color.data()[k];
-                let al = albedo.data()[k];
-                let surface = grid.valid(i as u32, j)
-                    && z.is_finite()
-                    && nv.iter().all(|v| v.is_finite())
-                    && nv != [0.0; 3];
+                let z = depth[i];
+                let nv = normal[i];
+                let c = color[i];
+                let al = albedo[i];
+                let valid = match valid {
+                    Some(w) => i < w,
+                    None => grid.valid(i as u32, j),
+                };
+                let surface =
+                    valid && z.is_finite() && nv.iter().all(|v| v.is_finite()) && nv != [0.0; 3];
                 r[i] = if !surface {
                     PASSIVE
                 } else if c.iter().chain(&al).all(|v| v.is_finite()) {
@@ -563,7 +576,7 @@ pub fn denoise_with_variance(
                     _ => [0.0, 0.0, 0.0, f32::NAN],
                 };
                 let lt = if r[i] == SOURCE {
-                    demodulate(noisy_part(noisy, k, c), al)
+                    demodulate(noisy_part(noisy.map(|m| m[i]), c), al)
                 } else {
                     [0.0; 3]
                 };
@@ -657,17 +670,20 @@ pub fn denoise_with_variance(
             || vec![[0.0f32; 4]; wu],
             |light, (j, (c, al))| {
                 last.row(j as u32, light);
+                // The row's slices, their lengths checked once.
+                let roles = &role[j * wu..(j + 1) * wu];
+                let noisy = noisy.map(|m| &m.data()[j * wu..(j + 1) * wu]);
+                let (light, al) = (&light[..wu], &al[..wu]);
                 for i in 0..wu {
-                    let k = j * wu + i;
-                    if role[k] == PASSIVE {
+                    if roles[i] == PASSIVE {
                         continue;
                     }
                     let l = [light[i][0], light[i][1], light[i][2]];
                     let lit = remodulate(l, al[i]);
                     // The exact part kept (a receiver's colour is not finite: all of it
                     // refilled).
-                    let out: Rgb = if role[k] == SOURCE {
-                        let m = noisy_part(noisy, k, c[i]);
+                    let out: Rgb = if roles[i] == SOURCE {
+                        let m = noisy_part(noisy.map(|m| m[i]), c[i]);
                         std::array::from_fn(|ch| c[i][ch] - m[ch] + lit[ch])
                     } else {
                         lit
@@ -766,13 +782,14 @@ fn setup_row(
     while i0 < wu {
         let n = LANES.min(wu - i0);
         let base = base_row + i0;
-        let live: [bool; LANES] = std::array::from_fn(|t| t < n && role[base + t] != PASSIVE);
+        let k: [u32; LANES] = std::array::from_fn(|t| if t < n { base + t } else { base } as u32);
+        let roles = gather8(role, &k);
+        let live: [bool; LANES] = std::array::from_fn(|t| t < n && roles[t] != PASSIVE);
         if !live.contains(&true) {
             i0 += LANES;
             continue;
         }
-        let k: [u32; LANES] = std::array::from_fn(|t| if t < n { base + t } else { base } as u32);
-        let source: [bool; LANES] = std::array::from_fn(|t| live[t] && role[base + t] == SOURCE);
+        let source: [bool; LANES] = std::array::from_fn(|t| live[t] && roles[t] == SOURCE);
         let [lr, lg, lb, _] = transpose8(light0, &k);
         filtered += live.iter().map(|&l| l as u64).sum::<u64>();
         busy |= (0..LANES).fold(false, |b, t| {
@@ -796,7 +813,7 @@ fn setup_row(
         // column's), over the other texels that are not passive (a passive texel's depth is
         // NaN in `geom`; a cell outside the buffer reads the lane's centre, `cells`).
         let dz = |(q, _): ([u32; LANES], [bool; LANES])| -> F8 {
-            let zq = depth8(geom, &q);
+            let zq = fourth8(geom, &q);
             std::array::from_fn(|t| {
                 let d = (zq[t] - zp[t]).abs();
                 if q[t] != k[t] && !d.is_nan() {
@@ -977,9 +994,19 @@ fn transpose8(rows: &[[f32; 4]], q: &[u32; LANES]) -> [F8; 4] {
     }
 }
 
-/// The depths `rows[q[0..8]][3]` (one bounds check for the eight).
+/// `v[q[0..8]]`, with one bounds check for the eight (their largest index; SIMD).
 #[inline(always)]
-fn depth8(rows: &[[f32; 4]], q: &[u32; LANES]) -> F8 {
+fn gather8<T: Copy>(v: &[T], q: &[u32; LANES]) -> [T; LANES] {
+    let top = q.iter().fold(0u32, |m, &x| m.max(x));
+    assert!((top as usize) < v.len(), "a tap outside the buffer");
+    // SAFETY: every index is at most `top`, which is within `v` (asserted).
+    std::array::from_fn(|t| unsafe { *v.get_unchecked(q[t] as usize) })
+}
+
+/// The fourth components `rows[q[0..8]][3]` (a depth, a variance), one bounds check for the
+/// eight.
+#[inline(always)]
+fn fourth8(rows: &[[f32; 4]], q: &[u32; LANES]) -> F8 {
     let top = q.iter().fold(0u32, |m, &x| m.max(x));
     assert!((top as usize) < rows.len(), "a tap outside the buffer");
     // SAFETY: every index is at most `top`, which is within `rows` (asserted).
@@ -1214,14 +1241,15 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
     while i0 < wu {
         let n = LANES.min(wu - i0);
         let base = j as usize * wu + i0;
-        let live: [bool; LANES] = std::array::from_fn(|t| t < n && role[base + t] != PASSIVE);
+        // Lanes past the row's end compute texel `base`'s and store nothing.
+        let k: [u32; LANES] = std::array::from_fn(|t| if t < n { base + t } else { base } as u32);
+        let roles = gather8(role, &k);
+        let live: [bool; LANES] = std::array::from_fn(|t| t < n && roles[t] != PASSIVE);
         if !live.contains(&true) {
             i0 += LANES;
             continue;
         }
-        // Lanes past the row's end compute texel `base`'s and store nothing.
-        let k: [u32; LANES] = std::array::from_fn(|t| if t < n { base + t } else { base } as u32);
-        let source: [bool; LANES] = std::array::from_fn(|t| role[k[t] as usize] == SOURCE);
+        let source: [bool; LANES] = std::array::from_fn(|t| roles[t] == SOURCE);
         let [mut px, mut py, mut pz, zp] = transpose8(geom, &k);
         // A receiver's own normal (`geom` has none for it).
         for t in 0..n {
@@ -1232,8 +1260,9 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
             }
         }
         let [lr, lg, lb, lv] = transpose8(src, &k);
-        let g0: F8 = std::array::from_fn(|t| grad[k[t] as usize][0]);
-        let g1: F8 = std::array::from_fn(|t| grad[k[t] as usize][1]);
+        let gk = gather8(grad, &k);
+        let g0: F8 = std::array::from_fn(|t| gk[t][0]);
+        let g1: F8 = std::array::from_fn(|t| gk[t][1]);
         let yp: F8 = std::array::from_fn(|t| 0.299 * lr[t] + 0.587 * lg[t] + 0.114 * lb[t]);
         let eps_z: F8 = std::array::from_fn(|t| 1e-3 * zp[t].abs() + 1e-9);
         let (turn, frac) = block_turns(grid, i0, n, j);
@@ -1243,7 +1272,7 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
         // later ones read the variance the earlier ones filtered.
         let var: F8 = if let (1, Some(same)) = (step, same) {
             // The neighbours the set-up pass found on the same surface.
-            let bits: [u8; LANES] = std::array::from_fn(|t| same[k[t] as usize]);
+            let bits = gather8(same, &k);
             let (mut vw, mut vs) = ([0.0f32; LANES], [0.0f32; LANES]);
             for (xi, di) in (-1i32..=1).enumerate() {
                 let col = Column::at(grid, i0, n, j, (&turn, &frac), di);
@@ -1257,7 +1286,7 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
                         continue;
                     }
                     let (q, _) = col.cells(grid, dj, wu, &k);
-                    let vq: F8 = std::array::from_fn(|t| src[q[t] as usize][3]);
+                    let vq = fourth8(src, &q);
                     let bit = 1u8 << cell_bit(xi, yi);
                     for t in 0..LANES {
                         let on = bits[t] & bit != 0;
@@ -1274,7 +1303,7 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
                 for (yi, dj) in (-1i32..=1).enumerate() {
                     let (q, inside) = col.cells(grid, dj, wu, &k);
                     let [nx, ny, nz, zq] = transpose8(geom, &q);
-                    let vq: F8 = std::array::from_fn(|t| src[q[t] as usize][3]);
+                    let vq = fourth8(src, &q);
                     let wgt = H3[xi] * H3[yi];
                     let (ax, ay) = (di.abs() as f32, dj.abs() as f32);
                     for t in 0..LANES {
