@@ -505,18 +505,30 @@ pub fn denoise_with_variance(
             format!("at most {MAX_ROWS} rows"),
         ));
     }
-    // A polar grid's columns lie within the buffer (every tap lands in it).
-    if let Grid::Polar { rows, period } = grid {
-        if rows.len() > wu || period.len() != rows.len() || rows.iter().any(|&r| r > h) {
-            return Err(FoveaError::invalid(
-                "denoise polar grid",
-                format!(
-                    "{} columns of at most {} rows",
-                    rows.len(),
-                    rows.iter().max().unwrap_or(&0)
-                ),
-                format!("one period per column, at most {w} columns of at most {h} rows"),
-            ));
+    // The grid lies within the buffer, so that every tap lands in it (`Column`'s invariant,
+    // on which the passes' unchecked reads rely).
+    match grid {
+        Grid::Polar { rows, period } => {
+            if rows.len() > wu || period.len() != rows.len() || rows.iter().any(|&r| r > h) {
+                return Err(FoveaError::invalid(
+                    "denoise polar grid",
+                    format!(
+                        "{} columns of at most {} rows",
+                        rows.len(),
+                        rows.iter().max().unwrap_or(&0)
+                    ),
+                    format!("one period per column, at most {w} columns of at most {h} rows"),
+                ));
+            }
+        }
+        Grid::Rect { width, height } => {
+            if *width > w || *height > h {
+                return Err(FoveaError::invalid(
+                    "denoise grid",
+                    format!("{width}x{height}"),
+                    format!("at most the colour buffer's size {w}x{h}"),
+                ));
+            }
         }
     }
     scratch.fit(n);
@@ -783,19 +795,22 @@ fn setup_row(
         let n = LANES.min(wu - i0);
         let base = base_row + i0;
         let k: [u32; LANES] = std::array::from_fn(|t| if t < n { base + t } else { base } as u32);
-        let roles = gather8(role, &k);
+        // SAFETY: the block's texels `k` lie in the buffer (all its buffers hold `n` texels).
+        let roles = unsafe { gather8(role, &k) };
         let live: [bool; LANES] = std::array::from_fn(|t| t < n && roles[t] != PASSIVE);
         if !live.contains(&true) {
             i0 += LANES;
             continue;
         }
         let source: [bool; LANES] = std::array::from_fn(|t| live[t] && roles[t] == SOURCE);
-        let [lr, lg, lb, _] = transpose8(light0, &k);
+        // SAFETY: the block's texels `k` lie in the buffer (all its buffers hold `n` texels).
+        let [lr, lg, lb, _] = unsafe { transpose8(light0, &k) };
         filtered += live.iter().map(|&l| l as u64).sum::<u64>();
         busy |= (0..LANES).fold(false, |b, t| {
             b | (live[t] & (!source[t] | (lr[t] != 0.0) | (lg[t] != 0.0) | (lb[t] != 0.0)))
         });
-        let [px, py, pz, zp] = transpose8(geom, &k);
+        // SAFETY: the block's texels `k` lie in the buffer (all its buffers hold `n` texels).
+        let [px, py, pz, zp] = unsafe { transpose8(geom, &k) };
         let (turn, frac) = block_turns(grid, i0, n, j);
         // The 3×3 neighbourhood's other surface samples, [di + 1][dj + 1]: index and whether
         // it is one (the centre: none).
@@ -813,7 +828,8 @@ fn setup_row(
         // column's), over the other texels that are not passive (a passive texel's depth is
         // NaN in `geom`; a cell outside the buffer reads the lane's centre, `cells`).
         let dz = |(q, _): ([u32; LANES], [bool; LANES])| -> F8 {
-            let zq = fourth8(geom, &q);
+            // SAFETY: `Column::cells` lands inside the buffer (its invariant).
+            let zq = unsafe { fourth8(geom, &q) };
             std::array::from_fn(|t| {
                 let d = (zq[t] - zp[t]).abs();
                 if q[t] != k[t] && !d.is_nan() {
@@ -856,8 +872,9 @@ fn setup_row(
                     continue;
                 }
                 let bit = 1u8 << cell_bit(xi, yi);
-                let [nx, ny, nz, zq] = transpose8(geom, &q);
-                let [r, g, b, _] = transpose8(light0, &q);
+                // SAFETY: `Column::cells` lands inside the buffer (its invariant).
+                let ([nx, ny, nz, zq], [r, g, b, _]) =
+                    unsafe { (transpose8(geom, &q), transpose8(light0, &q)) };
                 let (ax, ay) = (xi.abs_diff(1) as f32, yi.abs_diff(1) as f32);
                 // Branch-free: a neighbour left out adds exact zeros. One that is not a source
                 // has no normal in `geom`: never the same surface.
@@ -955,11 +972,13 @@ struct Pass<'a> {
 /// transposed in registers (two 4×4 transposes with SSE, which every x86-64 has; the AVX2
 /// build encodes the same operations in VEX); elsewhere each lane array is built whole from
 /// its eight loads. The values are the same either way.
+///
+/// # Safety
+///
+/// Every `q[t] < rows.len()` (checked in tests and debug builds: [`CHECK_TAPS`]).
 #[inline(always)]
-fn transpose8(rows: &[[f32; 4]], q: &[u32; LANES]) -> [F8; 4] {
-    // One bounds check for the eight records (the largest index; SIMD), not one per record.
-    let top = q.iter().fold(0u32, |m, &x| m.max(x));
-    assert!((top as usize) < rows.len(), "a tap outside the buffer");
+unsafe fn transpose8(rows: &[[f32; 4]], q: &[u32; LANES]) -> [F8; 4] {
+    check_taps(rows.len(), q);
     let q: [usize; LANES] = std::array::from_fn(|t| q[t] as usize);
     #[cfg(target_arch = "x86_64")]
     {
@@ -968,7 +987,7 @@ fn transpose8(rows: &[[f32; 4]], q: &[u32; LANES]) -> [F8; 4] {
         for half in 0..2 {
             let o = 4 * half;
             let at = |t: usize| {
-                // SAFETY: every index is at most `top`, which is within `rows` (asserted).
+                // SAFETY: every index is within `rows` (the caller's contract).
                 unsafe { rows.as_ptr().add(q[t]).cast::<f32>() }
             };
             // SAFETY: SSE is part of x86-64; every pointer is a record of four floats within
@@ -989,27 +1008,50 @@ fn transpose8(rows: &[[f32; 4]], q: &[u32; LANES]) -> [F8; 4] {
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
-        let r: [[f32; 4]; LANES] = std::array::from_fn(|t| rows[q[t]]);
+        // SAFETY: every index is within `rows` (the caller's contract).
+        let r: [[f32; 4]; LANES] = std::array::from_fn(|t| unsafe { *rows.get_unchecked(q[t]) });
         std::array::from_fn(|c| std::array::from_fn(|t| r[t][c]))
     }
 }
 
-/// `v[q[0..8]]`, with one bounds check for the eight (their largest index; SIMD).
+/// Whether the lanes' reads check their indices: in tests and debug builds. A release build
+/// relies on the index arithmetic instead (a block's own texels, and `Column::cells`' taps,
+/// which land inside the buffer by construction), so that a tap's eight reads cost no
+/// bounds checks.
+const CHECK_TAPS: bool = cfg!(any(test, debug_assertions));
+
+/// Panics where an index is outside a buffer of `len` elements, if [`CHECK_TAPS`].
 #[inline(always)]
-fn gather8<T: Copy>(v: &[T], q: &[u32; LANES]) -> [T; LANES] {
-    let top = q.iter().fold(0u32, |m, &x| m.max(x));
-    assert!((top as usize) < v.len(), "a tap outside the buffer");
-    // SAFETY: every index is at most `top`, which is within `v` (asserted).
+fn check_taps(len: usize, q: &[u32; LANES]) {
+    if CHECK_TAPS {
+        assert!(
+            q.iter().all(|&x| (x as usize) < len),
+            "a tap outside the buffer"
+        );
+    }
+}
+
+/// `v[q[0..8]]`.
+///
+/// # Safety
+///
+/// Every `q[t] < v.len()` (checked in tests and debug builds: [`CHECK_TAPS`]).
+#[inline(always)]
+unsafe fn gather8<T: Copy>(v: &[T], q: &[u32; LANES]) -> [T; LANES] {
+    check_taps(v.len(), q);
+    // SAFETY: every index is within `v` (the caller's contract).
     std::array::from_fn(|t| unsafe { *v.get_unchecked(q[t] as usize) })
 }
 
-/// The fourth components `rows[q[0..8]][3]` (a depth, a variance), one bounds check for the
-/// eight.
+/// The fourth components `rows[q[0..8]][3]` (a depth, a variance).
+///
+/// # Safety
+///
+/// Every `q[t] < rows.len()` (checked in tests and debug builds: [`CHECK_TAPS`]).
 #[inline(always)]
-fn fourth8(rows: &[[f32; 4]], q: &[u32; LANES]) -> F8 {
-    let top = q.iter().fold(0u32, |m, &x| m.max(x));
-    assert!((top as usize) < rows.len(), "a tap outside the buffer");
-    // SAFETY: every index is at most `top`, which is within `rows` (asserted).
+unsafe fn fourth8(rows: &[[f32; 4]], q: &[u32; LANES]) -> F8 {
+    check_taps(rows.len(), q);
+    // SAFETY: every index is within `rows` (the caller's contract).
     std::array::from_fn(|t| unsafe { rows.get_unchecked(q[t] as usize)[3] })
 }
 
@@ -1019,6 +1061,11 @@ fn fourth8(rows: &[[f32; 4]], q: &[u32; LANES]) -> F8 {
 /// the lanes' arithmetic and range tests are SIMD: the buffer has at most [`MAX_ROWS`] rows
 /// and a landing row is kept within `±MAX_ROWS` (a polar one farther away is first reduced
 /// modulo its column's rows, which moves no tap: rows wrap there).
+///
+/// **Invariant**, on which the passes' unchecked reads rely: every index [`Column::cells`]
+/// returns is a texel of the buffer — `r·w + c` with a row `0 ≤ r < rows ≤ h` and a column
+/// `c < w` of the grid, which [`denoise_with_variance`] checks against the buffer's `w × h` —
+/// or the lane's own texel `k`.
 struct Column {
     c: [u32; LANES],
     row: [i32; LANES],
@@ -1243,14 +1290,16 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
         let base = j as usize * wu + i0;
         // Lanes past the row's end compute texel `base`'s and store nothing.
         let k: [u32; LANES] = std::array::from_fn(|t| if t < n { base + t } else { base } as u32);
-        let roles = gather8(role, &k);
+        // SAFETY: the block's texels `k` lie in the buffer (all its buffers hold `n` texels).
+        let roles = unsafe { gather8(role, &k) };
         let live: [bool; LANES] = std::array::from_fn(|t| t < n && roles[t] != PASSIVE);
         if !live.contains(&true) {
             i0 += LANES;
             continue;
         }
         let source: [bool; LANES] = std::array::from_fn(|t| roles[t] == SOURCE);
-        let [mut px, mut py, mut pz, zp] = transpose8(geom, &k);
+        // SAFETY: the block's texels `k` lie in the buffer (all its buffers hold `n` texels).
+        let [mut px, mut py, mut pz, zp] = unsafe { transpose8(geom, &k) };
         // A receiver's own normal (`geom` has none for it).
         for t in 0..n {
             if live[t] && !source[t] {
@@ -1259,8 +1308,10 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
                 }
             }
         }
-        let [lr, lg, lb, lv] = transpose8(src, &k);
-        let gk = gather8(grad, &k);
+        // SAFETY: the block's texels `k` lie in the buffer (all its buffers hold `n` texels).
+        let [lr, lg, lb, lv] = unsafe { transpose8(src, &k) };
+        // SAFETY: the block's texels `k` lie in the buffer (all its buffers hold `n` texels).
+        let gk = unsafe { gather8(grad, &k) };
         let g0: F8 = std::array::from_fn(|t| gk[t][0]);
         let g1: F8 = std::array::from_fn(|t| gk[t][1]);
         let yp: F8 = std::array::from_fn(|t| 0.299 * lr[t] + 0.587 * lg[t] + 0.114 * lb[t]);
@@ -1272,7 +1323,8 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
         // later ones read the variance the earlier ones filtered.
         let var: F8 = if let (1, Some(same)) = (step, same) {
             // The neighbours the set-up pass found on the same surface.
-            let bits = gather8(same, &k);
+            // SAFETY: the block's texels `k` lie in the buffer (all its buffers hold `n` texels).
+            let bits = unsafe { gather8(same, &k) };
             let (mut vw, mut vs) = ([0.0f32; LANES], [0.0f32; LANES]);
             for (xi, di) in (-1i32..=1).enumerate() {
                 let col = Column::at(grid, i0, n, j, (&turn, &frac), di);
@@ -1286,7 +1338,8 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
                         continue;
                     }
                     let (q, _) = col.cells(grid, dj, wu, &k);
-                    let vq = fourth8(src, &q);
+                    // SAFETY: `Column::cells` lands inside the buffer (its invariant).
+                    let vq = unsafe { fourth8(src, &q) };
                     let bit = 1u8 << cell_bit(xi, yi);
                     for t in 0..LANES {
                         let on = bits[t] & bit != 0;
@@ -1302,8 +1355,10 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
                 let col = Column::at(grid, i0, n, j, (&turn, &frac), di);
                 for (yi, dj) in (-1i32..=1).enumerate() {
                     let (q, inside) = col.cells(grid, dj, wu, &k);
-                    let [nx, ny, nz, zq] = transpose8(geom, &q);
-                    let vq = fourth8(src, &q);
+                    // SAFETY: `Column::cells` lands inside the buffer (its invariant).
+                    let [nx, ny, nz, zq] = unsafe { transpose8(geom, &q) };
+                    // SAFETY: `Column::cells` lands inside the buffer (its invariant).
+                    let vq = unsafe { fourth8(src, &q) };
                     let wgt = H3[xi] * H3[yi];
                     let (ax, ay) = (di.abs() as f32, dj.abs() as f32);
                     for t in 0..LANES {
@@ -1377,8 +1432,9 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
                 // texel that is not a source has weight 0 too (it has no normal in `geom`:
                 // `n_p·0 = 0`), and light 0 or a receiver's finite light.
                 let hq: F8 = std::array::from_fn(|t| if q[t] != k[t] { hx * hy } else { 0.0 });
-                let [nx, ny, nz, zq] = transpose8(geom, &q);
-                let [r, g, b, v] = transpose8(src, &q);
+                // SAFETY: `Column::cells` lands inside the buffer (its invariant).
+                let ([nx, ny, nz, zq], [r, g, b, v]) =
+                    unsafe { (transpose8(geom, &q), transpose8(src, &q)) };
                 let inv_den = &inv_den[xi.abs_diff(half)][yi.abs_diff(half)];
                 for t in 0..LANES {
                     let dot = px[t] * nx[t] + py[t] * ny[t] + pz[t] * nz[t];
