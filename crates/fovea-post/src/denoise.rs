@@ -330,7 +330,7 @@ fn column_at(grid: &Grid, i: u32, j: u32, turn: f64, di: i32) -> Option<(u32, i6
                 j as i64
             } else {
                 let t = turn + half;
-                let t = t - (t as i64) as f64;
+                let t = t - t.trunc();
                 // t·period − ½ ≥ −½: truncating x + ½ rounds (without libm's `round`).
                 (t * period[c as usize]) as i64
             };
@@ -350,6 +350,23 @@ fn turn_of(grid: &Grid, i: u32, j: u32) -> f64 {
             .get(i as usize)
             .map_or(0.0, |p| (j as f64 + 0.5) / p.max(1e-12)),
     }
+}
+
+/// The angles in turns of the texels `(i0 + t, j)` of a block ([`turn_of`]; lanes past the
+/// row's end `n` take the last texel's) and, for [`column_at`]'s step to another column at
+/// half 0, their fractions `turn − trunc(turn)`. Without branches where the block's columns
+/// all have periods (SIMD divisions and truncations in the AVX2 build).
+#[inline(always)]
+fn block_turns(grid: &Grid, i0: usize, n: usize, j: u32) -> ([f64; LANES], [f64; LANES]) {
+    let turn: [f64; LANES] = match grid {
+        Grid::Polar { period, .. } if n == LANES && i0 + LANES <= period.len() => {
+            let p = &period[i0..i0 + LANES];
+            std::array::from_fn(|t| (j as f64 + 0.5) / p[t].max(1e-12))
+        }
+        _ => std::array::from_fn(|t| turn_of(grid, (i0 + t.min(n - 1)) as u32, j)),
+    };
+    let frac = std::array::from_fn(|t| turn[t] - turn[t].trunc());
+    (turn, frac)
 }
 
 /// `e^−x` for `x ≥ 0` (relative error below 3·10⁻⁴; 0 past `x` = 87): `2^−x·log₂e` split
@@ -395,10 +412,11 @@ pub fn remodulate(l: Rgb, albedo: Rgb) -> Rgb {
     std::array::from_fn(|k| l[k] * albedo[k].max(ALBEDO_FLOOR))
 }
 
-/// Texel `k`'s Monte Carlo part: `noisy`'s where given and finite, else its whole colour `c`.
+/// A texel's Monte Carlo part: `m` (its `noisy` value) where given and finite, else its whole
+/// colour `c`.
 #[inline]
-fn noisy_part(noisy: Option<&Image<Rgb>>, k: usize, c: Rgb) -> Rgb {
-    match noisy.map(|n| n.data()[k]) {
+fn noisy_part(m: Option<Rgb>, c: Rgb) -> Rgb {
+    match m {
         Some(m) if m.iter().all(|v| v.is_finite()) => m,
         _ => c,
     }
@@ -479,6 +497,40 @@ pub fn denoise_with_variance(
             "at most 2^32 − 1 texels",
         ));
     }
+    // Rows are computed in 32 bits, with room for a tap's step.
+    if h > MAX_ROWS {
+        return Err(FoveaError::invalid(
+            "denoise buffer",
+            format!("{w}x{h}"),
+            format!("at most {MAX_ROWS} rows"),
+        ));
+    }
+    // The grid lies within the buffer, so that every tap lands in it (`Column`'s invariant,
+    // on which the passes' unchecked reads rely).
+    match grid {
+        Grid::Polar { rows, period } => {
+            if rows.len() > wu || period.len() != rows.len() || rows.iter().any(|&r| r > h) {
+                return Err(FoveaError::invalid(
+                    "denoise polar grid",
+                    format!(
+                        "{} columns of at most {} rows",
+                        rows.len(),
+                        rows.iter().max().unwrap_or(&0)
+                    ),
+                    format!("one period per column, at most {w} columns of at most {h} rows"),
+                ));
+            }
+        }
+        Grid::Rect { width, height } => {
+            if *width > w || *height > h {
+                return Err(FoveaError::invalid(
+                    "denoise grid",
+                    format!("{width}x{height}"),
+                    format!("at most the colour buffer's size {w}x{h}"),
+                ));
+            }
+        }
+    }
     scratch.fit(n);
     let DenoiseScratch {
         geom,
@@ -497,16 +549,28 @@ pub fn denoise_with_variance(
         .enumerate()
         .for_each(|(j, ((g, r), l))| {
             let j = j as u32;
+            // The row's slices, their lengths checked once.
+            let row = j as usize * wu..(j as usize + 1) * wu;
+            let (depth, normal) = (&depth.data()[row.clone()], &normal.data()[row.clone()]);
+            let (color, albedo) = (&color.data()[row.clone()], &albedo.data()[row.clone()]);
+            let noisy = noisy.map(|m| &m.data()[row]);
+            let (g, r, l) = (&mut g[..wu], &mut r[..wu], &mut l[..wu]);
+            // The columns with a texel in row `j`.
+            let valid = match grid {
+                Grid::Rect { width, height } => (j < *height).then_some(*width as usize),
+                Grid::Polar { .. } => None,
+            };
             for i in 0..wu {
-                let k = j as usize * wu + i;
-                let z = depth.data()[k];
-                let nv = normal.data()[k];
-                let c = color.data()[k];
-                let al = albedo.data()[k];
-                let surface = grid.valid(i as u32, j)
-                    && z.is_finite()
-                    && nv.iter().all(|v| v.is_finite())
-                    && nv != [0.0; 3];
+                let z = depth[i];
+                let nv = normal[i];
+                let c = color[i];
+                let al = albedo[i];
+                let valid = match valid {
+                    Some(w) => i < w,
+                    None => grid.valid(i as u32, j),
+                };
+                let surface =
+                    valid && z.is_finite() && nv.iter().all(|v| v.is_finite()) && nv != [0.0; 3];
                 r[i] = if !surface {
                     PASSIVE
                 } else if c.iter().chain(&al).all(|v| v.is_finite()) {
@@ -516,13 +580,15 @@ pub fn denoise_with_variance(
                 };
                 // A texel that is not a source has no normal here: every weight to it, and
                 // the same-surface test, is then zero (`n_p·0 = 0`), with no test of its role.
-                g[i] = if r[i] == SOURCE {
-                    [nv[0], nv[1], nv[2], z]
-                } else {
-                    [0.0, 0.0, 0.0, z]
+                // A passive texel's depth is NaN: the set-up pass's gradient skips it without
+                // reading its role (every weight to it is zero by its normal already).
+                g[i] = match r[i] {
+                    SOURCE => [nv[0], nv[1], nv[2], z],
+                    RECEIVER => [0.0, 0.0, 0.0, z],
+                    _ => [0.0, 0.0, 0.0, f32::NAN],
                 };
                 let lt = if r[i] == SOURCE {
-                    demodulate(noisy_part(noisy, k, c), al)
+                    demodulate(noisy_part(noisy.map(|m| m[i]), c), al)
                 } else {
                     [0.0; 3]
                 };
@@ -616,17 +682,20 @@ pub fn denoise_with_variance(
             || vec![[0.0f32; 4]; wu],
             |light, (j, (c, al))| {
                 last.row(j as u32, light);
+                // The row's slices, their lengths checked once.
+                let roles = &role[j * wu..(j + 1) * wu];
+                let noisy = noisy.map(|m| &m.data()[j * wu..(j + 1) * wu]);
+                let (light, al) = (&light[..wu], &al[..wu]);
                 for i in 0..wu {
-                    let k = j * wu + i;
-                    if role[k] == PASSIVE {
+                    if roles[i] == PASSIVE {
                         continue;
                     }
                     let l = [light[i][0], light[i][1], light[i][2]];
                     let lit = remodulate(l, al[i]);
                     // The exact part kept (a receiver's colour is not finite: all of it
                     // refilled).
-                    let out: Rgb = if role[k] == SOURCE {
-                        let m = noisy_part(noisy, k, c[i]);
+                    let out: Rgb = if roles[i] == SOURCE {
+                        let m = noisy_part(noisy.map(|m| m[i]), c[i]);
                         std::array::from_fn(|ch| c[i][ch] - m[ch] + lit[ch])
                     } else {
                         lit
@@ -725,25 +794,24 @@ fn setup_row(
     while i0 < wu {
         let n = LANES.min(wu - i0);
         let base = base_row + i0;
-        let live: [bool; LANES] = std::array::from_fn(|t| t < n && role[base + t] != PASSIVE);
+        let k: [u32; LANES] = std::array::from_fn(|t| if t < n { base + t } else { base } as u32);
+        // SAFETY: the block's texels `k` lie in the buffer (all its buffers hold `n` texels).
+        let roles = unsafe { gather8(role, &k) };
+        let live: [bool; LANES] = std::array::from_fn(|t| t < n && roles[t] != PASSIVE);
         if !live.contains(&true) {
             i0 += LANES;
             continue;
         }
-        let k: [u32; LANES] = std::array::from_fn(|t| if t < n { base + t } else { base } as u32);
-        let source: [bool; LANES] = std::array::from_fn(|t| live[t] && role[base + t] == SOURCE);
-        let [lr, lg, lb, _] = transpose8(light0, &k);
-        for t in 0..LANES {
-            if live[t] {
-                filtered += 1;
-                busy |= !source[t] || lr[t] != 0.0 || lg[t] != 0.0 || lb[t] != 0.0;
-            }
-        }
-        let [px, py, pz, zp] = transpose8(geom, &k);
-        let turn: [f64; LANES] =
-            std::array::from_fn(|t| turn_of(grid, (i0 + t.min(n - 1)) as u32, j));
-        // `column_at`'s `t − trunc(t)` of the angle (a step to another column at half 0).
-        let frac: [f64; LANES] = std::array::from_fn(|t| turn[t] - (turn[t] as i64) as f64);
+        let source: [bool; LANES] = std::array::from_fn(|t| live[t] && roles[t] == SOURCE);
+        // SAFETY: the block's texels `k` lie in the buffer (all its buffers hold `n` texels).
+        let [lr, lg, lb, _] = unsafe { transpose8(light0, &k) };
+        filtered += live.iter().map(|&l| l as u64).sum::<u64>();
+        busy |= (0..LANES).fold(false, |b, t| {
+            b | (live[t] & (!source[t] | (lr[t] != 0.0) | (lg[t] != 0.0) | (lb[t] != 0.0)))
+        });
+        // SAFETY: the block's texels `k` lie in the buffer (all its buffers hold `n` texels).
+        let [px, py, pz, zp] = unsafe { transpose8(geom, &k) };
+        let (turn, frac) = block_turns(grid, i0, n, j);
         // The 3×3 neighbourhood's other surface samples, [di + 1][dj + 1]: index and whether
         // it is one (the centre: none).
         let mut near = [[(k, [false; LANES]); 3]; 3];
@@ -757,17 +825,29 @@ fn setup_row(
             }
         }
         // Smaller one-sided depth difference per axis (x: the row's neighbours, y: the
-        // column's), over the other texels that are not passive.
-        let dz = |(q, inside): ([u32; LANES], [bool; LANES]), t: usize| {
-            if inside[t] && q[t] != k[t] && role[q[t] as usize] != PASSIVE {
-                (geom[q[t] as usize][3] - zp[t]).abs()
-            } else {
-                f32::INFINITY
-            }
+        // column's), over the other texels that are not passive (a passive texel's depth is
+        // NaN in `geom`; a cell outside the buffer reads the lane's centre, `cells`).
+        let dz = |(q, _): ([u32; LANES], [bool; LANES])| -> F8 {
+            // SAFETY: `Column::cells` lands inside the buffer (its invariant).
+            let zq = unsafe { fourth8(geom, &q) };
+            std::array::from_fn(|t| {
+                let d = (zq[t] - zp[t]).abs();
+                if q[t] != k[t] && !d.is_nan() {
+                    d
+                } else {
+                    f32::INFINITY
+                }
+            })
         };
         let fin = |v: f32| if v.is_finite() { v } else { 0.0 };
-        let g0: F8 = std::array::from_fn(|t| fin(dz(near[0][1], t).min(dz(near[2][1], t))));
-        let g1: F8 = std::array::from_fn(|t| fin(dz(near[1][0], t).min(dz(near[1][2], t))));
+        let (x0, x1, y0, y1) = (
+            dz(near[0][1]),
+            dz(near[2][1]),
+            dz(near[1][0]),
+            dz(near[1][2]),
+        );
+        let g0: F8 = std::array::from_fn(|t| fin(x0[t].min(x1[t])));
+        let g1: F8 = std::array::from_fn(|t| fin(y0[t].min(y1[t])));
         for t in 0..n {
             if live[t] {
                 gr[i0 + t] = [g0[t], g1[t]];
@@ -792,8 +872,9 @@ fn setup_row(
                     continue;
                 }
                 let bit = 1u8 << cell_bit(xi, yi);
-                let [nx, ny, nz, zq] = transpose8(geom, &q);
-                let [r, g, b, _] = transpose8(light0, &q);
+                // SAFETY: `Column::cells` lands inside the buffer (its invariant).
+                let ([nx, ny, nz, zq], [r, g, b, _]) =
+                    unsafe { (transpose8(geom, &q), transpose8(light0, &q)) };
                 let (ax, ay) = (xi.abs_diff(1) as f32, yi.abs_diff(1) as f32);
                 // Branch-free: a neighbour left out adds exact zeros. One that is not a source
                 // has no normal in `geom`: never the same surface.
@@ -891,8 +972,13 @@ struct Pass<'a> {
 /// transposed in registers (two 4×4 transposes with SSE, which every x86-64 has; the AVX2
 /// build encodes the same operations in VEX); elsewhere each lane array is built whole from
 /// its eight loads. The values are the same either way.
+///
+/// # Safety
+///
+/// Every `q[t] < rows.len()` (checked in tests and debug builds: [`CHECK_TAPS`]).
 #[inline(always)]
-fn transpose8(rows: &[[f32; 4]], q: &[u32; LANES]) -> [F8; 4] {
+unsafe fn transpose8(rows: &[[f32; 4]], q: &[u32; LANES]) -> [F8; 4] {
+    check_taps(rows.len(), q);
     let q: [usize; LANES] = std::array::from_fn(|t| q[t] as usize);
     #[cfg(target_arch = "x86_64")]
     {
@@ -900,12 +986,15 @@ fn transpose8(rows: &[[f32; 4]], q: &[u32; LANES]) -> [F8; 4] {
         let mut out = [[0.0f32; LANES]; 4];
         for half in 0..2 {
             let o = 4 * half;
-            let (a, b, c, d) = (rows[q[o]], rows[q[o + 1]], rows[q[o + 2]], rows[q[o + 3]]);
-            // SAFETY: SSE is part of x86-64; every pointer is a bounds-checked record of four
-            // floats or a lane array with four floats from `o` on.
+            let at = |t: usize| {
+                // SAFETY: every index is within `rows` (the caller's contract).
+                unsafe { rows.as_ptr().add(q[t]).cast::<f32>() }
+            };
+            // SAFETY: SSE is part of x86-64; every pointer is a record of four floats within
+            // `rows` (above) or a lane array with four floats from `o` on.
             unsafe {
-                let (a, b) = (_mm_loadu_ps(a.as_ptr()), _mm_loadu_ps(b.as_ptr()));
-                let (c, d) = (_mm_loadu_ps(c.as_ptr()), _mm_loadu_ps(d.as_ptr()));
+                let (a, b) = (_mm_loadu_ps(at(o)), _mm_loadu_ps(at(o + 1)));
+                let (c, d) = (_mm_loadu_ps(at(o + 2)), _mm_loadu_ps(at(o + 3)));
                 // [a.x b.x a.y b.y], [a.z b.z a.w b.w], and the same of c, d.
                 let (t0, t1) = (_mm_unpacklo_ps(a, b), _mm_unpackhi_ps(a, b));
                 let (t2, t3) = (_mm_unpacklo_ps(c, d), _mm_unpackhi_ps(c, d));
@@ -919,20 +1008,73 @@ fn transpose8(rows: &[[f32; 4]], q: &[u32; LANES]) -> [F8; 4] {
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
-        let r: [[f32; 4]; LANES] = std::array::from_fn(|t| rows[q[t]]);
+        // SAFETY: every index is within `rows` (the caller's contract).
+        let r: [[f32; 4]; LANES] = std::array::from_fn(|t| unsafe { *rows.get_unchecked(q[t]) });
         std::array::from_fn(|c| std::array::from_fn(|t| r[t][c]))
     }
 }
 
+/// Whether the lanes' reads check their indices: in tests and debug builds. A release build
+/// relies on the index arithmetic instead (a block's own texels, and `Column::cells`' taps,
+/// which land inside the buffer by construction), so that a tap's eight reads cost no
+/// bounds checks.
+const CHECK_TAPS: bool = cfg!(any(test, debug_assertions));
+
+/// Panics where an index is outside a buffer of `len` elements, if [`CHECK_TAPS`].
+#[inline(always)]
+fn check_taps(len: usize, q: &[u32; LANES]) {
+    if CHECK_TAPS {
+        assert!(
+            q.iter().all(|&x| (x as usize) < len),
+            "a tap outside the buffer"
+        );
+    }
+}
+
+/// `v[q[0..8]]`.
+///
+/// # Safety
+///
+/// Every `q[t] < v.len()` (checked in tests and debug builds: [`CHECK_TAPS`]).
+#[inline(always)]
+unsafe fn gather8<T: Copy>(v: &[T], q: &[u32; LANES]) -> [T; LANES] {
+    check_taps(v.len(), q);
+    // SAFETY: every index is within `v` (the caller's contract).
+    std::array::from_fn(|t| unsafe { *v.get_unchecked(q[t] as usize) })
+}
+
+/// The fourth components `rows[q[0..8]][3]` (a depth, a variance).
+///
+/// # Safety
+///
+/// Every `q[t] < rows.len()` (checked in tests and debug builds: [`CHECK_TAPS`]).
+#[inline(always)]
+unsafe fn fourth8(rows: &[[f32; 4]], q: &[u32; LANES]) -> F8 {
+    check_taps(rows.len(), q);
+    // SAFETY: every index is within `rows` (the caller's contract).
+    std::array::from_fn(|t| unsafe { rows.get_unchecked(q[t] as usize)[3] })
+}
+
 /// Where one kernel column's taps land for the lanes of a block: per lane the column, the row
 /// at the texel's angle there (before wrapping) and that column's row count; `ok` false where
-/// the column is outside the buffer or the lane past the row's end.
+/// the column is outside the buffer or the lane past the row's end. Rows are 32-bit, so that
+/// the lanes' arithmetic and range tests are SIMD: the buffer has at most [`MAX_ROWS`] rows
+/// and a landing row is kept within `±MAX_ROWS` (a polar one farther away is first reduced
+/// modulo its column's rows, which moves no tap: rows wrap there).
+///
+/// **Invariant**, on which the passes' unchecked reads rely: every index [`Column::cells`]
+/// returns is a texel of the buffer — `r·w + c` with a row `0 ≤ r < rows ≤ h` and a column
+/// `c < w` of the grid, which [`denoise_with_variance`] checks against the buffer's `w × h` —
+/// or the lane's own texel `k`.
 struct Column {
     c: [u32; LANES],
-    row: [i64; LANES],
-    rows: [u32; LANES],
+    row: [i32; LANES],
+    rows: [i32; LANES],
     ok: [bool; LANES],
 }
+
+/// The most rows a buffer may have (so that a landing row plus a tap's step fits 32 bits).
+pub const MAX_ROWS: u32 = 1 << 30;
 
 impl Column {
     /// The kernel column `dx` texels from texels `(i0 + t, j)`, `t < n`, whose angles in turns
@@ -961,32 +1103,45 @@ impl Column {
                     let c = c0 + t as i64;
                     col.ok[t] = t < n && c >= 0 && c < *width as i64;
                     col.c[t] = if col.ok[t] { c as u32 } else { 0 };
-                    col.row[t] = j as i64;
-                    col.rows[t] = *height;
+                    col.row[t] = j as i32;
+                    col.rows[t] = *height as i32;
                 }
                 return col;
             }
             Grid::Polar { rows, period } if c0 >= 0 && c0 as usize + LANES <= rows.len() => {
                 let c0 = c0 as usize;
                 let (rs, ps) = (&rows[c0..c0 + LANES], &period[c0..c0 + LANES]);
-                for t in 0..LANES {
-                    col.ok[t] = t < n && rs[t] != 0;
-                    col.c[t] = (c0 + t) as u32;
-                    col.rows[t] = rs[t];
-                    // `column_at`'s row at the same angle (the same column: the same row).
-                    col.row[t] = if dx == 0 {
-                        j as i64
-                    } else {
-                        (frac[t] * ps[t]) as i64
-                    };
+                // `column_at`'s row at the same angle (the same column: the same row), exact in
+                // 32 bits where it lies within ±MAX_ROWS (NaN does not).
+                let x: [f64; LANES] = std::array::from_fn(|t| frac[t] * ps[t]);
+                let fits = (0..LANES).all(|t| x[t].abs() < MAX_ROWS as f64 || dx == 0);
+                if fits {
+                    for t in 0..LANES {
+                        col.ok[t] = t < n && rs[t] != 0;
+                        col.c[t] = (c0 + t) as u32;
+                        col.rows[t] = rs[t] as i32;
+                        col.row[t] = if dx == 0 {
+                            j as i32
+                        } else {
+                            // SAFETY: |x| < 2^30 (`fits`): the truncation is exact.
+                            unsafe { x[t].to_int_unchecked::<i32>() }
+                        };
+                    }
+                    return col;
                 }
-                return col;
             }
             Grid::Polar { .. } => {}
         }
         for t in 0..n {
             if let Some((c, row, rows)) = column_at(grid, (i0 + t) as u32, j, turn[t], dx) {
-                (col.c[t], col.row[t], col.rows[t], col.ok[t]) = (c, row, rows, true);
+                // A polar row outside the column wraps: reduced modulo its rows first (`rows`
+                // ≥ 1 here), it lands where it did. A rect row is the texel's own.
+                let row = if (0..rows as i64).contains(&row) {
+                    row
+                } else {
+                    row.rem_euclid(rows as i64)
+                };
+                (col.c[t], col.row[t], col.rows[t], col.ok[t]) = (c, row as i32, rows as i32, true);
             }
         }
         col
@@ -1002,9 +1157,8 @@ impl Column {
         wu: usize,
         k: &[u32; LANES],
     ) -> ([u32; LANES], [bool; LANES]) {
-        let r: [i64; LANES] = std::array::from_fn(|t| self.row[t] + dy as i64);
-        let within: [bool; LANES] =
-            std::array::from_fn(|t| r[t] >= 0 && r[t] < self.rows[t] as i64);
+        let r: [i32; LANES] = std::array::from_fn(|t| self.row[t] + dy);
+        let within: [bool; LANES] = std::array::from_fn(|t| r[t] >= 0 && r[t] < self.rows[t]);
         if (0..LANES).all(|t| within[t] || !self.ok[t]) {
             // No row wraps: one multiply-add per lane, in 32 bits (the buffer has fewer than
             // 2^32 texels).
@@ -1025,7 +1179,7 @@ impl Column {
             if !self.ok[t] {
                 continue;
             }
-            if let Some(r) = row_of(grid, self.row[t], self.rows[t], dy) {
+            if let Some(r) = row_of(grid, self.row[t] as i64, self.rows[t] as u32, dy) {
                 (q[t], inside[t]) = ((r as usize * wu + self.c[t] as usize) as u32, true);
             }
         }
@@ -1134,15 +1288,18 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
     while i0 < wu {
         let n = LANES.min(wu - i0);
         let base = j as usize * wu + i0;
-        let live: [bool; LANES] = std::array::from_fn(|t| t < n && role[base + t] != PASSIVE);
+        // Lanes past the row's end compute texel `base`'s and store nothing.
+        let k: [u32; LANES] = std::array::from_fn(|t| if t < n { base + t } else { base } as u32);
+        // SAFETY: the block's texels `k` lie in the buffer (all its buffers hold `n` texels).
+        let roles = unsafe { gather8(role, &k) };
+        let live: [bool; LANES] = std::array::from_fn(|t| t < n && roles[t] != PASSIVE);
         if !live.contains(&true) {
             i0 += LANES;
             continue;
         }
-        // Lanes past the row's end compute texel `base`'s and store nothing.
-        let k: [u32; LANES] = std::array::from_fn(|t| if t < n { base + t } else { base } as u32);
-        let source: [bool; LANES] = std::array::from_fn(|t| role[k[t] as usize] == SOURCE);
-        let [mut px, mut py, mut pz, zp] = transpose8(geom, &k);
+        let source: [bool; LANES] = std::array::from_fn(|t| roles[t] == SOURCE);
+        // SAFETY: the block's texels `k` lie in the buffer (all its buffers hold `n` texels).
+        let [mut px, mut py, mut pz, zp] = unsafe { transpose8(geom, &k) };
         // A receiver's own normal (`geom` has none for it).
         for t in 0..n {
             if live[t] && !source[t] {
@@ -1151,22 +1308,23 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
                 }
             }
         }
-        let [lr, lg, lb, lv] = transpose8(src, &k);
-        let g0: F8 = std::array::from_fn(|t| grad[k[t] as usize][0]);
-        let g1: F8 = std::array::from_fn(|t| grad[k[t] as usize][1]);
+        // SAFETY: the block's texels `k` lie in the buffer (all its buffers hold `n` texels).
+        let [lr, lg, lb, lv] = unsafe { transpose8(src, &k) };
+        // SAFETY: the block's texels `k` lie in the buffer (all its buffers hold `n` texels).
+        let gk = unsafe { gather8(grad, &k) };
+        let g0: F8 = std::array::from_fn(|t| gk[t][0]);
+        let g1: F8 = std::array::from_fn(|t| gk[t][1]);
         let yp: F8 = std::array::from_fn(|t| 0.299 * lr[t] + 0.587 * lg[t] + 0.114 * lb[t]);
         let eps_z: F8 = std::array::from_fn(|t| 1e-3 * zp[t].abs() + 1e-9);
-        let turn: [f64; LANES] =
-            std::array::from_fn(|t| turn_of(grid, (i0 + t.min(n - 1)) as u32, j));
-        // `column_at`'s `t − trunc(t)` of the angle (a step to another column at half 0).
-        let frac: [f64; LANES] = std::array::from_fn(|t| turn[t] - (turn[t] as i64) as f64);
+        let (turn, frac) = block_turns(grid, i0, n, j);
 
         // 3×3 Gaussian of the variance over sources on the same surface (SVGF Eq. 5's g₃ₓ₃; a
         // neighbour across an edge has another noise level), in the first iteration; the
         // later ones read the variance the earlier ones filtered.
         let var: F8 = if let (1, Some(same)) = (step, same) {
             // The neighbours the set-up pass found on the same surface.
-            let bits: [u8; LANES] = std::array::from_fn(|t| same[k[t] as usize]);
+            // SAFETY: the block's texels `k` lie in the buffer (all its buffers hold `n` texels).
+            let bits = unsafe { gather8(same, &k) };
             let (mut vw, mut vs) = ([0.0f32; LANES], [0.0f32; LANES]);
             for (xi, di) in (-1i32..=1).enumerate() {
                 let col = Column::at(grid, i0, n, j, (&turn, &frac), di);
@@ -1180,7 +1338,8 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
                         continue;
                     }
                     let (q, _) = col.cells(grid, dj, wu, &k);
-                    let vq: F8 = std::array::from_fn(|t| src[q[t] as usize][3]);
+                    // SAFETY: `Column::cells` lands inside the buffer (its invariant).
+                    let vq = unsafe { fourth8(src, &q) };
                     let bit = 1u8 << cell_bit(xi, yi);
                     for t in 0..LANES {
                         let on = bits[t] & bit != 0;
@@ -1196,8 +1355,10 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
                 let col = Column::at(grid, i0, n, j, (&turn, &frac), di);
                 for (yi, dj) in (-1i32..=1).enumerate() {
                     let (q, inside) = col.cells(grid, dj, wu, &k);
-                    let [nx, ny, nz, zq] = transpose8(geom, &q);
-                    let vq: F8 = std::array::from_fn(|t| src[q[t] as usize][3]);
+                    // SAFETY: `Column::cells` lands inside the buffer (its invariant).
+                    let [nx, ny, nz, zq] = unsafe { transpose8(geom, &q) };
+                    // SAFETY: `Column::cells` lands inside the buffer (its invariant).
+                    let vq = unsafe { fourth8(src, &q) };
                     let wgt = H3[xi] * H3[yi];
                     let (ax, ay) = (di.abs() as f32, dj.abs() as f32);
                     for t in 0..LANES {
@@ -1264,15 +1425,16 @@ fn atrous_row(pass: &Pass, j: u32, out: &mut [[f32; 4]]) {
                 if xi == half && yi == half {
                     continue;
                 }
-                let (q0, inside) = col.cells(grid, (yi as i32 - half as i32) * step, wu, &k);
+                // A tap outside the buffer reads the lane's centre (`cells`), so a tap reads
+                // another texel exactly where it lands inside on another texel.
+                let (q, _) = col.cells(grid, (yi as i32 - half as i32) * step, wu, &k);
                 // A tap outside or on the centre reads the centre with kernel weight 0; one on a
                 // texel that is not a source has weight 0 too (it has no normal in `geom`:
                 // `n_p·0 = 0`), and light 0 or a receiver's finite light.
-                let read: [bool; LANES] = std::array::from_fn(|t| inside[t] && q0[t] != k[t]);
-                let q: [u32; LANES] = std::array::from_fn(|t| if read[t] { q0[t] } else { k[t] });
-                let hq: F8 = std::array::from_fn(|t| if read[t] { hx * hy } else { 0.0 });
-                let [nx, ny, nz, zq] = transpose8(geom, &q);
-                let [r, g, b, v] = transpose8(src, &q);
+                let hq: F8 = std::array::from_fn(|t| if q[t] != k[t] { hx * hy } else { 0.0 });
+                // SAFETY: `Column::cells` lands inside the buffer (its invariant).
+                let ([nx, ny, nz, zq], [r, g, b, v]) =
+                    unsafe { (transpose8(geom, &q), transpose8(src, &q)) };
                 let inv_den = &inv_den[xi.abs_diff(half)][yi.abs_diff(half)];
                 for t in 0..LANES {
                     let dot = px[t] * nx[t] + py[t] * ny[t] + pz[t] * nz[t];
