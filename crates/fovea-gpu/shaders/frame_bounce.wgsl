@@ -2,7 +2,8 @@
 // `fovea_render::shade::indirect` (a path from each texel's primary hit: a BRDF-sampled
 // bounce, next-event estimation of every light and of the environment at the surface it
 // reaches, Russian roulette from the second bounce on) step for step, with its random numbers.
-// Appended after frame_shade.wgsl (its bindings 21–29, `frame_texel`, `frame_record`,
+// Appended after frame_shade.wgsl (its bindings 21–29, `frame_texel` — over the list of
+// shaded texels of frame_compact.wgsl for a polar buffer —, `frame_record`,
 // `frame_ray`) and the files before it (`traverse`, `surface_at`, `direct_at`,
 // `environment_at`, `brdf_new`, `brdf_sample`, `brdf_pdf`, `brdf_cos`, `mix64`, `sobol02`).
 //

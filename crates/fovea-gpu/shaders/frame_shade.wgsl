@@ -74,7 +74,9 @@ struct FrameParams {
     rank: array<vec4<u32>, 4>,
     // 1: write the denoiser's guides (bindings 27–29); 0: leave them alone.
     guides: u32,
-    pad0: u32,
+    // 1: the kernels run over the list of shaded texels (frame_compact.wgsl, bindings 35–36);
+    // 0: over every texel, tile by tile.
+    listed: u32,
     pad1: u32,
     pad2: u32,
 }
@@ -126,9 +128,18 @@ fn frame_shaded(i: u32, j: u32) -> bool {
     return false;
 }
 
+// The texel of invocation `id`: with `frame.listed` the id-th of the frame's shaded texels
+// (frame_compact.wgsl, appended), else `frame_tile_texel`'s.
+fn frame_texel(id: vec3<u32>) -> u32 {
+    if frame.listed != 0u {
+        return frame_listed(id);
+    }
+    return frame_tile_texel(id);
+}
+
 // The texel of invocation `id`, row-major in the layer (`frame.texels` and beyond: none).
 // Each workgroup takes an 8×8 tile of texels, so that its rays run close together.
-fn frame_texel(id: vec3<u32>) -> u32 {
+fn frame_tile_texel(id: vec3<u32>) -> u32 {
     let n = id.x + id.y * frame.row_invocations;
     let w = frame.layer.width;
     let tiles_x = (w + 7u) / 8u;

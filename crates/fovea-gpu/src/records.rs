@@ -192,7 +192,7 @@ fn records() -> Vec<Record> {
         }),
         record!(frame::shade::FrameUniform => "FrameParams" in [fs, bo] {
             texels, kind, inf_bits, unshadowed, layer, offset, pixel_spread, row_invocations,
-            ambient, rank, guides,
+            ambient, rank, guides, listed,
         }),
         record!(frame::shade::FrameColumnGpu => "FrameColumn" in [fs, bo] {
             r_px, period, spread, runs,

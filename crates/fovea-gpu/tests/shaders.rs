@@ -204,9 +204,10 @@ fn every_wgsl_file_is_compiled_by_some_module() {
     }
     // Every module's own file (surface.wgsl is the surface module's), common.wgsl, the
     // appended direct_light.wgsl, ray_generation.wgsl, environment_light.wgsl and
-    // frame_shade_layers.wgsl, the AA modules' shared sample_grid.wgsl, and frame_sparse.wgsl
-    // (the shade and Weier mask modules').
-    assert_eq!(seen, ALL.len() + 6 + 1);
+    // frame_shade_layers.wgsl, the AA modules' shared sample_grid.wgsl, frame_sparse.wgsl
+    // (the shade and Weier mask modules') and frame_compact.wgsl (the shade module's list of
+    // shaded texels).
+    assert_eq!(seen, ALL.len() + 7 + 1);
 }
 
 #[test]

@@ -46,6 +46,7 @@ pub const SHADER: ShaderSource = ShaderSource {
         include_str!("../../shaders/frame_shade_layers.wgsl"),
         include_str!("../../shaders/frame_shade.wgsl"),
         include_str!("../../shaders/frame_sparse.wgsl"),
+        include_str!("../../shaders/frame_compact.wgsl"),
         include_str!("../../shaders/frame_bounce.wgsl")
     ),
     entry_points: &[
@@ -62,6 +63,7 @@ pub const SHADER: ShaderSource = ShaderSource {
         "frame_surface",
         "frame_direct",
         "frame_environment",
+        "frame_compact",
         "frame_bounce_trace",
         "frame_bounce_direct",
         "frame_bounce_environment",

@@ -34,6 +34,7 @@ use fovea_render::shade::{texel_key, EnvLight};
 use fovea_render::world::World;
 
 use super::bounce::{plan_bounces, BounceKernels, EyeBounce};
+use super::compact::{self, EyeList};
 use super::layers::{self, LayerPass, ShadeLayerGpu};
 use super::samples::DeviceSamples;
 use super::shade::{
@@ -83,6 +84,11 @@ pub struct EyeShade {
     /// The bounces of indirect light (`super::bounce`), made with the eye's first plan
     /// that has them.
     bounce: Option<EyeBounce>,
+    /// The list of shaded texels the kernels run over (a polar buffer's; `super::compact`).
+    list: EyeList,
+    /// Whether this frame's kernels run over the list (`compact::lists` of the layout, unless
+    /// [`ResidentSamples::set_compaction`] turned it off).
+    listed: bool,
 }
 
 /// The per-frame tables of one eye's plan: each column's record (and one past the last), the
@@ -333,6 +339,9 @@ impl EyeShade {
         let gbuffer_bytes = capacity.max(1) * GBUFFER_TEXEL_BYTES;
         ctx.check_storage_binding("the frame's G-buffer (geometry)", gbuffer_bytes)?;
         ctx.check_storage_binding("the frame's G-buffer (material)", gbuffer_bytes)?;
+        // Room for a list of shaded texels where the layout has one (`super::compact`).
+        let list_capacity = if compact::lists(layout) { capacity } else { 0 };
+        EyeList::check(ctx, list_capacity)?;
         let samples = DeviceSamples::with_capacity(ctx, &sizes, capacity)?;
         let guides = match plan.settings.denoise {
             Some(_) => Some(DeviceGuides::with_capacity(ctx, &sizes, capacity)?),
@@ -385,8 +394,9 @@ impl EyeShade {
                 (None, Some(n)) => [&n[0], &n[1], &n[2]],
                 (None, None) => unreachable!("stand-ins are made without guides"),
             };
+            let list = EyeList::new(ctx, list_capacity);
             let s = &scene.surfaces.buffers;
-            let entries: Vec<(u32, &wgpu::Buffer)> = vec![
+            let mut entries: Vec<(u32, &wgpu::Buffer)> = vec![
                 (0, &scene.trace_params),
                 (1, &scene_buffers.nodes),
                 (2, &scene_buffers.tris),
@@ -413,6 +423,7 @@ impl EyeShade {
                 (29, guide_buffers[2]),
                 (30, &layer_block),
             ];
+            entries.extend(list.bindings());
             let bind_group =
                 crate::transfer::bind_group(ctx, "resident frame", &scene.pipelines[0], &entries);
             let more = layers::more_passes(ctx, &scene.pipelines[0], &entries, &layer_groups);
@@ -425,11 +436,12 @@ impl EyeShade {
                 gbuffer,
                 no_guides,
                 bind_group,
-                (layer_block, more),
+                (layer_block, more, list),
             )
         })?;
         let (camera, env, frame, columns_buf, runs_buf, gbuffer, no_guides, bind_group, layered) =
             built;
+        let (layer_block, more, list) = layered;
         Ok(Self {
             layout,
             sizes,
@@ -447,10 +459,12 @@ impl EyeShade {
             _no_guides: no_guides,
             bind_group,
             groups,
-            layer_block: layered.0,
-            more: layered.1,
+            layer_block,
+            more,
             sparse: DevicePattern::default(),
             bounce: None,
+            list,
+            listed: compact::lists(layout),
         })
     }
 
@@ -475,7 +489,7 @@ impl EyeShade {
             let s = &scene.surfaces.buffers;
             // The direct kernels' bindings but the environment block (16), which the bounces
             // have their own of.
-            let shared: Vec<(u32, &wgpu::Buffer)> = vec![
+            let mut shared: Vec<(u32, &wgpu::Buffer)> = vec![
                 (0, &scene.trace_params),
                 (1, &scene_buffers.nodes),
                 (2, &scene_buffers.tris),
@@ -502,6 +516,7 @@ impl EyeShade {
                 // The layer block (a stand-in: bounces never run on layers).
                 (30, &self.layer_block),
             ];
+            shared.extend(self.list.bindings());
             self.bounce = Some(EyeBounce::new(
                 scene,
                 kernels,
@@ -610,7 +625,8 @@ impl EyeShade {
             ambient: [mean.x, mean.y, mean.z, 0.0],
             rank,
             guides: u32::from(self.guides.is_some()),
-            pad: [0; 3],
+            listed: u32::from(self.listed),
+            pad: [0; 2],
         };
         ctx.write_buffer(&self.camera, 0, bytemuck::bytes_of(&cam));
         ctx.write_buffer(&self.env, 0, bytemuck::bytes_of(&env));
@@ -627,6 +643,8 @@ impl EyeShade {
         if self.layout == RayLayout::Polar {
             ctx.write_buffer(&self.columns, 0, bytemuck::cast_slice(&tables.columns));
             ctx.write_buffer(&self.runs, 0, bytemuck::cast_slice(&tables.runs));
+            self.list
+                .set_bound(compact::shaded_bound(&tables.runs, size.pixels()));
         }
         if let (RayLayout::Sparse, Some(m)) = (self.layout, plan.mapping().weier_sparse()) {
             // Weier's pattern where the runs would be: its four per-frame words, or every
@@ -644,7 +662,8 @@ impl EyeShade {
     }
 
     /// Records this eye's pass into `encoder`: one compute pass, the surface kernel's dispatch,
-    /// then the lights', then the environment's.
+    /// then the lights', then the environment's (a polar buffer's first the list of its shaded
+    /// texels, then each over the list: `super::compact`).
     pub fn record(&self, scene: &ShadeScene, encoder: &mut wgpu::CommandEncoder) {
         self.record_timed(scene, encoder, None);
     }
@@ -657,19 +676,31 @@ impl EyeShade {
         encoder: &mut wgpu::CommandEncoder,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
+        let listed = self.listed;
+        if listed {
+            self.list.clear(encoder);
+        }
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("resident frame: trace and shade"),
             timestamp_writes,
         });
         pass.set_bind_group(0, &self.bind_group, &[]);
-        for pipeline in &scene.pipelines {
-            pass.set_pipeline(pipeline);
-            pass.dispatch_workgroups(self.groups[0], self.groups[1], 1);
-        }
-        // Indirect light, after the primary's (`super::bounce`; never with layers, which
-        // `super::shade::supports` refuses with it).
-        if let Some(b) = &self.bounce {
-            b.record(&mut pass, self.groups);
+        // The kernels' grid: over the list of shaded texels where the layout has one, else
+        // over every texel; none where nothing can be shaded.
+        let groups = match listed {
+            true => self.list.record(&mut pass, &scene.compact, self.groups),
+            false => Some(self.groups),
+        };
+        if let Some(groups) = groups {
+            for pipeline in &scene.pipelines {
+                pass.set_pipeline(pipeline);
+                pass.dispatch_workgroups(groups[0], groups[1], 1);
+            }
+            // Indirect light, after the primary's (`super::bounce`; never with layers, which
+            // `super::shade::supports` refuses with it).
+            if let Some(b) = &self.bounce {
+                b.record(&mut pass, groups);
+            }
         }
         // A layered buffer's other layers, each with its own uniforms (the G-buffer between
         // the kernels is the layer's).
@@ -687,6 +718,12 @@ impl EyeShade {
     /// and the texel's state), for a pass that reads them (the denoiser's guides).
     pub fn gbuffer(&self) -> &[wgpu::Buffer; 2] {
         &self.gbuffer
+    }
+
+    /// The list of shaded texels the eye's kernels ran over (a polar buffer's;
+    /// `super::compact`).
+    pub fn list(&self) -> &EyeList {
+        &self.list
     }
 
     /// The eye's sample buffers on the device.
@@ -738,6 +775,9 @@ pub struct ResidentSamples {
     tables_ms: f64,
     /// The bounce kernels, built with the first plan that has bounces of indirect light.
     bounce_kernels: Option<BounceKernels>,
+    /// Whether a polar buffer's kernels run over its list of shaded texels
+    /// ([`Self::set_compaction`]).
+    compaction: bool,
 }
 
 impl ResidentSamples {
@@ -749,7 +789,16 @@ impl ResidentSamples {
             denoisers: [None, None],
             tables_ms: 0.0,
             bounce_kernels: None,
+            compaction: true,
         })
+    }
+
+    /// Whether a polar buffer's kernels run over the list of its shaded texels (`on`, the
+    /// default; `super::compact`) or over every texel as the other layouts do, from the next
+    /// [`Self::prepare_eye`] on. The samples are the same bits either way
+    /// (`tests/frame_compact.rs`); off is for that test and for measuring what the list saves.
+    pub fn set_compaction(&mut self, on: bool) {
+        self.compaction = on;
     }
 
     /// Wall ms spent on the per-column tables by [`Self::prepare_eye`] since the last
@@ -844,6 +893,7 @@ impl ResidentSamples {
         }
         if let Some(e) = &mut self.eyes[eye] {
             e.prepare_bounce(&self.scene, self.bounce_kernels.as_ref(), plan)?;
+            e.listed = compact::lists(e.layout) && self.compaction;
         }
         if let Some(e) = &self.eyes[eye] {
             e.write(&self.scene, world, camera, plan, &tables, &layered);

@@ -8,6 +8,8 @@
 //!   environment light per texel into [`DeviceSamples`] — and what it serves ([`supports`]).
 //! * [`bounce`]: indirect light — bounces with next-event estimation after the shade
 //!   kernels, for plans with [`ShadingMode::Indirect`](fovea_render::shade::ShadingMode).
+//! * [`compact`]: the list of a polar buffer's shaded texels the shade and bounce kernels run
+//!   over, built on the device each frame ([`EyeList`]).
 //! * [`context`]: each eye's persistent buffers and bind group; both eyes recorded into one
 //!   encoder and submitted once ([`ResidentSamples`]).
 //! * [`screen`]: the screen side — reconstruction, depth of field and tone map of one eye's
@@ -33,6 +35,7 @@
 
 pub mod binocular;
 pub mod bounce;
+pub mod compact;
 pub mod compare;
 pub mod context;
 pub mod gaze_path;
@@ -53,6 +56,7 @@ pub mod weier_pattern;
 pub use binocular::{
     BinocularTimes, ResidentFrame, ToneSettings, BINOCULAR_PASSES, DENOISE_PASSES, TEMPORAL_PASSES,
 };
+pub use compact::EyeList;
 pub use compare::{compare_binocular, BinocularComparison, CompareParams, PathSummary};
 pub use context::{EyeShade, RecordTimes, ResidentSamples};
 pub use gaze_path::{GazePath, SACCADE_STEP_DEG};

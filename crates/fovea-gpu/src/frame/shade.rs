@@ -33,8 +33,10 @@ use crate::shaders::ShaderSource;
 use crate::surface::GpuSurfaces;
 use crate::trace::{DirectLightModel, GpuTracer, TraceUniform, MAX_DISTANCE};
 
-/// The module: the staged passes' files with `frame_shade.wgsl` appended; the frame creates
-/// pipelines for [`ENTRY_POINTS`] only, not for the ten the other files bring along.
+/// The module: the staged passes' files with `frame_shade.wgsl` appended (and the list of
+/// shaded texels' `frame_compact.wgsl`, [`super::compact`]); the frame creates pipelines for
+/// [`ENTRY_POINTS`] and [`super::compact::ENTRY_POINT`] only, not for the ten the other files
+/// bring along.
 pub const SHADER: ShaderSource = ShaderSource {
     file: "frame_shade.wgsl",
     source: concat!(
@@ -46,7 +48,8 @@ pub const SHADER: ShaderSource = ShaderSource {
         include_str!("../../shaders/environment_light.wgsl"),
         include_str!("../../shaders/frame_shade_layers.wgsl"),
         include_str!("../../shaders/frame_shade.wgsl"),
-        include_str!("../../shaders/frame_sparse.wgsl")
+        include_str!("../../shaders/frame_sparse.wgsl"),
+        include_str!("../../shaders/frame_compact.wgsl")
     ),
     entry_points: &[
         "closest_hit",
@@ -62,6 +65,7 @@ pub const SHADER: ShaderSource = ShaderSource {
         "frame_surface",
         "frame_direct",
         "frame_environment",
+        "frame_compact",
     ],
     uniform: ("FrameParams", std::mem::size_of::<FrameUniform>()),
 };
@@ -72,8 +76,9 @@ pub const ENTRY_POINTS: [&str; 3] = ["frame_surface", "frame_direct", "frame_env
 
 /// Storage buffers the kernels' layout binds in one stage: the BVH's three, the surfaces'
 /// five, the lights, the environment map's two, the columns, the runs, the samples, the
-/// G-buffer's two and the denoiser's three guides.
-pub const STORAGE_BUFFERS: u32 = 19;
+/// G-buffer's two, the denoiser's three guides and the list of shaded texels' two
+/// ([`super::compact`]).
+pub const STORAGE_BUFFERS: u32 = 21;
 
 /// Bytes per texel of each of the two G-buffer records the kernels keep on the device
 /// (`frame_geometry`, `frame_material`: two `vec4<f32>` each).
@@ -130,8 +135,11 @@ pub struct FrameUniform {
     pub rank: [[u32; 4]; 4],
     /// 1: the kernels write the denoiser's guides (bindings 27–29); 0: they do not.
     pub guides: u32,
+    /// 1: the kernels run over the list of shaded texels ([`super::compact`]); 0: over every
+    /// texel, tile by tile.
+    pub listed: u32,
     /// Padding.
-    pub pad: [u32; 3],
+    pub pad: [u32; 2],
 }
 
 /// `FrameColumn` of `frame_shade.wgsl`: a polar column's ring, cone and first run.
@@ -247,6 +255,8 @@ pub struct ShadeScene {
     pub(crate) trace_params: wgpu::Buffer,
     /// `frame_surface`, `frame_direct`, `frame_environment`.
     pub(crate) pipelines: [wgpu::ComputePipeline; 3],
+    /// `frame_compact`: the list of shaded texels ([`super::compact`]).
+    pub(crate) compact: wgpu::ComputePipeline,
     fingerprint: u64,
 }
 
@@ -262,7 +272,7 @@ fn light_is_finite(l: &GpuLight) -> bool {
 /// The kernel's bindings in group 0: `(binding, uniform, read-only)` (uniform blocks, then
 /// storage buffers), declared rather than derived from what the entry point reads, so the
 /// layout does not change with the code.
-pub const BINDINGS: [(u32, bool, bool); 25] = [
+pub const BINDINGS: [(u32, bool, bool); 27] = [
     (0, true, true),    // TraceParams
     (1, false, true),   // BVH nodes
     (2, false, true),   // triangles
@@ -288,12 +298,28 @@ pub const BINDINGS: [(u32, bool, bool); 25] = [
     (28, false, false), // the denoiser's normal guide
     (29, false, false), // the denoiser's Monte Carlo part
     (30, true, true),   // FrameScreenLayer (a layered buffer's layer)
+    // 31–34: the bounce kernels' (`super::bounce`).
+    (35, false, false), // the list of shaded texels (`super::compact::BINDINGS`)
+    (36, false, false), // its count
 ];
 
 /// The kernels' pipelines with their declared layout ([`BINDINGS`]), in the order of
-/// [`ENTRY_POINTS`]. Call inside an error scope.
-fn pipelines(device: &wgpu::Device) -> [wgpu::ComputePipeline; 3] {
-    declared_pipelines(device, "resident frame", &BINDINGS, &SHADER, ENTRY_POINTS)
+/// [`ENTRY_POINTS`], and the list's ([`super::compact::ENTRY_POINT`]). Call inside an error
+/// scope.
+fn pipelines(device: &wgpu::Device) -> ([wgpu::ComputePipeline; 3], wgpu::ComputePipeline) {
+    let [surface, direct, environment, compact] = declared_pipelines(
+        device,
+        "resident frame",
+        &BINDINGS,
+        &SHADER,
+        [
+            ENTRY_POINTS[0],
+            ENTRY_POINTS[1],
+            ENTRY_POINTS[2],
+            super::compact::ENTRY_POINT,
+        ],
+    );
+    ([surface, direct, environment], compact)
 }
 
 /// `entry_points` of `shader`, one pipeline each, over one bind group laid out as `bindings`
@@ -395,7 +421,7 @@ impl ShadeScene {
         let lights_bytes = (lights.len().max(1) * std::mem::size_of::<GpuLight>()) as u64;
         ctx.check_storage_binding("the lights", lights_bytes)?;
         let block = TraceUniform::new(0, lights.len(), DirectLightModel::RENDERER);
-        let (lights_buffer, trace_params, pipelines) =
+        let (lights_buffer, trace_params, (pipelines, compact)) =
             ctx.scoped("building the resident frame's kernel", || {
                 let lights_buffer = ctx.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("frame lights"),
@@ -424,6 +450,7 @@ impl ShadeScene {
             lights_buffer,
             trace_params,
             pipelines,
+            compact,
             fingerprint: world.tris_fingerprint,
         })
     }
