@@ -73,7 +73,9 @@ struct TemporalParams {
     history: u32,
     row_invocations: u32,
     inf_bits: u32,
-    _pad1: u32,
+    // 1 where `temporal_noisy` holds the denoiser's guides (the plan denoises), 0 for a
+    // stand-in.
+    guides: u32,
     _pad2: u32,
     _pad3: u32,
 }
@@ -100,6 +102,12 @@ const SKY_DEPTH_M: f32 = 1.0e9;
 // rows, this frame's.
 @group(0) @binding(7) var<storage, read> temporal_shade_columns: array<vec4<u32>>;
 @group(0) @binding(8) var<storage, read> temporal_shade_runs: array<vec2<u32>>;
+// The denoiser's Monte Carlo part of this frame's colour (`DeviceGuides::noisy`: rgb, NaN
+// unknown; w the temporal variance), rewritten for the accumulated colour where a history is
+// blended (`pipeline::sample_post::complement_part` before and after the CPU's blend): the
+// fresh frame's exact part `colour − part` is kept, and the accumulated colour less it is the
+// part the denoiser filters. A 16-byte stand-in when `tp.guides` is 0.
+@group(0) @binding(9) var<storage, read_write> temporal_noisy: array<vec4<f32>>;
 
 fn temporal_is_inf(x: f32) -> bool {
     return (bitcast<u32>(x) & 0x7f800000u) == 0x7f800000u;
@@ -500,4 +508,8 @@ fn temporal_blend(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     temporal_next_color[t] = vec4<f32>(out, z);
     temporal_next_age[t] = next_age;
+    if tp.guides != 0u {
+        let part = temporal_noisy[t];
+        temporal_noisy[t] = vec4<f32>(out - (c - part.xyz), part.w);
+    }
 }

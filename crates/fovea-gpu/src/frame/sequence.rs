@@ -16,8 +16,7 @@
 //! ([`ResidentRun::set_eyes`]`(1)`) and its image read back.
 //!
 //! **Decided once, before the first pass** ([`SequenceRoute::decide`]): from frame 0's plan
-//! ([`super::refusal`], and with temporal accumulation [`ResidentFrame::supports_temporal`]
-//! and [`denoises_accumulated`]: the denoiser after the accumulation is refused),
+//! ([`super::refusal`], and with temporal accumulation [`ResidentFrame::supports_temporal`]),
 //! then the frame made on the device ([`Route::decide`]: a device whose bindings cannot hold
 //! it is staged too). A refusal is [`SequenceRoute::Staged`] with its one line. A later frame
 //! the resident frame refuses (an [`GpuError::Unsupported`] or
@@ -97,9 +96,7 @@ impl SequenceRoute {
         let plan = frame_plan(p, 0, 0, &mut plans)?;
         let camera = &p.seq.cameras[0];
         let temporal_refusal = match p.temporal {
-            Some(_) => ResidentFrame::supports_temporal(&plan)
-                .and_then(|()| denoises_accumulated(&plan))
-                .err(),
+            Some(_) => ResidentFrame::supports_temporal(&plan).err(),
             None => None,
         };
         let refused = match temporal_refusal {
@@ -140,27 +137,6 @@ impl SequenceRoute {
             SequenceRoute::Staged(why) => Some(why),
         }
     }
-}
-
-/// Whether the resident frame denoises `plan`'s frames as the CPU does after temporal
-/// accumulation: `Ok` when the plan does not denoise, else the [`GpuError::Unsupported`] the
-/// route stages. The CPU denoises the *accumulated* colour's Monte Carlo part (the
-/// accumulated colour less the fresh frame's exact part) with the temporal variance of that
-/// part where a texel's history is 4 frames old; the resident frame's denoiser reads the part
-/// its shade kernels wrote for the fresh frame and estimates the variance spatially, so after
-/// the first frame the two differ far beyond the 40 dB bar (measured at 160×180, full
-/// resolution, the real-time preset: 25.8–26.6 dB luma PSNR from frame 1, against 92–102 dB
-/// with either alone). Refused until the resident frame accumulates the part and its moments.
-pub fn denoises_accumulated(plan: &FramePlan) -> Result<()> {
-    if plan.settings.denoise.is_some() {
-        return Err(GpuError::Unsupported(
-            "the denoiser after temporal accumulation in the resident frame (it filters the \
-             fresh frame's Monte Carlo part, not the accumulated one's; use --denoise off or \
-             --temporal off)"
-                .into(),
-        ));
-    }
-    Ok(())
 }
 
 /// Frame `i`'s plan of `p` with the jitter of `accumulated` frames accumulated, and frame

@@ -29,10 +29,15 @@
 //!
 //! **Against the CPU.** The forward map of the previous frame is its columns' exact radii
 //! interpolated linearly between column centres (the CPU evaluates the mapping's own
-//! `forward`); the rest is the CPU's arithmetic in f32. The temporal moments of the Monte
-//! Carlo part (`TemporalSettings::variance`) are kept by the CPU only for its denoiser, which
-//! reads the colour's Monte Carlo part; the sample side does not write that part, so they are
-//! not kept here (nothing reads them: the resident frame refuses the denoiser).
+//! `forward`); the rest is the CPU's arithmetic in f32.
+//!
+//! **With the denoiser.** The CPU denoises the accumulated colour's Monte Carlo part
+//! (`pipeline::sample_post::complement_part` before and after its blend): the fresh frame's
+//! exact part `colour − part` is set aside and the accumulated colour less it is what is
+//! filtered. The pass does the same in place on the guides' part (binding 9) wherever it blends
+//! a history. The temporal moments of that part (`TemporalSettings::variance`, the variance the
+//! CPU's denoiser uses where a texel's history is 4 frames old) are not kept here: the device's
+//! denoiser uses its spatial estimate throughout (docs/denoise.md, "The GPU twin").
 
 use bytemuck::{Pod, Zeroable};
 use fovea_core::mapping::Method;
@@ -162,8 +167,9 @@ pub struct TemporalUniform {
     pub row_invocations: u32,
     /// +∞ as bits.
     pub inf_bits: u32,
-    /// Padding.
-    pub _pad1: u32,
+    /// 1 where binding 9 holds the denoiser's guides (the accumulated colour's Monte Carlo
+    /// part is rewritten there), 0 for its stand-in.
+    pub guides: u32,
     /// Padding.
     pub _pad2: u32,
     /// Padding.
@@ -199,8 +205,9 @@ struct EyeTemporal {
     uniform: wgpu::Buffer,
     /// Index = the history written (the other is read).
     bind_groups: [wgpu::BindGroup; 2],
-    /// The sample side's buffers the bind groups name: samples, columns, runs.
-    bound: [wgpu::Buffer; 3],
+    /// The sample side's buffers the bind groups name: samples, columns, runs, and the
+    /// guides' Monte Carlo part (or a 16-byte stand-in when the plan does not denoise).
+    bound: [wgpu::Buffer; 4],
     texel_capacity: u64,
     /// The history this frame writes.
     next: usize,
@@ -290,6 +297,10 @@ impl EyeTemporal {
                 .map(|l| buffer(l, color_bytes, storage | wgpu::BufferUsages::COPY_SRC));
             let age = ["temporal ages A", "temporal ages B"].map(|l| buffer(l, age_bytes, storage));
             let tables = buffer("temporal tables", table_bytes, storage);
+            let noisy = match shade.guides() {
+                Some(g) => g.noisy().clone(),
+                None => buffer("temporal no noisy part", 16, storage),
+            };
             let uniform = buffer(
                 "temporal parameters",
                 std::mem::size_of::<TemporalUniform>() as u64,
@@ -311,6 +322,7 @@ impl EyeTemporal {
                         (6, &tables),
                         (7, shade_columns),
                         (8, shade_runs),
+                        (9, &noisy),
                     ],
                 )
             });
@@ -322,7 +334,12 @@ impl EyeTemporal {
                 columns_capacity,
                 uniform,
                 bind_groups,
-                bound: [samples.clone(), shade_columns.clone(), shade_runs.clone()],
+                bound: [
+                    samples.clone(),
+                    shade_columns.clone(),
+                    shade_runs.clone(),
+                    noisy,
+                ],
                 texel_capacity,
                 next: 0,
                 previous: None,
@@ -335,7 +352,14 @@ impl EyeTemporal {
     /// Whether the bind groups name `shade`'s buffers.
     fn binds(&self, shade: &EyeShade) -> bool {
         let (c, r) = shade.tables();
-        self.bound[0] == *shade.samples().buffer() && self.bound[1] == *c && self.bound[2] == *r
+        let noisy = match shade.guides() {
+            Some(g) => self.bound[3] == *g.noisy(),
+            None => self.bound[3].size() == 16,
+        };
+        self.bound[0] == *shade.samples().buffer()
+            && self.bound[1] == *c
+            && self.bound[2] == *r
+            && noisy
     }
 }
 
@@ -467,7 +491,7 @@ impl ResidentTemporal {
             history: u32::from(previous.is_some()),
             row_invocations: e.groups[0] * WORKGROUP_SIZE,
             inf_bits: f32::INFINITY.to_bits(),
-            _pad1: 0,
+            guides: u32::from(shade.guides().is_some()),
             _pad2: 0,
             _pad3: 0,
         };
