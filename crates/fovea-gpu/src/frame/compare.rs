@@ -8,9 +8,10 @@
 //! 1. **eye state and plans** (host): the cyclopean gaze of the frame, both eyes' gazes at the
 //!    point it fixates (`fovea_render::stereo::fixating_eyes`), each eye's state
 //!    (`EyeState::fixating`: the focus where a DOF asks for one) and plan
-//!    (`FramePlan::cached`, a cache per eye and path, as a view renderer keeps one; emptied
-//!    every frame of a moving path, so that every moving frame plans afresh — the saccade
-//!    path's square returns to its corners every fourth frame, a tracked gaze never does);
+//!    (`FramePlan::cached`, a cache per eye and path, as a view renderer keeps one; its gazes
+//!    forgotten every frame of a moving path (`PlanCache::forget_gazes`), so that every moving
+//!    frame plans afresh — the saccade path's square returns to its corners every fourth
+//!    frame, a tracked gaze never does);
 //! 2. **the frame**: resident — [`ResidentRun::render`] (one encoder, one submission, no wait,
 //!    counted by the device), then a wait for the device outside the counts, to read the wall
 //!    clock; staged — `render_planned` of each eye with the library's per-call GPU executors
@@ -242,8 +243,8 @@ fn summary(frames: &[PathFrame]) -> Option<PathSummary> {
 
 /// Both eyes' cameras and plans of frame `f` (caches per eye), the cyclopean gaze, and how
 /// many of the plans were built (cache misses). A moving gaze plans every frame afresh: its
-/// caches are emptied first, since a tracked gaze never returns to a point bit for bit
-/// (the saccade path's square does, every fourth frame).
+/// caches forget their gazes first, since a tracked gaze never returns to a point bit for
+/// bit (the saccade path's square does, every fourth frame).
 fn plans_of(
     p: &CompareParams<'_>,
     f: usize,
@@ -251,7 +252,9 @@ fn plans_of(
 ) -> Result<([EyeCamera; 2], [FramePlan; 2], Gaze, u64)> {
     let render = |e: fovea_render::RenderError| GpuError::Input(e.to_string());
     if p.path != GazePath::Still {
-        *caches = [PlanCache::new(), PlanCache::new()];
+        for c in caches.iter_mut() {
+            c.forget_gazes();
+        }
     }
     let misses = |c: &[PlanCache; 2]| c[0].misses() + c[1].misses();
     let before = misses(caches);
