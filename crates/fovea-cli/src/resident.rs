@@ -252,12 +252,20 @@ fn bench_line(c: &fovea_gpu::frame::BinocularComparison) -> String {
     };
     let resident = match (&c.resident, &c.staged_because) {
         (Some(r), _) => format!(
-            "resident {}; host {:.2} ms (plans {:.2}, record {:.2}; at most {:.2})",
+            "resident {}; host {:.2} ms wall (plans {:.2}, record {:.2}; at most {:.2}), \
+             render-thread cpu {:.2} ms (plans {:.2}, record {:.2}; at most {:.2}; {:.0}% of \
+             the wall), {} plans built",
             time(r),
             r.host_ms.unwrap_or(f64::NAN),
             r.plan_ms,
             r.record_ms,
-            r.host_ms_max.unwrap_or(f64::NAN)
+            r.host_ms_max.unwrap_or(f64::NAN),
+            r.host_cpu_ms.unwrap_or(f64::NAN),
+            r.plan_cpu_ms,
+            r.record_cpu_ms,
+            r.host_cpu_ms_max.unwrap_or(f64::NAN),
+            100.0 * r.host_cpu_share.unwrap_or(f64::NAN),
+            r.plans_built
         ),
         (None, why) => format!("staged only ({})", why.as_deref().unwrap_or("")),
     };

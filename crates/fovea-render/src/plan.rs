@@ -328,12 +328,26 @@ impl std::fmt::Debug for GazeTables {
 
 impl GazeTables {
     fn new(display: &DisplayProfile, settings: &FrameSettings, eye: &EyeState) -> Result<Self> {
-        let mapping: Arc<dyn FoveationMapping> = Arc::from(build(
-            settings.method,
+        Self::with_mapping(
+            Arc::from(build(
+                settings.method,
+                display,
+                eye.gaze,
+                &settings.mapping,
+            )?),
             display,
-            eye.gaze,
-            &settings.mapping,
-        )?);
+            settings,
+            eye,
+        )
+    }
+
+    /// The tables of `mapping`, built for `display`, `settings` and `eye`'s gaze.
+    fn with_mapping(
+        mapping: Arc<dyn FoveationMapping>,
+        display: &DisplayProfile,
+        settings: &FrameSettings,
+        eye: &EyeState,
+    ) -> Result<Self> {
         let spacing = SpacingLut::new(mapping.as_ref(), display, eye.gaze);
         let rays = TexelRays::new(
             mapping.as_ref(),
@@ -394,12 +408,18 @@ pub const PLAN_CACHE_GAZES: usize = 4;
 ///
 /// What it saves is the whole mapping: VaFR's exact rings depend on the gaze itself, not only
 /// on the distance from it (each ring is sized by its worst point on the screen), so nothing of
-/// them is shared between two gazes (docs/rendering.md, "What the plan costs per gaze").
+/// them is shared between two gazes (docs/rendering.md, "What the plan costs per gaze"). A
+/// mapping whose layout does not depend on the gaze (VaFR's rings for any gaze) is made at a
+/// new gaze from the last one ([`fovea_core::mapping::rebuild_at`]: only its shaded runs laid
+/// out again), the same mapping bit for bit.
 #[derive(Debug, Default)]
 pub struct PlanCache {
     key: Option<TablesKey>,
     /// Most recent first.
     entries: Vec<([u64; 2], Arc<GazeTables>)>,
+    /// The last tables after [`Self::forget_gazes`]: their mapping makes the next one where
+    /// its layout does not depend on the gaze.
+    last: Option<Arc<GazeTables>>,
     hits: u64,
     misses: u64,
 }
@@ -430,6 +450,17 @@ impl PlanCache {
         self.entries.is_empty()
     }
 
+    /// Forgets the gazes planned, so that the next plans are made afresh (a benchmark's
+    /// moving gaze whose path returns to its points: a tracked gaze never does), keeping only
+    /// what does not depend on the gaze (the last mapping, from which the next is made where
+    /// its layout allows).
+    pub fn forget_gazes(&mut self) {
+        if let Some((_, t)) = self.entries.first() {
+            self.last = Some(Arc::clone(t));
+        }
+        self.entries.clear();
+    }
+
     fn tables(
         &mut self,
         display: &DisplayProfile,
@@ -439,6 +470,7 @@ impl PlanCache {
         let key = TablesKey::of(display, settings);
         if self.key.as_ref() != Some(&key) {
             self.entries.clear();
+            self.last = None;
             self.key = Some(key);
         }
         let gaze = [eye.gaze.point.x_px.to_bits(), eye.gaze.point.y_px.to_bits()];
@@ -449,7 +481,14 @@ impl PlanCache {
             self.hits += 1;
             return Ok(tables);
         }
-        let tables = Arc::new(GazeTables::new(display, settings, eye)?);
+        let last = self.entries.first().map(|(_, t)| t).or(self.last.as_ref());
+        let moved = last.and_then(|last| {
+            fovea_core::mapping::rebuild_at(last.mapping.as_ref(), display, eye.gaze)
+        });
+        let tables = Arc::new(match moved {
+            Some(m) => GazeTables::with_mapping(Arc::from(m), display, settings, eye)?,
+            None => GazeTables::new(display, settings, eye)?,
+        });
         self.entries.insert(0, (gaze, Arc::clone(&tables)));
         self.entries.truncate(PLAN_CACHE_GAZES);
         self.misses += 1;

@@ -84,14 +84,20 @@ fn cached_plans_equal_uncached_ones_at_every_gaze() {
     .iter()
     .map(|&(x, y)| d.gaze(x * w, y * h).unwrap())
     .collect();
-    for m in [
-        Method::Vafr,
-        Method::Kfr,
-        Method::VisualPolar,
-        Method::Weier,
+    // VaFR's rings for any gaze: each miss moves the last mapping (`rebuild_at`) where the
+    // gaze keeps its layout, builds it where not (the gazes off the screen).
+    for (m, any_gaze) in [
+        (Method::Vafr, false),
+        (Method::Vafr, true),
+        (Method::Kfr, false),
+        (Method::VisualPolar, false),
+        (Method::Weier, false),
     ] {
         let mut settings = FrameSettings::new(m);
         settings.periphery_rays = 4;
+        if any_gaze {
+            settings.mapping.vafr.rings = VafrRings::Eq3AnyGaze;
+        }
         let mut cache = PlanCache::new();
         for (k, &g) in gazes.iter().enumerate() {
             let eye = EyeState::looking_at(g);
@@ -110,6 +116,20 @@ fn cached_plans_equal_uncached_ones_at_every_gaze() {
         assert_eq!(cache.misses(), gazes.len() as u64, "{m}");
         assert_eq!(cache.hits(), gazes.len() as u64, "{m}");
         assert_eq!(cache.len(), PLAN_CACHE_GAZES);
+        // Gazes forgotten: a gaze planned before is planned afresh, the same plan.
+        cache.forget_gazes();
+        assert!(cache.is_empty());
+        let eye = EyeState::looking_at(gazes[5]);
+        let want = FramePlan::new(&world, &camera, &settings, &eye, [0.0; 2]).unwrap();
+        let got =
+            FramePlan::cached(&world, &camera, &settings, &eye, [0.0; 2], &mut cache).unwrap();
+        assert_eq!(
+            got.to_json().unwrap(),
+            want.to_json().unwrap(),
+            "{m} forgotten"
+        );
+        same_mapping(got.mapping(), want.mapping(), &d);
+        assert_eq!(cache.misses(), gazes.len() as u64 + 1, "{m}");
     }
 }
 

@@ -197,6 +197,19 @@ pub trait FoveationMapping: Send + Sync {
         None
     }
 
+    /// This mapping's method, parameters and display at another gaze, from what of this one
+    /// does not depend on the gaze — bit for bit what [`build`] makes for `display` and `gaze`
+    /// — where the mapping can (VaFR with `VafrRings::Eq3AnyGaze`: only its shaded runs are
+    /// laid out again); `None` otherwise, or where `gaze` needs another layout. Call it
+    /// through [`rebuild_at`], which counts it as a built mapping.
+    fn at_gaze(
+        &self,
+        _display: &crate::display::DisplayProfile,
+        _gaze: crate::display::Gaze,
+    ) -> Option<Box<dyn FoveationMapping>> {
+        None
+    }
+
     /// For polar mappings: the ring that column coordinate `u` of `layer` maps to, so that
     /// `inverse(s)` is `ring(s.layer, s.u)` then [`Ring::point`]`(s.v)`, bit for bit (each
     /// polar mapping's inverse is that composition). The trace reads every column's ring
@@ -402,6 +415,19 @@ static BUILDS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(
 /// How many mappings [`build`] has built in this process.
 pub fn build_count() -> u64 {
     BUILDS.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+/// `mapping` at `gaze` on `display` from its gaze-free layout
+/// ([`FoveationMapping::at_gaze`]), counted as a build ([`build_count`]); `None` where it
+/// cannot, then [`build`] it.
+pub fn rebuild_at(
+    mapping: &dyn FoveationMapping,
+    display: &crate::display::DisplayProfile,
+    gaze: crate::display::Gaze,
+) -> Option<Box<dyn FoveationMapping>> {
+    let m = mapping.at_gaze(display, gaze)?;
+    BUILDS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    Some(m)
 }
 
 /// Builds the mapping of `method` for `display` and `gaze`.

@@ -139,6 +139,18 @@ pub struct Vafr {
     /// Each column's shaded runs of rows `[j0, j1)`, where not every row is shaded
     /// ([`VafrRings::Exact`], [`VafrRings::Eq3AnyGaze`]).
     runs: Option<Vec<Vec<(u32, u32)>>>,
+    /// With [`VafrRings::Eq3AnyGaze`]: each column's ring radius and reach
+    /// ([`near_screen_reach`]), which do not depend on the gaze — shared by
+    /// [`Vafr::at_gaze`]'s mappings, which only lay the shaded runs out again.
+    reach: Option<std::sync::Arc<Vec<ColumnReach>>>,
+}
+
+/// One column's ring radius at its centre and how far beyond the screen its widened texels
+/// reach ([`near_screen_runs`]), pixels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct ColumnReach {
+    r_c: f64,
+    grow: f64,
 }
 
 #[derive(Clone, Debug)]
@@ -185,7 +197,10 @@ impl Vafr {
             .map(|&l| if l > 0.5 { (l - 0.5).ceil() as u32 } else { 0 })
             .collect();
         let height = rows.iter().copied().max().unwrap_or(0);
-        let runs: Option<Vec<Vec<(u32, u32)>>> = match (&profile, params.rings) {
+        let reach = (profile.is_none() && params.rings == VafrRings::Eq3AnyGaze).then(|| {
+            std::sync::Arc::new(near_screen_reach(display, &params.acuity, &rows, &periods))
+        });
+        let runs: Option<Vec<Vec<(u32, u32)>>> = match (&profile, &reach) {
             (Some(p), _) => {
                 let rays = ColumnRays::new(display, &gaze);
                 Some(
@@ -195,13 +210,7 @@ impl Vafr {
                         .collect(),
                 )
             }
-            (None, VafrRings::Eq3AnyGaze) => Some(near_screen_runs(
-                display,
-                &gaze,
-                &params.acuity,
-                &rows,
-                &periods,
-            )),
+            (None, Some(reach)) => Some(near_screen_runs(display, &gaze, reach, &rows, &periods)),
             _ => None,
         };
         let exact = profile.map(|profile| ExactRings { profile });
@@ -231,6 +240,36 @@ impl Vafr {
             count,
             exact,
             runs,
+            reach,
+        })
+    }
+
+    /// The mapping at `gaze` on `display`, bit for bit what [`Vafr::new`]`(display, gaze,
+    /// params)` builds, from this one's layout where it does not depend on the gaze
+    /// ([`VafrRings::Eq3AnyGaze`], built for the same display, the new gaze needing the same
+    /// `e_max`): only the shaded runs are laid out again (closed-form arcs per column), the
+    /// rows, periods and rings' reach are shared. `None` otherwise (build it anew).
+    pub fn at_gaze(&self, display: &DisplayProfile, gaze: Gaze) -> Option<Self> {
+        let reach = self.reach.as_ref()?;
+        let e_max = any_gaze_e_max(display, &gaze, self.params.max_eccentricity);
+        if self.params.rings != VafrRings::Eq3AnyGaze
+            || e_max.to_bits() != self.e_max.to_bits()
+            || display.c_r().to_bits() != self.c_r.to_bits()
+            || reach.len() != self.rows.len()
+            || display.validate().is_err()
+        {
+            return None;
+        }
+        let runs = near_screen_runs(display, &gaze, reach, &self.rows, &self.periods);
+        let count: u64 = runs.iter().flatten().map(|&(a, b)| (b - a) as u64).sum();
+        if count == 0 {
+            return None;
+        }
+        Some(Self {
+            gaze: gaze.point,
+            count,
+            runs: Some(runs),
+            ..self.clone()
         })
     }
 
@@ -354,15 +393,40 @@ fn any_gaze_e_max(display: &DisplayProfile, gaze: &Gaze, coverage: Coverage) -> 
 /// [`SCREEN_MARGIN_PX`] beyond), may touch the screen widened by that margin. The widened
 /// texel lies within `radial + arc` pixels of the texel's centre (its farthest radius from
 /// the centre's, plus the arc of its angular half-width at its outer radius), so the texel is
-/// kept when its centre lies in the screen widened by `margin + radial + arc`: the closed-form
-/// arcs of that circle in that rectangle (`screen_arcs.rs`), one row more either side.
+/// kept when its centre lies in the screen widened by `margin + radial + arc`
+/// ([`near_screen_reach`], the same at every gaze): the closed-form arcs of that circle in
+/// that rectangle (`screen_arcs.rs`), one row more either side.
 fn near_screen_runs(
     display: &DisplayProfile,
     gaze: &Gaze,
-    acuity: &AcuityModel,
+    reach: &[ColumnReach],
     rows: &[u32],
     periods: &[f64],
 ) -> Vec<Vec<(u32, u32)>> {
+    let (w, h) = (display.width_px as f64, display.height_px as f64);
+    let g = gaze.point;
+    rows.iter()
+        .zip(periods)
+        .zip(reach)
+        .map(|((&n, &period), c)| {
+            if n == 0 || period <= 0.0 {
+                return Vec::new();
+            }
+            let rect = Rect::screen(w, h, c.grow);
+            runs_of_arcs(&arcs_in_rect(g.x_px, g.y_px, c.r_c, &rect), n, period)
+        })
+        .collect()
+}
+
+/// Each column's ring radius at its centre `r_c` and the screen's widening `margin + radial +
+/// arc` of [`near_screen_runs`]: Eq. 3 and Eq. 10 alone, no gaze (columns without rows
+/// carry zeros, unread).
+fn near_screen_reach(
+    display: &DisplayProfile,
+    acuity: &AcuityModel,
+    rows: &[u32],
+    periods: &[f64],
+) -> Vec<ColumnReach> {
     let m = SCREEN_MARGIN_PX;
     let c_r = display.c_r();
     // Eq. 3 inverted at Eq. 10's e(u), the eccentricity kept below 90° (a column past the
@@ -375,14 +439,15 @@ fn near_screen_runs(
             .tan()
             / c_r
     };
-    let (w, h) = (display.width_px as f64, display.height_px as f64);
-    let g = gaze.point;
     rows.iter()
         .zip(periods)
         .enumerate()
         .map(|(i, (&n, &period))| {
             if n == 0 || period <= 0.0 {
-                return Vec::new();
+                return ColumnReach {
+                    r_c: 0.0,
+                    grow: 0.0,
+                };
             }
             let i = i as f64;
             let r_c = r_of_u(i + 0.5);
@@ -391,8 +456,10 @@ fn near_screen_runs(
             let dilate = 1.0 + (m * period / (std::f64::consts::TAU * r_lo.max(1.0))).ceil();
             let arc = std::f64::consts::TAU * r_hi * (0.5 + dilate) / period;
             let radial = (r_hi - r_c).max(r_c - r_lo);
-            let rect = Rect::screen(w, h, m + radial + arc);
-            runs_of_arcs(&arcs_in_rect(g.x_px, g.y_px, r_c, &rect), n, period)
+            ColumnReach {
+                r_c,
+                grow: m + radial + arc,
+            }
         })
         .collect()
 }
@@ -450,6 +517,10 @@ impl FoveationMapping for Vafr {
             ),
         }
         true
+    }
+
+    fn at_gaze(&self, display: &DisplayProfile, gaze: Gaze) -> Option<Box<dyn FoveationMapping>> {
+        Vafr::at_gaze(self, display, gaze).map(|m| Box::new(m) as Box<dyn FoveationMapping>)
     }
 
     fn layout_is_gaze_free(&self) -> bool {
@@ -554,6 +625,55 @@ mod tests {
             assert!(
                 e.contains("`vafr samples` = 0") && e.contains("--vafr-pivots"),
                 "{e}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_mapping_moved_to_a_gaze_is_the_one_built_there() {
+        let any = VafrParams {
+            rings: VafrRings::Eq3AnyGaze,
+            ..VafrParams::default()
+        };
+        for name in ["vive-pro-eye", "8k"] {
+            let d = DisplayProfile::preset(name).unwrap();
+            let (w, h) = (d.width_px as f64, d.height_px as f64);
+            let first = Vafr::new(&d, d.centre_gaze(), any.clone()).unwrap();
+            let mut from = first.clone();
+            // Corners, edges, the centre again, and a walk in between, each moved from the
+            // last one's layout.
+            for (fx, fy) in [
+                (0.0, 0.0),
+                (1.0, 1.0),
+                (0.31, 0.77),
+                (1.0, 0.0),
+                (0.5, 0.5),
+                (0.02, 0.5),
+            ] {
+                let g = d.gaze(fx * w, fy * h).unwrap();
+                let built = Vafr::new(&d, g, any.clone()).unwrap();
+                let moved = from.at_gaze(&d, g).expect("a gaze on the screen");
+                // Debug prints every field, each f64 as the shortest string that reads back
+                // to its bits: equal strings, equal mappings.
+                assert_eq!(
+                    format!("{moved:?}"),
+                    format!("{built:?}"),
+                    "{name} ({fx}, {fy})"
+                );
+                assert_eq!(moved.sample_count(), built.sample_count());
+                from = moved;
+            }
+            // Another display, or the exact rings: built anew.
+            let other =
+                DisplayProfile::preset(if name == "8k" { "vive-pro-eye" } else { "8k" }).unwrap();
+            assert!(
+                first.at_gaze(&other, other.centre_gaze()).is_none(),
+                "{name}"
+            );
+            let exact = Vafr::new(&d, d.centre_gaze(), VafrParams::default()).unwrap();
+            assert!(
+                exact.at_gaze(&d, d.gaze(0.0, 0.0).unwrap()).is_none(),
+                "{name}"
             );
         }
     }

@@ -105,10 +105,26 @@ pub struct BinocularTimes {
     /// Checking, preparing (tables, uniforms) and recording both eyes' every pass, wall ms:
     /// the render thread's work on the frame without the submission.
     pub host_ms: f64,
+    /// The render thread's CPU time over the same span (`host_ms`), ms: what the work costs
+    /// whatever else the machine runs (on a shared machine the wall time also counts the
+    /// time the thread waited for a core); NaN where the thread clock is unavailable.
+    pub host_cpu_ms: f64,
     /// Of that, the sample side's per-column tables, wall ms.
     pub tables_ms: f64,
     /// The `queue.submit` call, wall ms.
     pub submit_ms: f64,
+}
+
+/// The render thread's CPU clock now (`None` where the platform has none).
+pub(crate) fn thread_cpu() -> Option<cpu_time::ThreadTime> {
+    cpu_time::ThreadTime::try_now().ok()
+}
+
+/// Milliseconds of the render thread's CPU since `since` (NaN without a thread clock).
+pub(crate) fn thread_cpu_ms(since: Option<cpu_time::ThreadTime>) -> f64 {
+    since
+        .and_then(|c| c.try_elapsed().ok())
+        .map_or(f64::NAN, |d| d.as_secs_f64() * 1e3)
 }
 
 /// The frame's timers ([`ResidentFrame`]'s `timers`), each read back on its own: 16 bytes a
@@ -428,6 +444,7 @@ impl ResidentFrame {
         cameras: [&EyeCamera; 2],
     ) -> Result<BinocularTimes> {
         let t = Instant::now();
+        let cpu = thread_cpu();
         for e in 0..2 {
             Self::supports(plans[e], cameras[e])?;
             if self.temporal.is_some() && plans[e].buffers.len() != 1 {
@@ -523,6 +540,7 @@ impl ResidentFrame {
         )??;
         let commands = encoder.finish();
         let host_ms = t.elapsed().as_secs_f64() * 1e3;
+        let host_cpu_ms = thread_cpu_ms(cpu);
         let t = Instant::now();
         ctx.scoped("submitting the resident binocular frame", || {
             ctx.submit([commands])
@@ -535,6 +553,7 @@ impl ResidentFrame {
         Ok(BinocularTimes {
             frame,
             host_ms,
+            host_cpu_ms,
             tables_ms,
             submit_ms: t.elapsed().as_secs_f64() * 1e3,
         })

@@ -8,7 +8,10 @@
 //! 1. **eye state and plans** (host): the cyclopean gaze of the frame, both eyes' gazes at the
 //!    point it fixates (`fovea_render::stereo::fixating_eyes`), each eye's state
 //!    (`EyeState::fixating`: the focus where a DOF asks for one) and plan
-//!    (`FramePlan::cached`, a cache per eye and path, as a view renderer keeps one);
+//!    (`FramePlan::cached`, a cache per eye and path, as a view renderer keeps one; its gazes
+//!    forgotten every frame of a moving path (`PlanCache::forget_gazes`), so that every moving
+//!    frame plans afresh — the saccade path's square returns to its corners every fourth
+//!    frame, a tracked gaze never does);
 //! 2. **the frame**: resident — [`ResidentRun::render`] (one encoder, one submission, no wait,
 //!    counted by the device), then a wait for the device outside the counts, to read the wall
 //!    clock; staged — `render_planned` of each eye with the library's per-call GPU executors
@@ -17,7 +20,9 @@
 //!
 //! Per path and frame: wall and process CPU ms (`fovea_render::pipeline::Stopwatch`), the host
 //! time (resident: eye state and plans plus the frame's recording, [`FrameCounts::host_ms`];
-//! without `queue.submit` and device waits), and the device's counters over the frame. The
+//! without `queue.submit` and device waits) in wall ms and in the render thread's CPU ms (its
+//! own clock: on a shared machine the wall time also holds the time the thread waited for a
+//! core), the plans built, and the device's counters over the frame. The
 //! first `warmup` frames (buffers made, pipelines compiled) are rendered and not reported. The
 //! route is decided once, on the first frame's plans ([`Route::decide`]); a refused plan runs
 //! the staged path only, the reason recorded.
@@ -37,7 +42,7 @@ use fovea_render::temporal::{TemporalAccumulator, TemporalSettings};
 use fovea_render::world::World;
 use serde::Serialize;
 
-use super::binocular::ToneSettings;
+use super::binocular::{thread_cpu, thread_cpu_ms, ToneSettings};
 use super::gaze_path::GazePath;
 use super::run::{FrameCounts, Route};
 use crate::device::GpuContext;
@@ -84,9 +89,17 @@ pub struct PathFrame {
     pub cpu_ms: f64,
     /// Eye state and both plans, ms.
     pub plan_ms: f64,
+    /// The render thread's CPU time over the eye state and both plans, ms.
+    pub plan_cpu_ms: f64,
+    /// Plans whose mapping and tables were built this frame (plan-cache misses; 2 a frame
+    /// wherever the gaze moves, since a moving gaze plans afresh: see the module).
+    pub plans_built: u64,
     /// The render thread's host time: eye state and plans plus the frame's checks, tables,
     /// uniforms and recording, without `queue.submit` and device waits, ms (resident only).
     pub host_ms: Option<f64>,
+    /// The render thread's CPU time over the same spans, ms (resident only): the host time
+    /// without the time the thread waited for a core on a shared machine.
+    pub host_cpu_ms: Option<f64>,
     /// The device's counters over the frame (resident: [`ResidentRun::render`]'s; staged:
     /// both eyes' passes and tone maps); `host_ms` there is the recording's share.
     pub counts: FrameCounts,
@@ -118,12 +131,25 @@ pub struct PathSummary {
     pub fps: f64,
     /// Median eye state and plans, ms.
     pub plan_ms: f64,
+    /// Median render-thread CPU over the eye state and plans, ms.
+    pub plan_cpu_ms: f64,
+    /// Plans built over the reported frames (plan-cache misses).
+    pub plans_built: u64,
     /// Median host ms (resident only).
     pub host_ms: Option<f64>,
     /// Largest host ms of a frame (resident only).
     pub host_ms_max: Option<f64>,
+    /// Median render-thread CPU ms over the host spans (resident only).
+    pub host_cpu_ms: Option<f64>,
+    /// Largest render-thread CPU ms of a frame's host spans (resident only).
+    pub host_cpu_ms_max: Option<f64>,
+    /// The render thread's share of the host wall time: median host CPU / median host ms
+    /// (1: it ran the whole span; less: it waited for a core).
+    pub host_cpu_share: Option<f64>,
     /// Median recording ms (resident: checks, tables, uniforms, recording).
     pub record_ms: f64,
+    /// Median render-thread CPU ms of the recording (resident only; NaN staged).
+    pub record_cpu_ms: f64,
     /// The most a frame uploaded, bytes.
     pub bytes_uploaded_max: u64,
     /// The most a frame read back, bytes.
@@ -188,15 +214,25 @@ fn summary(frames: &[PathFrame]) -> Option<PathSummary> {
     let (wall, cpu) = (med(|f| f.wall_ms), med(|f| f.cpu_ms));
     let hosts: Vec<f64> = frames.iter().filter_map(|f| f.host_ms).collect();
     let host_max = hosts.iter().copied().reduce(f64::max);
+    let host_cpus: Vec<f64> = frames.iter().filter_map(|f| f.host_cpu_ms).collect();
+    let host_cpu_max = host_cpus.iter().copied().reduce(f64::max);
+    let host = (!hosts.is_empty()).then(|| median(hosts));
+    let host_cpu = (!host_cpus.is_empty()).then(|| median(host_cpus));
     Some(PathSummary {
         wall_ms: wall,
         cpu_ms: cpu,
         cpu_share: cpu / wall.max(1e-9),
         fps: 1e3 / wall.max(1e-9),
         plan_ms: med(|f| f.plan_ms),
-        host_ms: (!hosts.is_empty()).then(|| median(hosts)),
+        plan_cpu_ms: med(|f| f.plan_cpu_ms),
+        plans_built: frames.iter().map(|f| f.plans_built).sum(),
+        host_ms: host,
         host_ms_max: host_max,
+        host_cpu_ms: host_cpu,
+        host_cpu_ms_max: host_cpu_max,
+        host_cpu_share: host.zip(host_cpu).map(|(w, c)| c / w.max(1e-9)),
         record_ms: med(|f| f.counts.host_ms),
+        record_cpu_ms: med(|f| f.counts.host_cpu_ms),
         bytes_uploaded_max: max(|f| f.counts.bytes_uploaded),
         bytes_read_back_max: max(|f| f.counts.bytes_read_back),
         submissions_max: max(|f| f.counts.submissions),
@@ -205,13 +241,23 @@ fn summary(frames: &[PathFrame]) -> Option<PathSummary> {
     })
 }
 
-/// Both eyes' cameras and plans of frame `f` (caches per eye), and the cyclopean gaze.
+/// Both eyes' cameras and plans of frame `f` (caches per eye), the cyclopean gaze, and how
+/// many of the plans were built (cache misses). A moving gaze plans every frame afresh: its
+/// caches forget their gazes first, since a tracked gaze never returns to a point bit for
+/// bit (the saccade path's square does, every fourth frame).
 fn plans_of(
     p: &CompareParams<'_>,
     f: usize,
     caches: &mut [PlanCache; 2],
-) -> Result<([EyeCamera; 2], [FramePlan; 2], Gaze)> {
+) -> Result<([EyeCamera; 2], [FramePlan; 2], Gaze, u64)> {
     let render = |e: fovea_render::RenderError| GpuError::Input(e.to_string());
+    if p.path != GazePath::Still {
+        for c in caches.iter_mut() {
+            c.forget_gazes();
+        }
+    }
+    let misses = |c: &[PlanCache; 2]| c[0].misses() + c[1].misses();
+    let before = misses(caches);
     let gaze = p.path.gaze(p.display, p.start, f, p.step_deg)?;
     let (_, [(lc, lg), (rc, rg)]) =
         fixating_eyes(p.world, p.rig, p.display, &gaze).map_err(render)?;
@@ -225,7 +271,8 @@ fn plans_of(
         )
     };
     let plans = [plan(0, &lc, lg)?, plan(1, &rc, rg)?];
-    Ok(([lc, rc], plans, gaze))
+    let built = misses(caches) - before;
+    Ok(([lc, rc], plans, gaze, built))
 }
 
 /// Runs the comparison on `ctx` (see the module).
@@ -240,7 +287,7 @@ pub fn compare_binocular(ctx: &GpuContext, p: &CompareParams<'_>) -> Result<Bino
     }
     let world = p.world;
     let mut caches = [PlanCache::new(), PlanCache::new()];
-    let (cams, plans, _) = plans_of(p, 0, &mut caches)?;
+    let (cams, plans, _, _) = plans_of(p, 0, &mut caches)?;
     // Temporal accumulation the resident frame does not run (Weier's, several sample layers') stages the frames.
     let temporal_refusal = p.temporal.and_then(|_| {
         plans
@@ -294,8 +341,10 @@ pub fn compare_binocular(ctx: &GpuContext, p: &CompareParams<'_>) -> Result<Bino
         };
         if let Route::Resident(run) = &mut route {
             let sw = Stopwatch::start();
-            let (cams, plans, gaze) = plans_of(p, f, &mut caches)?;
+            let cpu = thread_cpu();
+            let (cams, plans, gaze, plans_built) = plans_of(p, f, &mut caches)?;
             let plan_ms = sw.elapsed_ms().0;
+            let plan_cpu_ms = thread_cpu_ms(cpu);
             row.gaze_px = [gaze.point.x_px, gaze.point.y_px];
             let counts = run.render(world, [&plans[0], &plans[1]], [&cams[0], &cams[1]])?;
             run.finish()?;
@@ -304,7 +353,10 @@ pub fn compare_binocular(ctx: &GpuContext, p: &CompareParams<'_>) -> Result<Bino
                 wall_ms,
                 cpu_ms,
                 plan_ms,
+                plan_cpu_ms,
+                plans_built,
                 host_ms: Some(plan_ms + counts.host_ms),
+                host_cpu_ms: Some(plan_cpu_ms + counts.host_cpu_ms),
                 counts,
             });
             for g in run.gpu_times()? {
@@ -321,8 +373,10 @@ pub fn compare_binocular(ctx: &GpuContext, p: &CompareParams<'_>) -> Result<Bino
         if let Some((fc, tone, caches, accumulators)) = &mut staged {
             let before = ctx.traffic();
             let sw = Stopwatch::start();
-            let (cams, plans, gaze) = plans_of(p, f, caches)?;
+            let cpu = thread_cpu();
+            let (cams, plans, gaze, plans_built) = plans_of(p, f, caches)?;
             let plan_ms = sw.elapsed_ms().0;
+            let plan_cpu_ms = thread_cpu_ms(cpu);
             row.gaze_px = [gaze.point.x_px, gaze.point.y_px];
             for e in 0..2 {
                 let frame = render_planned(
@@ -347,8 +401,17 @@ pub fn compare_binocular(ctx: &GpuContext, p: &CompareParams<'_>) -> Result<Bino
                 wall_ms,
                 cpu_ms,
                 plan_ms,
+                plan_cpu_ms,
+                plans_built,
                 host_ms: None,
-                counts: FrameCounts::of(&moved, &Default::default()),
+                host_cpu_ms: None,
+                counts: FrameCounts::of(
+                    &moved,
+                    &super::binocular::BinocularTimes {
+                        host_cpu_ms: f64::NAN,
+                        ..Default::default()
+                    },
+                ),
             });
         }
         if f >= p.warmup {

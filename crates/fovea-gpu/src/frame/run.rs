@@ -47,6 +47,8 @@ pub struct FrameCounts {
     /// The render thread's time on the frame without the submission (checks, tables,
     /// uniforms, recording), ms.
     pub host_ms: f64,
+    /// The render thread's CPU time over the same span, ms (NaN without a thread clock).
+    pub host_cpu_ms: f64,
     /// Of that, the sample side's per-column tables, ms.
     pub tables_ms: f64,
     /// The `queue.submit` call, ms.
@@ -64,6 +66,7 @@ impl FrameCounts {
             buffers_created: moved.buffers_created,
             bind_groups_created: moved.bind_groups_created,
             host_ms: times.host_ms,
+            host_cpu_ms: times.host_cpu_ms,
             tables_ms: times.tables_ms,
             submit_ms: times.submit_ms,
         }
