@@ -209,6 +209,7 @@ fn sum(a: &FrameCounts, b: &FrameCounts) -> FrameCounts {
         buffers_created: a.buffers_created + b.buffers_created,
         bind_groups_created: a.bind_groups_created + b.bind_groups_created,
         host_ms: a.host_ms + b.host_ms,
+        host_cpu_ms: a.host_cpu_ms + b.host_cpu_ms,
         tables_ms: a.tables_ms + b.tables_ms,
         submit_ms: a.submit_ms + b.submit_ms,
     }
@@ -224,6 +225,7 @@ fn most(a: &FrameCounts, b: &FrameCounts) -> FrameCounts {
         buffers_created: a.buffers_created.max(b.buffers_created),
         bind_groups_created: a.bind_groups_created.max(b.bind_groups_created),
         host_ms: a.host_ms.max(b.host_ms),
+        host_cpu_ms: a.host_cpu_ms.max(b.host_cpu_ms),
         tables_ms: a.tables_ms.max(b.tables_ms),
         submit_ms: a.submit_ms.max(b.submit_ms),
     }
