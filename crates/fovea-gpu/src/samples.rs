@@ -19,7 +19,7 @@ use fovea_post::inverse_map::SampleBuffers;
 
 use crate::device::GpuContext;
 use crate::error::{GpuError, Result};
-use crate::transfer::read_buffers;
+use crate::transfer::read_back;
 
 /// Bytes of one texel: `vec4<f32>`.
 pub const TEXEL_BYTES: u64 = 16;
@@ -226,26 +226,15 @@ impl DeviceSamples {
     /// on the frame path.
     pub fn read(&self, ctx: &GpuContext) -> Result<SampleBuffers> {
         let bytes = self.texels.max(1) * TEXEL_BYTES;
-        let staging = ctx.scoped("reading back the frame's sample buffers", || {
-            let staging = ctx.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("sample buffers readback"),
-                size: bytes,
-                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-                mapped_at_creation: false,
-            });
-            let mut encoder =
-                ctx.device()
-                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                        label: Some("sample buffers readback"),
-                    });
-            encoder.copy_buffer_to_buffer(&self.buffer, 0, &staging, 0, bytes);
-            ctx.submit([encoder.finish()]);
-            staging
-        })?;
         let mut texels: Vec<[f32; 4]> = Vec::new();
-        read_buffers(ctx, &[&staging], "the frame's sample buffers", |_, b| {
-            texels = bytemuck::pod_collect_to_vec::<u8, [f32; 4]>(b);
-        })?;
+        read_back(
+            ctx,
+            &[(&self.buffer, bytes)],
+            "the frame's sample buffers",
+            |_, b| {
+                texels = bytemuck::pod_collect_to_vec::<u8, [f32; 4]>(b);
+            },
+        )?;
         let image_err = |e: fovea_core::FoveaError| GpuError::Input(e.to_string());
         let (mut color, mut depth) = (Vec::new(), Vec::new());
         for l in &self.layers {

@@ -62,6 +62,41 @@ pub(crate) fn bind_group(
     })
 }
 
+/// Copies `bytes` from the start of each of `sources` into a fresh MAP_READ staging buffer
+/// (one submission, inside an error scope named `what`) and reads them back as
+/// [`read_buffers`] does: `read(index, bytes)` in the order given. Blocking and counted: for
+/// tests and for an image asked for, never on the frame path.
+pub(crate) fn read_back(
+    ctx: &GpuContext,
+    sources: &[(&wgpu::Buffer, u64)],
+    what: &str,
+    read: impl FnMut(usize, &[u8]),
+) -> Result<()> {
+    let staging = ctx.scoped(what, || {
+        let staging: Vec<wgpu::Buffer> = sources
+            .iter()
+            .map(|&(_, bytes)| {
+                ctx.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(what),
+                    size: bytes,
+                    usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                    mapped_at_creation: false,
+                })
+            })
+            .collect();
+        let mut encoder = ctx
+            .device()
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(what) });
+        for (&(source, bytes), to) in sources.iter().zip(&staging) {
+            encoder.copy_buffer_to_buffer(source, 0, to, 0, bytes);
+        }
+        ctx.submit([encoder.finish()]);
+        staging
+    })?;
+    let refs: Vec<&wgpu::Buffer> = staging.iter().collect();
+    read_buffers(ctx, &refs, what, read)
+}
+
 /// Maps every buffer of `buffers` (MAP_READ), waits for the queue once, and hands each
 /// buffer's bytes to `read(index, bytes)` in order, unmapping it after.
 pub(crate) fn read_buffers(

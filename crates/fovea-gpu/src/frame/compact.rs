@@ -149,28 +149,9 @@ impl EyeList {
     /// read back (blocking, counted): for tests, never on the frame path.
     pub fn read(&self, ctx: &GpuContext) -> Result<Vec<u32>> {
         let what = "the frame's list of shaded texels";
-        let size = self.list.size();
-        let staging = ctx.scoped(what, || {
-            let [count, list] = [COUNT_BYTES, size].map(|bytes| {
-                ctx.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("frame shaded texels readback"),
-                    size: bytes,
-                    usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-                    mapped_at_creation: false,
-                })
-            });
-            let mut encoder =
-                ctx.device()
-                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                        label: Some("frame shaded texels readback"),
-                    });
-            encoder.copy_buffer_to_buffer(&self.count, 0, &count, 0, COUNT_BYTES);
-            encoder.copy_buffer_to_buffer(&self.list, 0, &list, 0, size);
-            ctx.submit([encoder.finish()]);
-            [count, list]
-        })?;
         let (mut count, mut list) = (0usize, Vec::new());
-        crate::transfer::read_buffers(ctx, &[&staging[0], &staging[1]], what, |k, bytes| {
+        let sources = [(&self.count, COUNT_BYTES), (&self.list, self.list.size())];
+        crate::transfer::read_back(ctx, &sources, what, |k, bytes| {
             let words: Vec<u32> = bytemuck::pod_collect_to_vec(bytes);
             match k {
                 0 => count = words.first().copied().unwrap_or(0) as usize,

@@ -71,6 +71,28 @@ impl FrameCounts {
             submit_ms: times.submit_ms,
         }
     }
+
+    /// Each field of `self` and `other` combined: the counts by `count`, the times by `ms`
+    /// (e.g. `+` for a sum of frames, `max` for the most of any).
+    pub fn zip_with(
+        &self,
+        other: &Self,
+        count: fn(u64, u64) -> u64,
+        ms: fn(f64, f64) -> f64,
+    ) -> Self {
+        Self {
+            bytes_uploaded: count(self.bytes_uploaded, other.bytes_uploaded),
+            bytes_read_back: count(self.bytes_read_back, other.bytes_read_back),
+            submissions: count(self.submissions, other.submissions),
+            blocking_waits: count(self.blocking_waits, other.blocking_waits),
+            buffers_created: count(self.buffers_created, other.buffers_created),
+            bind_groups_created: count(self.bind_groups_created, other.bind_groups_created),
+            host_ms: ms(self.host_ms, other.host_ms),
+            host_cpu_ms: ms(self.host_cpu_ms, other.host_cpu_ms),
+            tables_ms: ms(self.tables_ms, other.tables_ms),
+            submit_ms: ms(self.submit_ms, other.submit_ms),
+        }
+    }
 }
 
 /// Where a run's frames go, decided before the first pass (see the module).

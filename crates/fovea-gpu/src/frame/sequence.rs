@@ -201,34 +201,12 @@ impl ResidentSequence {
 
 /// Two frames' counts added (the host times too).
 fn sum(a: &FrameCounts, b: &FrameCounts) -> FrameCounts {
-    FrameCounts {
-        bytes_uploaded: a.bytes_uploaded + b.bytes_uploaded,
-        bytes_read_back: a.bytes_read_back + b.bytes_read_back,
-        submissions: a.submissions + b.submissions,
-        blocking_waits: a.blocking_waits + b.blocking_waits,
-        buffers_created: a.buffers_created + b.buffers_created,
-        bind_groups_created: a.bind_groups_created + b.bind_groups_created,
-        host_ms: a.host_ms + b.host_ms,
-        host_cpu_ms: a.host_cpu_ms + b.host_cpu_ms,
-        tables_ms: a.tables_ms + b.tables_ms,
-        submit_ms: a.submit_ms + b.submit_ms,
-    }
+    a.zip_with(b, |x, y| x + y, |x, y| x + y)
 }
 
 /// Each field's largest value of the two.
 fn most(a: &FrameCounts, b: &FrameCounts) -> FrameCounts {
-    FrameCounts {
-        bytes_uploaded: a.bytes_uploaded.max(b.bytes_uploaded),
-        bytes_read_back: a.bytes_read_back.max(b.bytes_read_back),
-        submissions: a.submissions.max(b.submissions),
-        blocking_waits: a.blocking_waits.max(b.blocking_waits),
-        buffers_created: a.buffers_created.max(b.buffers_created),
-        bind_groups_created: a.bind_groups_created.max(b.bind_groups_created),
-        host_ms: a.host_ms.max(b.host_ms),
-        host_cpu_ms: a.host_cpu_ms.max(b.host_cpu_ms),
-        tables_ms: a.tables_ms.max(b.tables_ms),
-        submit_ms: a.submit_ms.max(b.submit_ms),
-    }
+    a.zip_with(b, u64::max, f64::max)
 }
 
 /// A written frame's image, for the caller to write.
