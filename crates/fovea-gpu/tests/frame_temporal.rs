@@ -13,11 +13,12 @@
 //! * VaFR with the accumulator's sub-texel jitter (`TemporalSettings::jitter`), four frames
 //!   of the same sequence: the same bar;
 //! * VaFR with the sample-space denoiser after the accumulation (the pass rewrites the
-//!   accumulated colour's Monte Carlo part for it, as the CPU's `complement_part` does), six
-//!   frames of the same sequence: the same bar. Measured: 63–67 dB while no history is 4
-//!   frames old, then 52 → 46 dB (frames 3–5) where the CPU's denoiser switches to the
-//!   temporal moments' variance and the device's keeps its spatial estimate; with
-//!   `TemporalSettings::variance` off on both sides, 64–66 dB throughout;
+//!   accumulated colour's Monte Carlo part for it, as the CPU's `complement_part` does, and
+//!   keeps SVGF's temporal moments of it, whose variance both denoisers read where a texel's
+//!   history is 4 frames old), six frames of the same sequence: luma PSNR ≥ 58 dB
+//!   ([`DENOISED_PSNR_MIN_DB`]). Measured on lavapipe: 63.3–67.1 dB over all six frames
+//!   (without the device's moments it was 52 → 46 dB in frames 3–5, where the CPU's
+//!   denoiser switches to the moments' variance);
 //! * a still view with one environment ray per sample: each frame's image against a
 //!   many-ray reference (the CPU's frame with 32 rays per sample): the mean squared error
 //!   falls as frames accumulate (the last frame's below 60 % of the first's; the figures
@@ -50,6 +51,11 @@ use fovea_render::world::World;
 use resident::{luma_mse, luma_psnr, plan, setup};
 
 const PSNR_MIN_DB: f64 = 40.0;
+/// The bar of the denoised sequence: its lowest frame on lavapipe (63.3 dB, both eyes, all
+/// six frames) less 5 dB for another device's rounding. Without the temporal moments on the
+/// device (the denoiser's spatial estimate where the CPU's reads the moments' variance) the
+/// frames from the fourth on fall to 46–52 dB, below it.
+const DENOISED_PSNR_MIN_DB: f64 = 58.0;
 const STEADY_UPLOAD_MAX: u64 = 256 * 1024;
 const TONE: ToneSettings = ToneSettings {
     exposure_stops: 0.0,
@@ -123,10 +129,20 @@ fn cpu_image(
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Denoise {
     Off,
-    /// The sample-space denoiser with the default `TemporalSettings` (`variance` on: the CPU
-    /// uses the temporal moments' variance where a texel's history is 4 frames old, the
-    /// device its spatial estimate throughout).
+    /// The sample-space denoiser with the default `TemporalSettings` (`variance` on: both
+    /// sides keep the temporal moments and their denoisers read the moments' variance where
+    /// a texel's history is 4 frames old).
     Temporal,
+}
+
+impl Denoise {
+    /// The luma PSNR each frame must reach against the CPU's.
+    fn psnr_min_db(self) -> f64 {
+        match self {
+            Denoise::Off => PSNR_MIN_DB,
+            Denoise::Temporal => DENOISED_PSNR_MIN_DB,
+        }
+    }
 }
 
 fn accumulated_frames_are_the_cpus(
@@ -195,8 +211,9 @@ fn accumulated_frames_are_the_cpus(
                 stats.reused, stats.fresh
             ));
             assert!(
-                psnr >= PSNR_MIN_DB,
-                "{method} frame {f} eye {e}: {psnr:.2} dB"
+                psnr >= denoise.psnr_min_db(),
+                "{method} frame {f} eye {e}: {psnr:.2} dB (bar {} dB)",
+                denoise.psnr_min_db()
             );
             if f > 0 && f != 4 {
                 assert!(stats.reused > stats.fresh, "the history is used: {stats:?}");
