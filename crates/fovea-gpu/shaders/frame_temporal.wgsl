@@ -29,6 +29,17 @@
 //
 // The result goes into the next history (colour + depth, and the age: 0 where the mapping
 // does not shade); the Rust side copies its colour over the frame's samples after the pass.
+//
+// With `tp.moments` (the plan denoises and `TemporalSettings::variance` is on) the history also
+// keeps the temporal moments [m₁, m₂, s] of the Monte Carlo part's demodulated luminance (SVGF,
+// Schied et al. 2017, Sec. 4.2; `temporal::fold_moments`): the fresh y (the part — the colour
+// less its exact part, or the whole colour where the part is unknown — over
+// max(albedo, floor), its luma) gives [y, y², 1] where nothing is blended (or y is not finite:
+// [0, 0, 1]); a blended texel folds y into the bilinear moments of the same taps as the colour
+// (`SampleHistory::fetch`: no Catmull-Rom, no clamp) with the colour's weight α. Where the new
+// age reaches VARIANCE_MIN_AGE the part's w lane gets `(m₂ − m₁²)·s/(1 − s)`
+// (`moments_variance`), which the denoiser takes as its variance; elsewhere it keeps the
+// sample side's −1 (the spatial estimate), as the CPU's NaN (`sample_space::variance_of`).
 
 struct TemporalCamera {
     origin: vec3<f32>,
@@ -76,14 +87,19 @@ struct TemporalParams {
     // 1 where `temporal_noisy` holds the denoiser's guides (the plan denoises), 0 for a
     // stand-in.
     guides: u32,
-    _pad2: u32,
-    _pad3: u32,
+    // 1 where the moments are kept (`temporal_*_moments` and `temporal_albedo` are the real
+    // buffers), 0 for stand-ins.
+    moments: u32,
+    // `fovea_post::denoise::ALBEDO_FLOOR`.
+    albedo_floor: f32,
 }
 
 const TEMPORAL_POLAR: u32 = 0u;
 const TEMPORAL_SCREEN: u32 = 1u;
 // `SKY_DEPTH_M`: a stored depth at or beyond half of it is the sky.
 const SKY_DEPTH_M: f32 = 1.0e9;
+// `temporal::VARIANCE_MIN_AGE`: the age from which the moments' variance is given.
+const VARIANCE_MIN_AGE: f32 = 4.0;
 
 @group(0) @binding(0) var<uniform> tp: TemporalParams;
 // This frame's shaded samples (rgb, depth), as the sample side wrote them.
@@ -108,6 +124,12 @@ const SKY_DEPTH_M: f32 = 1.0e9;
 // fresh frame's exact part `colour − part` is kept, and the accumulated colour less it is the
 // part the denoiser filters. A 16-byte stand-in when `tp.guides` is 0.
 @group(0) @binding(9) var<storage, read_write> temporal_noisy: array<vec4<f32>>;
+// The previous frame's and this frame's temporal moments (m₁, m₂, s, 0) of the Monte Carlo
+// part's demodulated luminance, and the denoiser's albedo guide (`DeviceGuides::albedo`):
+// 16-byte stand-ins when `tp.moments` is 0.
+@group(0) @binding(10) var<storage, read> temporal_prev_moments: array<vec4<f32>>;
+@group(0) @binding(11) var<storage, read_write> temporal_next_moments: array<vec4<f32>>;
+@group(0) @binding(12) var<storage, read> temporal_albedo: array<vec4<f32>>;
 
 fn temporal_is_inf(x: f32) -> bool {
     return (bitcast<u32>(x) & 0x7f800000u) == 0x7f800000u;
@@ -115,6 +137,43 @@ fn temporal_is_inf(x: f32) -> bool {
 
 fn temporal_is_sky(depth: f32) -> bool {
     return temporal_is_inf(depth) || depth >= SKY_DEPTH_M * 0.5;
+}
+
+fn temporal_finite3(v: vec3<f32>) -> bool {
+    return !(temporal_is_inf(v.x) || temporal_is_inf(v.y) || temporal_is_inf(v.z));
+}
+
+// `sample_space::monte_carlo_luma` of texel `t` with colour `c` and Monte Carlo part `part`
+// (NaN: unknown): the luma of the part (`c − e` where the exact part `e = c − part` is
+// finite, else `c`) over max(albedo, floor) per channel (`demodulate`; a NaN albedo gives
+// the floor, as Rust's `f32::max`).
+fn temporal_mc_luma(t: u32, c: vec3<f32>, part: vec3<f32>) -> f32 {
+    let e = c - part;
+    var mc = c;
+    if temporal_finite3(e) {
+        mc = c - e;
+    }
+    let a = temporal_albedo[t].xyz;
+    let f = vec3<f32>(tp.albedo_floor);
+    let l = mc / select(f, a, a > f);
+    return 0.299 * l.x + 0.587 * l.y + 0.114 * l.z;
+}
+
+// `sample_space::single`: the moments of one frame of luminance `y`.
+fn temporal_single(y: f32) -> vec4<f32> {
+    if temporal_is_inf(y) {
+        return vec4<f32>(0.0, 0.0, 1.0, 0.0);
+    }
+    return vec4<f32>(y, y * y, 1.0, 0.0);
+}
+
+// `temporal::moments_variance`: NaN for a single frame (s = 1).
+fn temporal_moments_variance(m: vec4<f32>) -> f32 {
+    let rest = 1.0 - m.z;
+    if rest <= 1e-6 {
+        return bitcast<f32>(0x7fc00000u);
+    }
+    return max(m.y - m.x * m.x, 0.0) * m.z / rest;
 }
 
 // Column `i` of `view`: (radius, ring period, rows, layout period).
@@ -231,13 +290,16 @@ struct Tap {
     color: vec3<f32>,
     dw: f32,
     age: f32,
+    // The history's moments there where `with_moments` (else zero).
+    moments: vec3<f32>,
 }
 
-fn temporal_tap(i: i32, j0: i32, expected: f32, expected_sky: bool) -> Tap {
+fn temporal_tap(i: i32, j0: i32, expected: f32, expected_sky: bool, with_moments: bool) -> Tap {
     var out: Tap;
     out.age = 0.0;
     out.dw = 0.0;
     out.color = vec3<f32>(0.0);
+    out.moments = vec3<f32>(0.0);
     let w = i32(tp.prev.width);
     let h = i32(tp.prev.height);
     if i < 0 || i >= w {
@@ -263,6 +325,9 @@ fn temporal_tap(i: i32, j0: i32, expected: f32, expected_sky: bool) -> Tap {
     out.color = s.xyz;
     out.age = age;
     out.dw = temporal_depth_weight(s.w, expected, expected_sky);
+    if with_moments {
+        out.moments = temporal_prev_moments[t].xyz;
+    }
     return out;
 }
 
@@ -277,11 +342,13 @@ fn temporal_catmull_rom(t: f32) -> vec4<f32> {
     );
 }
 
-// `SampleHistory::fetch` at (u, v) of the previous layer: (colour, weight) and the age.
+// `SampleHistory::fetch` at (u, v) of the previous layer: (colour, weight), the age and,
+// with `tp.moments`, the bilinear moments of the same taps.
 struct Fetched {
     color: vec3<f32>,
     valid: f32,
     age: f32,
+    moments: vec3<f32>,
 }
 
 fn temporal_fetch(u: f32, v: f32, expected: f32, expected_sky: bool) -> Fetched {
@@ -289,6 +356,8 @@ fn temporal_fetch(u: f32, v: f32, expected: f32, expected_sky: bool) -> Fetched 
     out.color = vec3<f32>(0.0);
     out.valid = 0.0;
     out.age = 0.0;
+    out.moments = vec3<f32>(0.0);
+    let with_moments = tp.moments != 0u;
     let uu = u - 0.5;
     let vv = v - 0.5;
     let fi = floor(uu);
@@ -298,6 +367,7 @@ fn temporal_fetch(u: f32, v: f32, expected: f32, expected_sky: bool) -> Fetched 
     let fu = uu - fi;
     let fv = vv - fj;
     var acc = vec3<f32>(0.0);
+    var macc = vec3<f32>(0.0);
     var valid = 0.0;
     var n = 0.0;
     var bw = array<f32, 4>((1.0 - fu) * (1.0 - fv), fu * (1.0 - fv), (1.0 - fu) * fv, fu * fv);
@@ -305,12 +375,19 @@ fn temporal_fetch(u: f32, v: f32, expected: f32, expected_sky: bool) -> Fetched 
         if bw[k] <= 0.0 {
             continue;
         }
-        let tap = temporal_tap(i0 + (k & 1), j0 + (k >> 1u), expected, expected_sky);
+        let tap = temporal_tap(
+            i0 + (k & 1),
+            j0 + (k >> 1u),
+            expected,
+            expected_sky,
+            with_moments
+        );
         if tap.age < 1.0 || tap.dw <= 0.0 {
             continue;
         }
         let q = bw[k] * tap.dw;
         acc = acc + q * tap.color;
+        macc = macc + q * tap.moments;
         valid = valid + q;
         n = max(n, tap.age);
     }
@@ -320,13 +397,14 @@ fn temporal_fetch(u: f32, v: f32, expected: f32, expected_sky: bool) -> Fetched 
     out.valid = valid;
     out.age = n;
     out.color = acc / valid;
+    out.moments = macc / valid;
     // Where all 16 taps around agree in depth, Catmull-Rom instead of the bilinear blur.
     let wx = temporal_catmull_rom(fu);
     let wy = temporal_catmull_rom(fv);
     var cr = vec3<f32>(0.0);
     for (var dj = 0; dj < 4; dj = dj + 1) {
         for (var di = 0; di < 4; di = di + 1) {
-            let tap = temporal_tap(i0 + di - 1, j0 + dj - 1, expected, expected_sky);
+            let tap = temporal_tap(i0 + di - 1, j0 + dj - 1, expected, expected_sky, false);
             if tap.age < 1.0 || !(tap.dw >= 1.0) {
                 return out;
             }
@@ -379,14 +457,24 @@ fn temporal_blend(@builtin(global_invocation_id) id: vec3<u32>) {
     let s = temporal_samples[t];
     let c = s.xyz;
     let z = s.w;
+    let moments = tp.moments != 0u;
     if !temporal_shaded(i, j) {
         temporal_next_color[t] = s;
         temporal_next_age[t] = 0.0;
+        if moments {
+            temporal_next_moments[t] = vec4<f32>(0.0, 0.0, 1.0, 0.0);
+        }
         return;
     }
     // Fresh unless a history passes every test below.
     temporal_next_color[t] = s;
     temporal_next_age[t] = 1.0;
+    // The fresh Monte Carlo luminance (before the part is rewritten below).
+    var y = 0.0;
+    if moments {
+        y = temporal_mc_luma(t, c, temporal_noisy[t].xyz);
+        temporal_next_moments[t] = temporal_single(y);
+    }
     if tp.history == 0u {
         return;
     }
@@ -508,8 +596,29 @@ fn temporal_blend(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     temporal_next_color[t] = vec4<f32>(out, z);
     temporal_next_age[t] = next_age;
+    var variance = -1.0;
+    if moments {
+        // The moments with the colour's weight; a history without finite moments (or a
+        // texel without a finite luminance) starts over.
+        var m = temporal_single(y);
+        if !temporal_is_inf(y) && temporal_finite3(h.moments) {
+            m = vec4<f32>(
+                a * y + (1.0 - a) * h.moments.x,
+                a * y * y + (1.0 - a) * h.moments.y,
+                a * a + (1.0 - a) * (1.0 - a) * h.moments.z,
+                0.0
+            );
+        }
+        temporal_next_moments[t] = m;
+        if next_age >= VARIANCE_MIN_AGE {
+            variance = temporal_moments_variance(m);
+        }
+    }
     if tp.guides != 0u {
         let part = temporal_noisy[t];
-        temporal_noisy[t] = vec4<f32>(out - (c - part.xyz), part.w);
+        if !moments {
+            variance = part.w;
+        }
+        temporal_noisy[t] = vec4<f32>(out - (c - part.xyz), variance);
     }
 }

@@ -140,11 +140,14 @@ impl DeviceGuides {
             DeviceSamples::sized(sizes, capacity_texels, "denoiser guides")?;
         ctx.check_storage_binding("the denoiser's guides (each of three)", bytes)?;
         let (albedo, normal, noisy) = ctx.scoped("allocating the denoiser's guides", || {
+            // COPY_SRC: a test reads the temporal variance back from the part's w lane.
             let make = |label| {
                 ctx.create_buffer(&wgpu::BufferDescriptor {
                     label: Some(label),
                     size: bytes,
-                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                    usage: wgpu::BufferUsages::STORAGE
+                        | wgpu::BufferUsages::COPY_DST
+                        | wgpu::BufferUsages::COPY_SRC,
                     mapped_at_creation: false,
                 })
             };

@@ -233,7 +233,7 @@ fn records() -> Vec<Record> {
         record!(frame::temporal::TemporalUniform => "TemporalParams"
             in [frame::temporal::SHADER] {
             cur, prev, screen, alpha_min, tau, c_r, clamp, history, row_invocations, inf_bits,
-            guides,
+            guides, moments, albedo_floor,
         }),
         record!(dn::DenoiseUniform => "DenoiseParams" in [dn::SHADER] {
             texels, layer_count, atrous_step, taps, sigma_l, sigma_z, sigma_n, firefly_k,

@@ -9,8 +9,10 @@
 //! fresh 3×3 neighbourhood and folds it in with the weight
 //! `α = 1 − (1 − max(α_min, 1/(n + 1)))·v` (`shaders/frame_temporal.wgsl` has the steps).
 //!
-//! **What stays on the device.** Per eye two histories (colour + depth, 16 B a texel, and the
-//! age, 4 B a texel), ping-ponged: this frame reads one and writes the other, which the next
+//! **What stays on the device.** Per eye two histories (colour + depth, 16 B a texel, the
+//! age, 4 B a texel, and — where the plan denoises with `TemporalSettings::variance` on — the
+//! temporal moments, [`MOMENT_BYTES`] = 16 B a texel; 20 or 36 B a texel each, 40 or 72 B a
+//! texel for the pair), ping-ponged: this frame reads one and writes the other, which the next
 //! frame reads. They are sized from the eye's sample buffers (which the sample side sizes for
 //! the largest gaze), made with the eye's first accumulated frame and again only when the
 //! sample side's buffers are replaced (which resets the history). The pass is one compute
@@ -35,9 +37,17 @@
 //! (`pipeline::sample_post::complement_part` before and after its blend): the fresh frame's
 //! exact part `colour − part` is set aside and the accumulated colour less it is what is
 //! filtered. The pass does the same in place on the guides' part (binding 9) wherever it blends
-//! a history. The temporal moments of that part (`TemporalSettings::variance`, the variance the
-//! CPU's denoiser uses where a texel's history is 4 frames old) are not kept here: the device's
-//! denoiser uses its spatial estimate throughout (docs/denoise.md, "The GPU twin").
+//! a history. With `TemporalSettings::variance` it also keeps SVGF's temporal moments of that
+//! part's demodulated luminance (Schied et al. 2017, Sec. 4.2; the CPU's
+//! `temporal::fold_moments` with `[m₁, m₂, Σw²]`) beside the age: the fresh luminance is the
+//! part over the guides' albedo (binding 12, floored as `fovea_post::denoise::demodulate`),
+//! the history's moments are the bilinear ones of the colour's taps, folded with the colour's
+//! weight; a rejected history or a non-finite luminance starts over (`[y, y², 1]`). Where the
+//! new age reaches `VARIANCE_MIN_AGE` (4) the pass writes `moments_variance` into the part's w
+//! lane, which the device's denoiser reads as `denoise_with_variance` reads the CPU's
+//! variance; elsewhere the lane keeps the sample side's −1 (the spatial estimate). With
+//! `variance` off no moments are kept (16-byte stand-ins at bindings 10–12) and the w lane is
+//! left as the sample side wrote it.
 
 use bytemuck::{Pod, Zeroable};
 use fovea_core::mapping::Method;
@@ -72,6 +82,8 @@ const SPACING_STEP_DEG: f64 = 0.1;
 const SPACING_CAPACITY: usize = 912;
 /// The most workgroups a dispatch takes along one dimension.
 const MAX_GROUPS: u32 = 65_535;
+/// Bytes per texel of one moments history: `[m₁, m₂, s]` and a spare lane, `vec4<f32>`.
+pub const MOMENT_BYTES: u64 = 16;
 
 /// A camera as the pass reads it (`TemporalCamera`).
 #[repr(C)]
@@ -170,10 +182,11 @@ pub struct TemporalUniform {
     /// 1 where binding 9 holds the denoiser's guides (the accumulated colour's Monte Carlo
     /// part is rewritten there), 0 for its stand-in.
     pub guides: u32,
-    /// Padding.
-    pub _pad2: u32,
-    /// Padding.
-    pub _pad3: u32,
+    /// 1 where the temporal moments are kept (bindings 10–12 are the moment histories and the
+    /// guides' albedo) and their variance written into binding 9's w lane, 0 for stand-ins.
+    pub moments: u32,
+    /// `fovea_post::denoise::ALBEDO_FLOOR` (the demodulation's floor).
+    pub albedo_floor: f32,
 }
 
 /// Checks `settings` for the resident frame: the CPU's ranges (`TemporalSettings::validate`).
@@ -196,8 +209,12 @@ struct Previous {
 /// One eye's histories, tables, uniform and bind groups.
 struct EyeTemporal {
     color: [wgpu::Buffer; 2],
-    /// The ages (bound in the bind groups only).
+    /// The ages and the moments (16-byte stand-ins where not kept), bound in the bind groups
+    /// only.
     _ages: [wgpu::Buffer; 2],
+    _moments: [wgpu::Buffer; 2],
+    /// Whether the moments are kept (the guides are bound and `TemporalSettings::variance`).
+    moments: bool,
     /// Two halves of `half` floats each: this frame's columns and spacing, the previous's.
     tables: wgpu::Buffer,
     half: usize,
@@ -206,8 +223,9 @@ struct EyeTemporal {
     /// Index = the history written (the other is read).
     bind_groups: [wgpu::BindGroup; 2],
     /// The sample side's buffers the bind groups name: samples, columns, runs, and the
-    /// guides' Monte Carlo part (or a 16-byte stand-in when the plan does not denoise).
-    bound: [wgpu::Buffer; 4],
+    /// guides' Monte Carlo part and albedo (or 16-byte stand-ins when the plan does not
+    /// denoise).
+    bound: [wgpu::Buffer; 5],
     texel_capacity: u64,
     /// The history this frame writes.
     next: usize,
@@ -273,13 +291,21 @@ impl EyeTemporal {
         pipeline: &wgpu::ComputePipeline,
         shade: &EyeShade,
         columns_capacity: usize,
+        variance: bool,
     ) -> Result<Self> {
         let samples = shade.samples().buffer();
         let (shade_columns, shade_runs) = shade.tables();
         let texel_capacity = (samples.size() / TEXEL_BYTES).max(1);
         let color_bytes = texel_capacity * TEXEL_BYTES;
         let age_bytes = texel_capacity * 4;
+        let moments = variance && shade.guides().is_some();
+        let moment_bytes = if moments {
+            texel_capacity * MOMENT_BYTES
+        } else {
+            16
+        };
         ctx.check_storage_binding("the temporal history (colour)", color_bytes)?;
+        ctx.check_storage_binding("the temporal history (moments)", moment_bytes)?;
         let half = 4 * columns_capacity + SPACING_CAPACITY;
         let table_bytes = (2 * half * 4) as u64;
         ctx.check_storage_binding("the temporal tables", table_bytes)?;
@@ -297,9 +323,14 @@ impl EyeTemporal {
                 .map(|l| buffer(l, color_bytes, storage | wgpu::BufferUsages::COPY_SRC));
             let age = ["temporal ages A", "temporal ages B"].map(|l| buffer(l, age_bytes, storage));
             let tables = buffer("temporal tables", table_bytes, storage);
-            let noisy = match shade.guides() {
-                Some(g) => g.noisy().clone(),
-                None => buffer("temporal no noisy part", 16, storage),
+            let moment = ["temporal moments A", "temporal moments B"]
+                .map(|l| buffer(l, moment_bytes, storage));
+            let (noisy, albedo) = match shade.guides() {
+                Some(g) => (g.noisy().clone(), g.albedo().clone()),
+                None => (
+                    buffer("temporal no noisy part", 16, storage),
+                    buffer("temporal no albedo", 16, storage),
+                ),
             };
             let uniform = buffer(
                 "temporal parameters",
@@ -323,12 +354,17 @@ impl EyeTemporal {
                         (7, shade_columns),
                         (8, shade_runs),
                         (9, &noisy),
+                        (10, &moment[prev]),
+                        (11, &moment[next]),
+                        (12, &albedo),
                     ],
                 )
             });
             Self {
                 color,
                 _ages: age,
+                _moments: moment,
+                moments,
                 tables,
                 half,
                 columns_capacity,
@@ -339,6 +375,7 @@ impl EyeTemporal {
                     shade_columns.clone(),
                     shade_runs.clone(),
                     noisy,
+                    albedo,
                 ],
                 texel_capacity,
                 next: 0,
@@ -352,14 +389,14 @@ impl EyeTemporal {
     /// Whether the bind groups name `shade`'s buffers.
     fn binds(&self, shade: &EyeShade) -> bool {
         let (c, r) = shade.tables();
-        let noisy = match shade.guides() {
-            Some(g) => self.bound[3] == *g.noisy(),
+        let guides = match shade.guides() {
+            Some(g) => self.bound[3] == *g.noisy() && self.bound[4] == *g.albedo(),
             None => self.bound[3].size() == 16,
         };
         self.bound[0] == *shade.samples().buffer()
             && self.bound[1] == *c
             && self.bound[2] == *r
-            && noisy
+            && guides
     }
 }
 
@@ -429,6 +466,7 @@ impl ResidentTemporal {
                 &self.pipeline,
                 shade,
                 capacity,
+                self.settings.variance,
             )?);
         }
         let Some(e) = self.eyes[eye].as_mut() else {
@@ -492,8 +530,8 @@ impl ResidentTemporal {
             row_invocations: e.groups[0] * WORKGROUP_SIZE,
             inf_bits: f32::INFINITY.to_bits(),
             guides: u32::from(shade.guides().is_some()),
-            _pad2: 0,
-            _pad3: 0,
+            moments: u32::from(e.moments),
+            albedo_floor: fovea_post::denoise::ALBEDO_FLOOR,
         };
         let ctx = &self.ctx;
         ctx.write_buffer(&e.uniform, 0, bytemuck::bytes_of(&uniform));
