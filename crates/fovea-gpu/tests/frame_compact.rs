@@ -13,7 +13,9 @@
 //!   the list off (`ResidentSamples::set_compaction(false)`: every texel walked, as before the
 //!   list), with direct light and with the real-time preset's bounce of indirect light (whose
 //!   kernels run over the list too), and with the denoiser's guides written and the denoiser
-//!   run over them (so the guides the list's kernel writes for unshaded texels count as well).
+//!   run over them (so the guides the list's kernel writes for unshaded texels count as well;
+//!   with the list on, the denoiser's passes after the first run over its own list of the
+//!   texels that filter, dispatched by the frame list's bound: `GpuDenoiser::set_source_bound`).
 //!
 //! Cases: VaFR with the rings for any gaze (`VafrRings::Eq3AnyGaze`, the real-time preset's,
 //! whose buffer reaches the screen's diagonal), VaFR's exact rings, KFR (a polar mapping that

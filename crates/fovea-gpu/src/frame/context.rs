@@ -726,6 +726,13 @@ impl EyeShade {
         &self.list
     }
 
+    /// An upper bound of the texels the denoiser filters this frame (those with a surface
+    /// record, all of them listed): the list's bound where the kernels run over a list and the
+    /// samples are its one layer; `None` otherwise.
+    pub(crate) fn denoise_bound(&self) -> Option<u32> {
+        (self.listed && self.samples.layers().len() == 1).then(|| self.list.bound())
+    }
+
     /// The eye's sample buffers on the device.
     pub fn samples(&self) -> &DeviceSamples {
         &self.samples
@@ -944,6 +951,8 @@ impl ResidentSamples {
             .iter()
             .map(|l| Grid::of_layer(polar.as_ref(), l.width, l.height))
             .collect();
+        // Over the shaded texels only (lavapipe runs a passive texel's lanes in full).
+        denoiser.set_source_bound(e.denoise_bound());
         denoiser.record_timed(
             encoder,
             e.samples(),
