@@ -441,6 +441,28 @@ impl GpuDenoiser {
         self.sized.as_ref().map(|s| &s.counters)
     }
 
+    /// The last call's counters read back (blocking, counted): texels filtered, sources
+    /// clamped, texels listed (0 without a bound, [`Self::set_source_bound`]). For tests, never
+    /// on the frame path; `None` before any call.
+    pub fn read_counts(&self) -> Result<Option<[u32; 3]>> {
+        let Some(s) = self.sized.as_ref() else {
+            return Ok(None);
+        };
+        let mut counts = [0u32; 3];
+        crate::transfer::read_back(
+            &self.ctx,
+            &[(&s.counters, 12)],
+            "the denoiser's counters",
+            |_, bytes| {
+                let words: Vec<u32> = bytemuck::pod_collect_to_vec(bytes);
+                for (c, w) in counts.iter_mut().zip(words) {
+                    *c = w;
+                }
+            },
+        )?;
+        Ok(Some(counts))
+    }
+
     /// Records the denoiser over `samples` (in place) guided by `guides` (the same layers) into
     /// `encoder`: `grids[l]` is layer `l`'s topology (a `Grid::Rect` of its size, or its polar
     /// grid). Nothing is submitted. Buffers and bind groups are created only when the layers'

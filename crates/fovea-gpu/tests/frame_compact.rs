@@ -148,6 +148,37 @@ fn frames(ctx: &GpuContext, case: &Case, on: bool) -> Vec<Vec<u32>> {
                     .unwrap());
             }
             ctx.submit([encoder.finish()]);
+            for e in 0..2 {
+                // With the list, the denoiser's later passes ran over its own list: every
+                // texel it filtered listed, within the frame list's bound; without, none.
+                let [filtered, _, listed] = resident
+                    .denoiser(e)
+                    .unwrap()
+                    .read_counts()
+                    .unwrap()
+                    .unwrap();
+                let bound = resident.eye(e).unwrap().list().bound();
+                shout(&format!(
+                    "[fovea-gpu] compact {name} frame {f} eye {e}: denoiser filtered \
+                     {filtered}, listed {listed} (list {}, bound {bound})",
+                    if on { "on" } else { "off" }
+                ));
+                if on {
+                    assert_eq!(
+                        listed, filtered,
+                        "{name} frame {f} eye {e}: denoiser's list"
+                    );
+                    assert!(
+                        filtered > 0 && listed <= bound,
+                        "{name} frame {f} eye {e}: denoiser listed {listed}, bound {bound}"
+                    );
+                } else {
+                    assert_eq!(
+                        listed, 0,
+                        "{name} frame {f} eye {e}: listed without a bound"
+                    );
+                }
+            }
         }
         for (e, plan) in plans.iter().enumerate() {
             let eye = resident.eye(e).unwrap();

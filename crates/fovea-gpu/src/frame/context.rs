@@ -824,6 +824,11 @@ impl ResidentSamples {
         self.eyes.get(eye)?.as_ref()
     }
 
+    /// Eye `eye`'s denoiser, once a denoised frame was prepared for it.
+    pub fn denoiser(&self, eye: usize) -> Option<&GpuDenoiser> {
+        self.denoisers.get(eye)?.as_ref()
+    }
+
     /// Eye `eye`'s sample buffers, once a frame was prepared for it.
     pub fn samples(&self, eye: usize) -> Option<&DeviceSamples> {
         self.eye(eye).map(EyeShade::samples)
