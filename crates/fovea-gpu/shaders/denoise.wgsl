@@ -7,10 +7,11 @@
 //
 // One invocation per texel of every layer of the frame's sample buffers (`DeviceSamples`:
 // `vec4` RGB + depth, layers one after another, each row-major), in a two-dimensional dispatch
-// read as one linear index. Four entry points, each a full pass over the texels:
+// read as one linear index. Five entry points, each a full pass over the texels:
 //   denoise_prepare  roles, normal + depth, demodulated Monte Carlo light     → light_dst
 //   denoise_variance count, depth gradient, 3×3 luminance moments, firefly clamp light_src → light_dst
-//   denoise_atrous   one à-trous iteration at `step` (the uniform's slot)        light_src → light_dst
+//   denoise_atrous_first  the first à-trous iteration (step 1, the variance prefiltered) light_src → light_dst
+//   denoise_atrous   each later à-trous iteration at `step` (the uniform's slot)   light_src → light_dst
 //   denoise_finish   remodulate, add the exact part back                         light_src → samples
 //
 // `aux` per texel: x, y the depth gradient per texel step (written by denoise_variance, one
@@ -36,7 +37,9 @@ struct DenoiseParams {
     firefly_k: f32,
     // ln 2 / σ_n: `1 − n_p·n_q` below this is "the same surface".
     same_normal: f32,
-    pad0: u32,
+    // 1: `denoise_prepare` lists the texels that are not passive (`work_list`, counted in
+    // `counters[2]`) and the later passes run over that list; 0: every pass over every texel.
+    listed: u32,
     pad1: u32,
     pad2: u32,
     // Per layer: first texel, width, height, and 0 for a rectangle or 1 + the index of the
@@ -61,8 +64,15 @@ struct DenoiseParams {
 @group(0) @binding(6) var<storage, read_write> light_dst: array<vec4<f32>>;
 // Per polar column: shaded rows, and the rows per full turn (f32 bits).
 @group(0) @binding(7) var<storage, read> columns: array<vec2<u32>>;
-// [texels filtered, sources clamped].
-@group(0) @binding(8) var<storage, read_write> counters: array<atomic<u32>, 2>;
+// [texels filtered, sources clamped, texels listed].
+@group(0) @binding(8) var<storage, read_write> counters: array<atomic<u32>, 3>;
+// With `params.listed`: the texels that are not passive (their index k), in the device's
+// order; the first `counters[2]` are this call's. Lavapipe (Mesa 22.3) runs both sides of
+// every `if` under a lane mask, so a passive texel's early return saves nothing there; over
+// the list, the passes' lanes are all texels that filter (issue 37,
+// docs/gpu-measurements.md). Each texel's result depends on the previous pass's buffers
+// only, so the order does not change a bit.
+@group(0) @binding(11) var<storage, read_write> work_list: array<u32>;
 
 const PASSIVE: u32 = 0u;
 const RECEIVER: u32 = 1u;
@@ -87,6 +97,20 @@ struct Column {
 
 fn texel_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
     return gid.x + gid.y * groups.x * WORKGROUP_SIZE;
+}
+
+// The texel of a pass after `denoise_prepare`: the invocation's index, or with
+// `params.listed` the listed texel it names (`params.texels`, none, past the count; the host
+// sizes that dispatch by a bound of the count).
+fn work_texel(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
+    let n = texel_index(gid, groups);
+    if params.listed == 0u {
+        return n;
+    }
+    if n >= atomicLoad(&counters[2]) {
+        return params.texels;
+    }
+    return work_list[n];
 }
 
 fn locate(k: u32) -> Texel {
@@ -250,6 +274,9 @@ fn denoise_prepare(
         temporal = m.w;
     }
     aux[k] = vec4<f32>(0.0, 0.0, f32(role), temporal);
+    if params.listed != 0u && role != PASSIVE {
+        work_list[atomicAdd(&counters[2], 1u)] = k;
+    }
     var lt = vec3<f32>(0.0);
     if role == SOURCE {
         lt = noisy_part(m.xyz, c) / floored(al);
@@ -262,7 +289,7 @@ fn denoise_variance(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
 ) {
-    let k = texel_index(gid, groups);
+    let k = work_texel(gid, groups);
     if k >= params.texels {
         return;
     }
@@ -386,12 +413,13 @@ fn linear_tap(x: i32) -> f32 {
     return select(0.25, 0.5, x == 0);
 }
 
-@compute @workgroup_size(WORKGROUP_SIZE)
-fn denoise_atrous(
-    @builtin(global_invocation_id) gid: vec3<u32>,
-    @builtin(num_workgroups) groups: vec3<u32>,
-) {
-    let k = texel_index(gid, groups);
+// One à-trous iteration; `prefilter` (a constant at each call, so the compiler drops the
+// branch it does not take) is whether this is the first iteration (step 1), which filters the
+// variance over 3×3 first. Two entry points rather than a test of the uniform's step: lavapipe
+// (Mesa 22.3) runs both sides of every `if` under a lane mask, so a branch that the step turns
+// off still cost the later iterations its nine taps (docs/gpu-measurements.md, issue 37).
+fn atrous(gid: vec3<u32>, groups: vec3<u32>, prefilter: bool) {
+    let k = work_texel(gid, groups);
     if k >= params.texels {
         return;
     }
@@ -414,7 +442,7 @@ fn denoise_atrous(
     // the later ones read the variance the earlier ones filtered.
     var vw = 0.0;
     var vs = 0.0;
-    if stride > 1 {
+    if !prefilter {
         vw = 1.0;
         vs = src_k.w;
     } else {
@@ -516,12 +544,30 @@ fn denoise_atrous(
     }
 }
 
+// The first iteration (step 1): the variance filtered over 3×3 first.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn denoise_atrous_first(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    atrous(gid, groups, true);
+}
+
+// Every later iteration (step 2^i, i ≥ 1): the variance the earlier ones filtered.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn denoise_atrous(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    atrous(gid, groups, false);
+}
+
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn denoise_finish(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
 ) {
-    let k = texel_index(gid, groups);
+    let k = work_texel(gid, groups);
     if k >= params.texels {
         return;
     }

@@ -18,17 +18,20 @@
 //! estimate where the history gives one, as `denoise_with_variance` takes it, NaN or negative
 //! where not; the other w lanes 0) — so that no binding holds more than 16 bytes per
 //! texel, as the sample buffers. The working buffers — normal and depth, the depth gradient and role, two
-//! light-and-variance buffers (16 bytes per texel each), the polar column table, two counters —
+//! light-and-variance buffers (16 bytes per texel each), a list of the texels that filter (4
+//! bytes each), the polar column table, three counters —
 //! and the pipelines and bind groups live in a [`GpuDenoiser`], created once and rebuilt only
 //! when the layers' sizes change (or, for the bind groups that name them, the caller's sample
 //! or guide buffers).
 //!
-//! **Passes** (one invocation per texel of all layers, WGSL `shaders/denoise.wgsl`):
+//! **Passes** (one invocation per texel of all layers, WGSL `shaders/denoise.wgsl`; after the
+//! first, over the texels that filter only, listed on the device by the first, where the
+//! caller gives a bound of them: [`GpuDenoiser::set_source_bound`]):
 //! `denoise_prepare` (roles, demodulated light), `denoise_variance` (gradient, moments, clamp),
-//! `iterations` × `denoise_atrous` at step `2^i`, `denoise_finish` (remodulate into the sample
-//! buffers). [`GpuDenoiser::record`] records them into a caller's encoder (the resident
-//! frame); [`GpuDenoiser::run`] uploads CPU buffers, records, submits once and reads back (the
-//! staged `--backend gpu` path).
+//! `iterations` à-trous passes at step `2^i` (`denoise_atrous_first`, then `denoise_atrous`),
+//! `denoise_finish` (remodulate into the sample buffers). [`GpuDenoiser::record`] records them
+//! into a caller's encoder (the resident frame); [`GpuDenoiser::run`] uploads CPU buffers,
+//! records, submits once and reads back (the staged `--backend gpu` path).
 //!
 //! **Differences from the CPU.** The polar grid's angle alignment is computed in f32 (the CPU:
 //! f64), so a tap whose angle falls within about 10⁻⁴ of a row boundary may read the next row;
@@ -50,7 +53,8 @@ use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
 use crate::transfer::read_buffers;
 
 /// The denoiser's module: entry points `denoise_prepare`, `denoise_variance`,
-/// `denoise_atrous`, `denoise_finish`; [`DenoiseUniform`] at binding 0.
+/// `denoise_atrous_first` (the first iteration, its variance prefiltered), `denoise_atrous`
+/// (the later ones), `denoise_finish`; [`DenoiseUniform`] at binding 0.
 pub const SHADER: ShaderSource = ShaderSource {
     file: "denoise.wgsl",
     source: concat!(
@@ -60,6 +64,7 @@ pub const SHADER: ShaderSource = ShaderSource {
     entry_points: &[
         "denoise_prepare",
         "denoise_variance",
+        "denoise_atrous_first",
         "denoise_atrous",
         "denoise_finish",
     ],
@@ -73,8 +78,8 @@ pub const GUIDE_BYTES: u64 = 48;
 /// Bytes per texel of the largest binding (every buffer the passes bind: one `vec4<f32>`).
 const TEXEL_BYTES: u64 = 16;
 /// Bytes of the working buffers per texel: normal + depth, gradient + role, two light and
-/// variance buffers.
-pub const WORK_BYTES: u64 = 4 * TEXEL_BYTES;
+/// variance buffers, the list of the texels that filter.
+pub const WORK_BYTES: u64 = 4 * TEXEL_BYTES + 4;
 
 /// The uniform block `DenoiseParams` of `denoise.wgsl` (same field order; see there).
 #[repr(C)]
@@ -98,8 +103,11 @@ pub struct DenoiseUniform {
     pub firefly_k: f32,
     /// ln 2 / σ_n.
     pub same_normal: f32,
+    /// 1: the passes after `denoise_prepare` run over its list of the texels that are not
+    /// passive ([`GpuDenoiser::set_source_bound`]); 0: over every texel.
+    pub listed: u32,
     /// Padding.
-    pub pad: [u32; 3],
+    pub pad: [u32; 2],
     /// Per layer: first texel, width, height, 0 (rectangle) or 1 + first column (polar).
     pub layers: [[u32; 4]; MAX_LAYERS],
 }
@@ -314,7 +322,8 @@ struct Sized {
     counters: wgpu::Buffer,
     /// `denoise_variance` (light[0] → light[1]).
     variance: wgpu::BindGroup,
-    /// `denoise_atrous` of iteration `i` (its uniform slot; light[1 − i % 2] → light[i % 2]).
+    /// `denoise_atrous_first` (`i` = 0) or `denoise_atrous` of iteration `i` (its uniform
+    /// slot; light[1 − i % 2] → light[i % 2]).
     atrous: Vec<wgpu::BindGroup>,
     /// The polar grids whose table `columns` holds (`None`: not written yet).
     columns_for: Option<Vec<Grid>>,
@@ -325,6 +334,8 @@ struct Sized {
     /// Kept alive for the bind groups.
     _geom: wgpu::Buffer,
     _aux: wgpu::Buffer,
+    /// The texels that filter, listed by `denoise_prepare` (room for `capacity`).
+    work_list: wgpu::Buffer,
 }
 
 /// Bind groups of `denoise_prepare` and `denoise_finish` for one pair of caller buffers.
@@ -350,11 +361,16 @@ pub struct GpuDenoiser {
     ctx: GpuContext,
     prepare: wgpu::ComputePipeline,
     variance: wgpu::ComputePipeline,
+    /// The first iteration's (the variance prefiltered over 3×3) and the later ones'.
+    atrous_first: wgpu::ComputePipeline,
     atrous: wgpu::ComputePipeline,
     finish: wgpu::ComputePipeline,
     sized: Option<Sized>,
     /// The least room the working buffers are made with: (texels, polar columns).
     reserve: (u64, u64),
+    /// An upper bound of the texels the next recorded call filters (not passive), when the
+    /// caller knows one ([`Self::set_source_bound`]).
+    source_bound: Option<u32>,
 }
 
 impl GpuDenoiser {
@@ -363,23 +379,26 @@ impl GpuDenoiser {
         let mut p = ctx.scoped("building the denoiser's pipelines", || {
             SHADER.pipelines(ctx.device())
         })?;
-        if p.len() != 4 {
+        if p.len() != 5 {
             return Err(GpuError::Input(
                 "the denoiser's module lacks an entry point".into(),
             ));
         }
-        let finish = p.pop().expect("four pipelines");
-        let atrous = p.pop().expect("four pipelines");
-        let variance = p.pop().expect("four pipelines");
-        let prepare = p.pop().expect("four pipelines");
+        let finish = p.pop().expect("five pipelines");
+        let atrous = p.pop().expect("five pipelines");
+        let atrous_first = p.pop().expect("five pipelines");
+        let variance = p.pop().expect("five pipelines");
+        let prepare = p.pop().expect("five pipelines");
         Ok(Self {
             ctx: ctx.clone(),
             prepare,
             variance,
+            atrous_first,
             atrous,
             finish,
             sized: None,
             reserve: (0, 0),
+            source_bound: None,
         })
     }
 
@@ -407,10 +426,44 @@ impl GpuDenoiser {
         self.reserve = (texels, columns);
     }
 
-    /// The counters buffer of the last recorded call (`[filtered, clamped]`, two `u32`), for a
+    /// Declares an upper bound of the texels the next recorded calls filter — those that are
+    /// not passive: with a surface record (a nonzero normal guide) at a finite depth —, or
+    /// `None` (the default): unknown. With a bound below the texels, `denoise_prepare` lists
+    /// those texels on the device and the later passes are dispatched over `bound` invocations
+    /// of that list instead of every texel (the resident frame's polar buffers: the bound of
+    /// its list of shaded texels, `frame::compact`). The results are the same bits; a bound
+    /// below the true count would leave texels unfiltered, so give only a true bound.
+    pub fn set_source_bound(&mut self, bound: Option<u32>) {
+        self.source_bound = bound;
+    }
+
+    /// The counters buffer of the last recorded call (`[filtered, clamped, listed]`, three
+    /// `u32`: the first two are [`DenoiseStats`]'), for a
     /// caller that wants [`DenoiseStats`] from the device; `None` before any call.
     pub fn counters(&self) -> Option<&wgpu::Buffer> {
         self.sized.as_ref().map(|s| &s.counters)
+    }
+
+    /// The last call's counters read back (blocking, counted): texels filtered, sources
+    /// clamped, texels listed (0 without a bound, [`Self::set_source_bound`]). For tests, never
+    /// on the frame path; `None` before any call.
+    pub fn read_counts(&self) -> Result<Option<[u32; 3]>> {
+        let Some(s) = self.sized.as_ref() else {
+            return Ok(None);
+        };
+        let mut counts = [0u32; 3];
+        crate::transfer::read_back(
+            &self.ctx,
+            &[(&s.counters, 12)],
+            "the denoiser's counters",
+            |_, bytes| {
+                let words: Vec<u32> = bytemuck::pod_collect_to_vec(bytes);
+                for (c, w) in counts.iter_mut().zip(words) {
+                    *c = w;
+                }
+            },
+        )?;
+        Ok(Some(counts))
     }
 
     /// Records the denoiser over `samples` (in place) guided by `guides` (the same layers) into
@@ -471,6 +524,12 @@ impl GpuDenoiser {
         let (groups_x, groups_y) = dispatch_size(&self.ctx, texels).ok_or_else(|| {
             GpuError::Unsupported(format!("denoising {texels} texels in one dispatch"))
         })?;
+        // Over the list of the texels that filter where a bound of them below the texels is
+        // known (`set_source_bound`); the bound fits a dispatch wherever the texels do.
+        let listed = self
+            .source_bound
+            .filter(|&b| u64::from(b) < texels)
+            .and_then(|b| dispatch_size(&self.ctx, u64::from(b)));
         let column_base = column_table(&layers, grids)?;
         self.fit(&layers, texels)?;
         self.bind(samples.buffer(), guides)?;
@@ -511,7 +570,8 @@ impl GpuDenoiser {
             sigma_n: params.normal_power as f32,
             firefly_k: params.firefly_k.unwrap_or(0.0),
             same_normal: std::f32::consts::LN_2 / params.normal_power as f32,
-            pad: [0; 3],
+            listed: u32::from(listed.is_some()),
+            pad: [0; 2],
             layers: table,
         };
         let mut bytes = vec![0u8; (s.uniform_stride * MAX_ITERATIONS as u64) as usize];
@@ -539,19 +599,28 @@ impl GpuDenoiser {
             label: Some("denoise"),
             timestamp_writes,
         });
-        let mut dispatch = |pipeline: &wgpu::ComputePipeline, group: &wgpu::BindGroup| {
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, group, &[]);
-            pass.dispatch_workgroups(groups_x, groups_y, 1);
-        };
-        dispatch(&self.prepare, &bound.prepare);
-        dispatch(&self.variance, &s.variance);
+        let mut dispatch =
+            |pipeline: &wgpu::ComputePipeline, group: &wgpu::BindGroup, (x, y): (u32, u32)| {
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, group, &[]);
+                pass.dispatch_workgroups(x, y, 1);
+            };
+        dispatch(&self.prepare, &bound.prepare, (groups_x, groups_y));
+        // The later passes: over the list (a listed texel's invocation past the count returns)
+        // or every texel.
+        let work = listed.unwrap_or((groups_x, groups_y));
+        dispatch(&self.variance, &s.variance, work);
         for it in 0..params.iterations as usize {
-            dispatch(&self.atrous, &s.atrous[it]);
+            let pipeline = if it == 0 {
+                &self.atrous_first
+            } else {
+                &self.atrous
+            };
+            dispatch(pipeline, &s.atrous[it], work);
         }
         // Iteration i writes light[i % 2]; with none, the variance pass wrote light[1].
         let last = (params.iterations as usize + 1) % 2;
-        dispatch(&self.finish, &bound.finish[last]);
+        dispatch(&self.finish, &bound.finish[last], work);
         Ok(())
     }
 
@@ -752,7 +821,8 @@ impl GpuDenoiser {
                 storage("denoise light pong", work),
             ];
             let columns = storage("denoise polar columns", columns_len * 8);
-            let counters = storage("denoise counters", 8);
+            let counters = storage("denoise counters", 16);
+            let work_list = storage("denoise listed texels", capacity.max(1) * 4);
             let slot = |it: u64| {
                 wgpu::BindingResource::Buffer(wgpu::BufferBinding {
                     buffer: &uniform,
@@ -785,12 +855,17 @@ impl GpuDenoiser {
                     (6, whole(&light[1])),
                     (7, whole(&columns)),
                     (8, whole(&counters)),
+                    (11, whole(&work_list)),
                 ],
             );
             let atrous = (0..MAX_ITERATIONS as usize)
                 .map(|it| {
                     group(
-                        &self.atrous,
+                        if it == 0 {
+                            &self.atrous_first
+                        } else {
+                            &self.atrous
+                        },
                         vec![
                             (0, slot(it as u64)),
                             (3, whole(&geom)),
@@ -798,6 +873,8 @@ impl GpuDenoiser {
                             (5, whole(&light[1 - it % 2])),
                             (6, whole(&light[it % 2])),
                             (7, whole(&columns)),
+                            (8, whole(&counters)),
+                            (11, whole(&work_list)),
                         ],
                     )
                 })
@@ -820,6 +897,7 @@ impl GpuDenoiser {
                 staged: None,
                 _geom: geom,
                 _aux: aux,
+                work_list,
             }
         })?;
         self.sized = Some(sized);
@@ -867,8 +945,10 @@ impl GpuDenoiser {
                     (4, s._aux.as_entire_binding()),
                     (6, s.light[0].as_entire_binding()),
                     (7, s.columns.as_entire_binding()),
+                    (8, s.counters.as_entire_binding()),
                     (9, g[1].as_entire_binding()),
                     (10, g[2].as_entire_binding()),
+                    (11, s.work_list.as_entire_binding()),
                 ],
             );
             let finish = [0, 1].map(|src| {
@@ -880,7 +960,9 @@ impl GpuDenoiser {
                         (2, g[0].as_entire_binding()),
                         (4, s._aux.as_entire_binding()),
                         (5, s.light[src].as_entire_binding()),
+                        (8, s.counters.as_entire_binding()),
                         (10, g[2].as_entire_binding()),
+                        (11, s.work_list.as_entire_binding()),
                     ],
                 )
             });

@@ -13,7 +13,9 @@
 //!   the list off (`ResidentSamples::set_compaction(false)`: every texel walked, as before the
 //!   list), with direct light and with the real-time preset's bounce of indirect light (whose
 //!   kernels run over the list too), and with the denoiser's guides written and the denoiser
-//!   run over them (so the guides the list's kernel writes for unshaded texels count as well).
+//!   run over them (so the guides the list's kernel writes for unshaded texels count as well;
+//!   with the list on, the denoiser's passes after the first run over its own list of the
+//!   texels that filter, dispatched by the frame list's bound: `GpuDenoiser::set_source_bound`).
 //!
 //! Cases: VaFR with the rings for any gaze (`VafrRings::Eq3AnyGaze`, the real-time preset's,
 //! whose buffer reaches the screen's diagonal), VaFR's exact rings, KFR (a polar mapping that
@@ -146,6 +148,37 @@ fn frames(ctx: &GpuContext, case: &Case, on: bool) -> Vec<Vec<u32>> {
                     .unwrap());
             }
             ctx.submit([encoder.finish()]);
+            for e in 0..2 {
+                // With the list, the denoiser's later passes ran over its own list: every
+                // texel it filtered listed, within the frame list's bound; without, none.
+                let [filtered, _, listed] = resident
+                    .denoiser(e)
+                    .unwrap()
+                    .read_counts()
+                    .unwrap()
+                    .unwrap();
+                let bound = resident.eye(e).unwrap().list().bound();
+                shout(&format!(
+                    "[fovea-gpu] compact {name} frame {f} eye {e}: denoiser filtered \
+                     {filtered}, listed {listed} (list {}, bound {bound})",
+                    if on { "on" } else { "off" }
+                ));
+                if on {
+                    assert_eq!(
+                        listed, filtered,
+                        "{name} frame {f} eye {e}: denoiser's list"
+                    );
+                    assert!(
+                        filtered > 0 && listed <= bound,
+                        "{name} frame {f} eye {e}: denoiser listed {listed}, bound {bound}"
+                    );
+                } else {
+                    assert_eq!(
+                        listed, 0,
+                        "{name} frame {f} eye {e}: listed without a bound"
+                    );
+                }
+            }
         }
         for (e, plan) in plans.iter().enumerate() {
             let eye = resident.eye(e).unwrap();

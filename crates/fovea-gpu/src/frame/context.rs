@@ -726,6 +726,13 @@ impl EyeShade {
         &self.list
     }
 
+    /// An upper bound of the texels the denoiser filters this frame (those with a surface
+    /// record, all of them listed): the list's bound where the kernels run over a list and the
+    /// samples are its one layer; `None` otherwise.
+    pub(crate) fn denoise_bound(&self) -> Option<u32> {
+        (self.listed && self.samples.layers().len() == 1).then(|| self.list.bound())
+    }
+
     /// The eye's sample buffers on the device.
     pub fn samples(&self) -> &DeviceSamples {
         &self.samples
@@ -815,6 +822,11 @@ impl ResidentSamples {
     /// Eye `eye`'s (0 left, 1 right) buffers, once a frame was prepared for it.
     pub fn eye(&self, eye: usize) -> Option<&EyeShade> {
         self.eyes.get(eye)?.as_ref()
+    }
+
+    /// Eye `eye`'s denoiser, once a denoised frame was prepared for it.
+    pub fn denoiser(&self, eye: usize) -> Option<&GpuDenoiser> {
+        self.denoisers.get(eye)?.as_ref()
     }
 
     /// Eye `eye`'s sample buffers, once a frame was prepared for it.
@@ -944,6 +956,8 @@ impl ResidentSamples {
             .iter()
             .map(|l| Grid::of_layer(polar.as_ref(), l.width, l.height))
             .collect();
+        // Over the shaded texels only (lavapipe runs a passive texel's lanes in full).
+        denoiser.set_source_bound(e.denoise_bound());
         denoiser.record_timed(
             encoder,
             e.samples(),
