@@ -237,7 +237,7 @@ fn records() -> Vec<Record> {
         }),
         record!(dn::DenoiseUniform => "DenoiseParams" in [dn::SHADER] {
             texels, layer_count, atrous_step, taps, sigma_l, sigma_z, sigma_n, firefly_k,
-            same_normal, layers,
+            same_normal, listed, layers,
         }),
     ]
 }
