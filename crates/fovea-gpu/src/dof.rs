@@ -40,7 +40,7 @@ use crate::device::GpuContext;
 use crate::error::{GpuError, Result};
 use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
 use crate::timestamps::PassTimer;
-use crate::transfer::{bind_group, read_buffers, upload};
+use crate::transfer::{bind_group, read_buffers, stage, upload};
 
 /// The CoC module: entry point `coc`, [`CocUniform`] at binding 0.
 pub const COC_SHADER: ShaderSource = ShaderSource {
@@ -525,16 +525,11 @@ impl GpuDof {
                 }
             }
             let out_color = gather.map(|g| g.3);
-            let mut readbacks = Vec::new();
-            for out in std::iter::once(&coc_out).chain(out_color.iter().flatten()) {
-                let read = scratch(
-                    "depth-of-field readback",
-                    out.size(),
-                    wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-                );
-                encoder.copy_buffer_to_buffer(out, 0, &read, 0, out.size());
-                readbacks.push(read);
-            }
+            let outs: Vec<(&wgpu::Buffer, u64)> = std::iter::once(&coc_out)
+                .chain(out_color.iter().flatten())
+                .map(|out| (out, out.size()))
+                .collect();
+            let readbacks = stage(&self.ctx, &mut encoder, &outs, "depth-of-field readback");
             if let Some(timer) = &timer {
                 timer.resolve(&mut encoder);
             }

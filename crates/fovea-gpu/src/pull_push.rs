@@ -36,7 +36,7 @@ use crate::device::GpuContext;
 use crate::error::{GpuError, Result};
 use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
 use crate::timestamps::PassTimer;
-use crate::transfer::{bind_group, read_buffers, upload};
+use crate::transfer::{bind_group, read_buffers, stage, upload};
 
 /// The module: entry points `pull`, `push` and `fill_depth`, [`PullPushUniform`] at binding 0.
 pub const SHADER: ShaderSource = ShaderSource {
@@ -407,18 +407,17 @@ impl GpuPullPush {
                     pass.dispatch_workgroups(*gx, *gy, 1);
                 }
             }
-            let readback = |label: &str, size: u64| {
-                self.ctx.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some(label),
-                    size,
-                    usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-                    mapped_at_creation: false,
-                })
-            };
-            let colour_read = readback("pull-push colour readback", screen_px * RGB_BYTES);
-            let depth_read = readback("pull-push depth readback", screen_px * 4);
-            encoder.copy_buffer_to_buffer(&colour_buf, 0, &colour_read, 0, colour_read.size());
-            encoder.copy_buffer_to_buffer(&depth_buf, 0, &depth_read, 0, depth_read.size());
+            let [colour_read, depth_read]: [wgpu::Buffer; 2] = stage(
+                &self.ctx,
+                &mut encoder,
+                &[
+                    (&colour_buf, screen_px * RGB_BYTES),
+                    (&depth_buf, screen_px * 4),
+                ],
+                "pull-push readback",
+            )
+            .try_into()
+            .expect("two sources, two staging buffers");
             for timer in timers.iter().flatten() {
                 timer.resolve(&mut encoder);
             }

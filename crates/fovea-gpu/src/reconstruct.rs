@@ -44,7 +44,7 @@ use crate::mapping::vafr::split_f64;
 use crate::pull_push::GpuPullPush;
 use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
 use crate::timestamps::PassTimer;
-use crate::transfer::{read_buffers, upload};
+use crate::transfer::{read_buffers, stage, upload};
 
 /// The module: entry points `reconstruct` (`vec4<u32>` a pixel, this path's bands) and
 /// `reconstruct_planes` (four planes, the resident screen's), [`ReconstructUniform`] at
@@ -405,17 +405,14 @@ impl GpuReconstructor {
                     pass.dispatch_workgroups(w.div_ceil(WORKGROUP_SIZE), rows, 1);
                 }
             }
-            let mut readbacks = Vec::with_capacity(bands.len());
-            for out in &outputs {
-                let read = self.ctx.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("reconstructed band readback"),
-                    size: out.size(),
-                    usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-                    mapped_at_creation: false,
-                });
-                encoder.copy_buffer_to_buffer(out, 0, &read, 0, out.size());
-                readbacks.push(read);
-            }
+            let outs: Vec<(&wgpu::Buffer, u64)> =
+                outputs.iter().map(|out| (out, out.size())).collect();
+            let readbacks = stage(
+                &self.ctx,
+                &mut encoder,
+                &outs,
+                "reconstructed band readback",
+            );
             if let Some(timer) = &timer {
                 timer.resolve(&mut encoder);
             }

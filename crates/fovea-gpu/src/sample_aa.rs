@@ -33,7 +33,7 @@ use crate::device::GpuContext;
 use crate::error::{GpuError, Result};
 use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
 use crate::timestamps::PassTimer;
-use crate::transfer::{bind_group, read_buffers, upload};
+use crate::transfer::{bind_group, read_buffers, stage, upload};
 
 /// FXAA's module: entry points `fxaa_luma` then `fxaa`, [`SampleAaUniform`] at binding 0.
 pub const FXAA_SHADER: ShaderSource = ShaderSource {
@@ -370,12 +370,6 @@ impl GpuSampleAa {
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             });
-            let read = self.ctx.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("AA readback"),
-                size: bytes,
-                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-                mapped_at_creation: false,
-            });
             let bind = |pipeline: &wgpu::ComputePipeline, entries: &[(u32, &wgpu::Buffer)]| {
                 bind_group(&self.ctx, "AA bindings", pipeline, entries)
             };
@@ -425,7 +419,8 @@ impl GpuSampleAa {
                     pass.dispatch_workgroups(groups_x, h, 1);
                 }
             }
-            encoder.copy_buffer_to_buffer(&out_buf, 0, &read, 0, bytes);
+            let read =
+                stage(&self.ctx, &mut encoder, &[(&out_buf, bytes)], "AA readback").remove(0);
             if let Some(timer) = &timer {
                 timer.resolve(&mut encoder);
             }

@@ -22,7 +22,7 @@ use fovea_post::Rgb;
 use crate::device::GpuContext;
 use crate::error::{GpuError, Result};
 use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
-use crate::transfer::{read_buffers, upload};
+use crate::transfer::{read_buffers, stage, upload};
 
 /// The module: entry points `tonemap` (interleaved values, this path) and `tonemap_planes`
 /// (three planes, the resident screen's), [`ToneUniform`] at binding 0.
@@ -178,12 +178,6 @@ impl GpuToneMap {
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             });
-            let read = self.ctx.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("sRGB readback"),
-                size: bytes,
-                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-                mapped_at_creation: false,
-            });
             let mut entries: Vec<wgpu::BindGroupEntry> = inputs
                 .iter()
                 .enumerate()
@@ -218,12 +212,12 @@ impl GpuToneMap {
                 };
                 pass.dispatch_workgroups(x, rows as u32, 1);
             }
-            encoder.copy_buffer_to_buffer(&out, 0, &read, 0, bytes);
+            let read = stage(&self.ctx, &mut encoder, &[(&out, bytes)], "sRGB readback");
             self.ctx.submit([encoder.finish()]);
             read
         })?;
         let mut out = Vec::new();
-        read_buffers(&self.ctx, &[&readback], what, |_, b| {
+        read_buffers(&self.ctx, &[&readback[0]], what, |_, b| {
             out = b.to_vec();
         })?;
         out.truncate(n_values as usize);

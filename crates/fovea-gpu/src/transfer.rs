@@ -62,8 +62,33 @@ pub(crate) fn bind_group(
     })
 }
 
+/// Records into `encoder` a copy of the first `bytes` of each of `sources` into a fresh
+/// MAP_READ staging buffer of that size (labelled `label`, counted as every buffer), and
+/// returns the staging buffers in order, for [`read_buffers`] once the encoder is submitted.
+/// Call inside the caller's error scope.
+pub(crate) fn stage(
+    ctx: &GpuContext,
+    encoder: &mut wgpu::CommandEncoder,
+    sources: &[(&wgpu::Buffer, u64)],
+    label: &str,
+) -> Vec<wgpu::Buffer> {
+    sources
+        .iter()
+        .map(|&(source, bytes)| {
+            let to = ctx.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes,
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            });
+            encoder.copy_buffer_to_buffer(source, 0, &to, 0, bytes);
+            to
+        })
+        .collect()
+}
+
 /// Copies `bytes` from the start of each of `sources` into a fresh MAP_READ staging buffer
-/// (one submission, inside an error scope named `what`) and reads them back as
+/// ([`stage`]; one submission, inside an error scope named `what`) and reads them back as
 /// [`read_buffers`] does: `read(index, bytes)` in the order given. Blocking and counted: for
 /// tests and for an image asked for, never on the frame path.
 pub(crate) fn read_back(
@@ -73,23 +98,10 @@ pub(crate) fn read_back(
     read: impl FnMut(usize, &[u8]),
 ) -> Result<()> {
     let staging = ctx.scoped(what, || {
-        let staging: Vec<wgpu::Buffer> = sources
-            .iter()
-            .map(|&(_, bytes)| {
-                ctx.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some(what),
-                    size: bytes,
-                    usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-                    mapped_at_creation: false,
-                })
-            })
-            .collect();
         let mut encoder = ctx
             .device()
             .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(what) });
-        for (&(source, bytes), to) in sources.iter().zip(&staging) {
-            encoder.copy_buffer_to_buffer(source, 0, to, 0, bytes);
-        }
+        let staging = stage(ctx, &mut encoder, sources, what);
         ctx.submit([encoder.finish()]);
         staging
     })?;
@@ -192,12 +204,6 @@ pub(crate) fn run_1d_at(
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let readback = ctx.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
         let entries: Vec<wgpu::BindGroupEntry> = inputs
             .iter()
             .cloned()
@@ -224,7 +230,7 @@ pub(crate) fn run_1d_at(
                 1,
             );
         }
-        encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, size);
+        let readback = stage(ctx, &mut encoder, &[(&output, size)], "readback").remove(0);
         if let Some(timer) = &timer {
             timer.resolve(&mut encoder);
         }

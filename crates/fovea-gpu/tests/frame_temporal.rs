@@ -30,7 +30,10 @@
 //!   printed);
 //! * the accumulation pass's GPU time (`TEMPORAL_PASSES`) arrives from the frame's timers for
 //!   both eyes of every timed frame of those sequences;
-//! * settings the CPU refuses are refused (`GpuError::Input`), with nothing sent.
+//! * settings the CPU refuses are refused (`GpuError::Input`), with nothing sent;
+//! * the pass's column and spacing tables go up only when they change: with VaFR's rings for
+//!   any gaze, a frame at another gaze sends the pass's uniform blocks and nothing else (the
+//!   frame's upload counter with the pass on less with it off).
 //!
 //! Needs a GPU adapter (lavapipe will do); without one each test says SKIPPED on stderr, and
 //! fails under FOVEA_REQUIRE_GPU=1.
@@ -474,5 +477,81 @@ fn settings_the_cpu_refuses_are_refused_before_anything_is_sent() {
             "{moved:?}"
         );
         assert!(frame.temporal().is_none());
+    }
+}
+
+/// The temporal pass's share of each frame's upload: the bytes a frame sends with temporal
+/// accumulation on less those of the same frame with it off (everything else the frame sends
+/// is the same), VaFR with the rings for any gaze (`VafrRings::Eq3AnyGaze`, the real-time
+/// preset's) on a small display (256 × 288, 100° × 110°), both eyes, one resident frame:
+/// three frames with the pass off, then the same three with it on — at gazes B, A, B, where
+/// B is A mirrored through the screen's centre (a saccade-sized step). Each run's frame 0
+/// follows the same gaze B, so the rest of the frame sends the same. The pass's uniform
+/// blocks go up every frame (272 B an eye); its column and spacing tables with the pass's
+/// first frame only: frames 1 and 2, each at another gaze, send the uniform blocks and
+/// nothing else.
+#[test]
+fn the_temporal_tables_go_up_once_for_a_layout_of_any_gaze() {
+    use fovea_core::display::DisplayProfile;
+    use fovea_core::mapping::VafrRings;
+    use fovea_core::units::Degrees;
+    use fovea_gpu::frame::temporal::TemporalUniform;
+    let Some(ctx) = gpu_or_skip("the_temporal_tables_go_up_once_for_a_layout_of_any_gaze") else {
+        return;
+    };
+    let (world, base) = setup();
+    let display = DisplayProfile::new("small", 256, 288, Degrees(100.0), Degrees(110.0)).unwrap();
+    let cams = base
+        .clone()
+        .map(|c| EyeCamera::new(c.position, c.forward, c.up, &display).unwrap());
+    let gaze = |f: usize| {
+        let [a, b] = if f == 1 {
+            [(108.0, 150.0), (118.0, 140.0)]
+        } else {
+            [(148.0, 138.0), (138.0, 148.0)]
+        };
+        [
+            display.gaze(a.0, a.1).unwrap(),
+            display.gaze(b.0, b.1).unwrap(),
+        ]
+    };
+    let mut s = resident::settings(Method::Vafr, ShadingMode::DIRECT);
+    s.mapping.vafr.rings = VafrRings::Eq3AnyGaze;
+    let plans = |f: usize| {
+        let g = gaze(f);
+        [0usize, 1].map(|e| plan(&world, &cams[e], &s, g[e], f as u64, e as u32))
+    };
+    let p0 = plans(0);
+    assert!(p0[0].mapping().layout_is_gaze_free());
+    let mut frame =
+        ResidentFrame::new(&ctx, &world, [&p0[0], &p0[1]], [&cams[0], &cams[1]], TONE).unwrap();
+    let mut sent = [[0i64; 3]; 2];
+    for (on, sent) in sent.iter_mut().enumerate() {
+        frame
+            .set_temporal((on == 1).then(TemporalSettings::default))
+            .unwrap();
+        for (f, sent) in sent.iter_mut().enumerate() {
+            let p = plans(f);
+            let before = ctx.traffic();
+            frame
+                .render(&world, [&p[0], &p[1]], [&cams[0], &cams[1]])
+                .unwrap();
+            *sent = ctx.traffic().since(&before).bytes_uploaded as i64;
+            ctx.wait_idle("the test").unwrap();
+        }
+    }
+    let uniforms = 2 * std::mem::size_of::<TemporalUniform>() as i64;
+    let temporal: Vec<i64> = (0..3).map(|f| sent[1][f] - sent[0][f]).collect();
+    shout(&format!(
+        "[fovea-gpu] resident temporal, rings for any gaze: bytes up per frame with the pass \
+         less without {temporal:?} (frames 1, 2 compared; uniform blocks {uniforms} B; without \
+         the pass {:?})",
+        sent[0]
+    ));
+    for f in 1..3 {
+        assert_eq!(
+            temporal[f], uniforms,
+            "frame {f}, another gaze, the same layout: no table goes up: {temporal:?}"
+        );
     }
 }

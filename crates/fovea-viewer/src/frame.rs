@@ -665,8 +665,8 @@ impl Resident {
         // render each frame afresh there, and so here).
         let accumulate = a.view.temporal && !both;
         // Each eye's camera and eye state: both eyes at the fixated point (as the staged
-        // path and `fovea render --eyes both`), or the one eye twice (the resident frame is
-        // binocular; the right copy is not shown).
+        // path and `fovea render --eyes both`), or the one eye twice (the resident frame takes
+        // two plans; with one eye shown it renders the left only, `ResidentFrame::set_eyes`).
         let eyes: [(EyeCamera, EyeState); 2] = if both {
             let rig = fovea_render::camera::HmdRig::new(
                 a.camera.position,
@@ -729,6 +729,11 @@ impl Resident {
             return Ok(None);
         };
         frame.set_tone(tone).map_err(gpu_err)?;
+        // One eye shown: the frame records the left eye's passes only (the right plan and
+        // camera, the same eye's, are checked and not rendered); both: both. A change (which
+        // also turns the accumulation on or off below) forgets the temporal history.
+        let shown = if both { 2 } else { 1 };
+        frame.set_eyes(shown).map_err(gpu_err)?;
         // Temporal accumulation on the device (the CPU's default settings, no jitter); turning
         // it on starts a new history.
         let temporal = accumulate.then(TemporalSettings::default);
@@ -755,7 +760,6 @@ impl Resident {
         self.totals.frames += 1;
         self.totals.traffic.add(&traffic);
         self.said = None;
-        let shown = if both { 2 } else { 1 };
         let (w, h) = (a.display.width_px, a.display.height_px);
         let width = w * shown as u32;
         let mut rgba = Vec::new();
@@ -814,8 +818,9 @@ impl Resident {
             lod: None,
             wall_ms: 0.0,
             backend: format!(
-                "resident GPU frame ({}, both eyes in one submission)",
-                plans[0].method()
+                "resident GPU frame ({}, {} in one submission)",
+                plans[0].method(),
+                if both { "both eyes" } else { "one eye" }
             ),
             lockstep: both,
             resident: Some(ResidentView { textures, stats }),

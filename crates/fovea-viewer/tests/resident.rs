@@ -2,8 +2,9 @@
 //! eyes render in one submission and stay on the device as one texture per eye; nothing is
 //! read back per frame (counted by `fovea_gpu`'s traffic instrumentation over the frames of a
 //! moving gaze) until a request asks for the bytes, which then match the CPU viewer's frame of
-//! the same requests (luma PSNR ≥ 40 dB per eye); views the resident frame does not serve fall
-//! back to the staged path. Needs a Vulkan device (lavapipe will do): without one it says why
+//! the same requests (luma PSNR ≥ 40 dB per eye); a one-eye view renders one eye on the device
+//! (no right-eye pass timed) and both again when both are shown; views the resident frame
+//! does not serve fall back to the staged path. Needs a Vulkan device (lavapipe will do): without one it says why
 //! and passes, unless `FOVEA_REQUIRE_GPU=1`.
 
 use fovea_core::display::DisplayProfile;
@@ -237,4 +238,68 @@ fn views_it_does_not_serve_fall_back_to_the_staged_path() {
     let res = f.resident.as_ref().expect("served");
     assert_eq!(res.textures.len(), 1);
     assert!(f.rgba.is_empty());
+}
+
+/// A one-eye view (`EyesChoice::One`, V) renders one eye on the device: the resident frame
+/// records the left eye's passes only (`ResidentFrame::set_eyes(1)`), so the GPU times that
+/// arrive name no right-eye pass, one texture is shown, and the image asked for is the CPU
+/// viewer's (luma PSNR ≥ 40 dB); switching to both eyes (V) renders both again (both
+/// textures, right-eye passes timed). Temporal accumulation off, so the moving gaze's frames
+/// compare with the CPU's one by one.
+#[test]
+fn a_one_eye_view_renders_one_eye() {
+    let (world, display, pose) = setup();
+    let Some(ctx) = context(&world, "a_one_eye_view_renders_one_eye") else {
+        return;
+    };
+    let mut view = ViewSettings::new(ViewMethod::Method(Method::Vafr), None, 1.0);
+    view.eyes = EyesChoice::One;
+    view.temporal = false;
+    let mut gpu = FrameRenderer::new(world, base(), 0.063, Executors::default(), None).unwrap();
+    gpu.set_resident(ctx, true);
+    let (world, _, _) = setup();
+    let mut cpu = FrameRenderer::new(world, base(), 0.063, Executors::default(), None).unwrap();
+    const FRAMES: u64 = 3;
+    let mut timed = false;
+    for i in 0..FRAMES {
+        let mut req = request(i, &view, &display, pose);
+        req.read_back = i + 1 == FRAMES;
+        let f = gpu.render(&req).unwrap();
+        let r = f
+            .resident
+            .as_ref()
+            .expect("the resident frame serves this view");
+        println!(
+            "one eye, frame {i}: host {:.2} ms, up {} B, GPU ms of frame {:?}: {:?}",
+            r.stats.host_ms, r.stats.traffic.bytes_uploaded, r.stats.gpu_frame, r.stats.gpu_ms
+        );
+        assert_eq!(r.textures.len(), 1);
+        assert_eq!((f.width, f.height), (W, H));
+        assert_eq!(r.stats.traffic.submissions, 1, "frame {i}");
+        assert!(
+            r.stats.gpu_ms.iter().all(|(n, _)| !n.starts_with("right")),
+            "frame {i}: the right eye is not rendered: {:?}",
+            r.stats.gpu_ms
+        );
+        timed |= r.stats.gpu_ms.iter().any(|(n, _)| n == "left shade");
+        if req.read_back {
+            let want = cpu.render(&req).unwrap();
+            assert_eq!(f.rgba.len(), (W * H * 4) as usize);
+            let psnr = luma_psnr(&f.rgba, &want.rgba);
+            println!("one eye against the CPU viewer: luma PSNR {psnr:.2} dB");
+            assert!(psnr >= 40.0, "{psnr} dB");
+            assert_eq!(r.stats.totals.images_read, 1);
+        }
+    }
+    assert!(timed, "the left eye's passes are timed");
+    // Both eyes again: both rendered and shown; the right eye's passes timed once they arrive.
+    view.eyes = EyesChoice::Both;
+    let mut right = false;
+    for i in FRAMES..FRAMES + 3 {
+        let f = gpu.render(&request(i, &view, &display, pose)).unwrap();
+        let r = f.resident.as_ref().expect("served");
+        assert_eq!(r.textures.len(), 2);
+        right |= r.stats.gpu_ms.iter().any(|(n, _)| n == "right shade");
+    }
+    assert!(right, "both eyes' passes are timed again");
 }

@@ -62,7 +62,7 @@ use crate::frame::timing::FrameTimer;
 use crate::sample_aa::SampleFilter;
 use crate::shaders::{ShaderSource, WORKGROUP_SIZE};
 use crate::tonemap::ToneUniform;
-use crate::transfer::{bind_group, read_buffers};
+use crate::transfer::{bind_group, read_back, read_buffers};
 
 /// The split module: entry points `split_screen` (interleaved colour, the sample-space AA's
 /// input) and `split_planes` (the screen's planes), [`SplitUniform`] at binding 0.
@@ -1051,35 +1051,15 @@ impl ScreenContext {
     /// (the reconstruction's colour and depth): a blocking, counted readback for tests and
     /// debugging views.
     pub fn read_linear(&self) -> Result<(Image<Rgb>, Image<f32>)> {
-        let ctx = &self.ctx;
-        let staging = ctx.scoped("reading back the linear screen", || {
-            let mut encoder =
-                ctx.device()
-                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                        label: Some("linear screen readback"),
-                    });
-            let out: Vec<wgpu::Buffer> = self
-                .color
-                .iter()
-                .chain([&self.depth])
-                .map(|b| {
-                    let s = ctx.create_buffer(&wgpu::BufferDescriptor {
-                        label: Some("linear screen readback"),
-                        size: b.size(),
-                        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-                        mapped_at_creation: false,
-                    });
-                    encoder.copy_buffer_to_buffer(b, 0, &s, 0, b.size());
-                    s
-                })
-                .collect();
-            ctx.submit([encoder.finish()]);
-            out
-        })?;
         let n = self.width as usize * self.height as usize;
         let (mut color, mut depth) = (vec![[0f32; 3]; n], Vec::new());
-        let staged: Vec<&wgpu::Buffer> = staging.iter().collect();
-        read_buffers(ctx, &staged, "the linear screen", |k, b| {
+        let sources: Vec<(&wgpu::Buffer, u64)> = self
+            .color
+            .iter()
+            .chain([&self.depth])
+            .map(|b| (b, b.size()))
+            .collect();
+        read_back(&self.ctx, &sources, "the linear screen", |k, b| {
             let plane = bytemuck::pod_collect_to_vec::<u8, f32>(b);
             if k < 3 {
                 for (p, &v) in color.iter_mut().zip(&plane) {

@@ -25,9 +25,20 @@
 //! and rows per turn at `u = i + ½` (the CPU mapping's `FoveationMapping::ring`, f64 rounded
 //! to f32), the layout's rows and period (what `Grid` steps with) — plus the spacing table
 //! (`SpacingLut` every 0.1° of eccentricity): 16 B a column and 4 B an entry, into the half of
-//! a double table the previous frame did not write, so the previous frame's table stays for
+//! a double table the previous frame does not read, so the previous frame's table stays for
 //! its forward map. Whether a texel is shaded this frame is read from the sample side's own
 //! run table; in the previous frame, from the history's age (0 where it did not shade).
+//!
+//! **Only when they change.** Each half remembers what it holds. The column records depend on
+//! the method, its buffers and parameters and the display, and on the pole only where the
+//! layout follows the gaze (`FoveationMapping::layout_is_gaze_free` is false): a half whose
+//! key matches is read as it is, so with VaFR's `eq3-any-gaze` rings (the real-time
+//! preset's) the columns go up once per display and method however the gaze moves. The
+//! spacing table (its entries do not depend on the gaze for such a layout, its length
+//! does: out to the gaze's farthest corner) is built every frame (a few microseconds) and
+//! compared bit for bit with what the halves hold: a half that agrees is read as it is, and
+//! only the entries past its end go up where this frame's table reaches farther (the previous
+//! frame reads none of them).
 //!
 //! **Against the CPU.** The forward map of the previous frame is its columns' exact radii
 //! interpolated linearly between column centres (the CPU evaluates the mapping's own
@@ -50,7 +61,7 @@
 //! left as the sample side wrote it.
 
 use bytemuck::{Pod, Zeroable};
-use fovea_core::mapping::Method;
+use fovea_core::mapping::{Method, PolarLayout};
 use fovea_render::camera::EyeCamera;
 use fovea_render::plan::FramePlan;
 use fovea_render::temporal::TemporalSettings;
@@ -215,9 +226,15 @@ struct EyeTemporal {
     _moments: [wgpu::Buffer; 2],
     /// Whether the moments are kept (the guides are bound and `TemporalSettings::variance`).
     moments: bool,
-    /// Two halves of `half` floats each: this frame's columns and spacing, the previous's.
+    /// Two halves of `half` floats each, each with a column and a spacing table; a frame's
+    /// view names the ones it reads, which stay as they are while the next frame reads them
+    /// as its previous.
     tables: wgpu::Buffer,
     half: usize,
+    /// The key ([`columns_key`]) and column count of the columns each half holds.
+    held_columns: [Option<(String, usize)>; 2],
+    /// The spacing entries each half holds.
+    held_spacing: [Vec<f32>; 2],
     columns_capacity: usize,
     uniform: wgpu::Buffer,
     /// Index = the history written (the other is read).
@@ -244,45 +261,73 @@ pub struct ResidentTemporal {
     eyes: [Option<EyeTemporal>; 2],
 }
 
-/// The per-frame table of `plan` (polar: columns then spacing; screen: spacing only) and the
-/// column count.
-fn frame_table(plan: &FramePlan) -> (Vec<f32>, usize, Vec<f32>) {
+/// What a polar layout's column records depend on: the method, its buffers and parameters,
+/// the display — and the pole, unless the layout is the same at every gaze
+/// (`FoveationMapping::layout_is_gaze_free`: VaFR's `eq3-any-gaze` rings, Eq. 3's rings at a
+/// fixed `e_max`), whose columns a moving gaze leaves as they are.
+fn columns_key(plan: &FramePlan, polar: &PolarLayout) -> String {
     let mapping = plan.mapping();
-    let mut columns = Vec::new();
-    let mut n = 0;
-    if let Some(polar) = mapping.polar_layout() {
-        n = polar.rows.len().min(plan.buffers[0].width as usize);
-        columns.reserve(4 * n);
-        let mut radii: Vec<f64> = Vec::with_capacity(n);
-        for i in 0..n {
-            let (r, period) = match mapping.ring(0, i as f64 + 0.5) {
-                Some(ring) => (ring.r_px, ring.period),
-                // Past the buffer's edge: the radius continued outwards (the forward map
-                // searches the radii), no ring (the texel's centre maps nowhere).
-                None => {
-                    let r = match i {
-                        0 => 0.0,
-                        1 => 3.0 * radii[0],
-                        _ => 2.0 * radii[i - 1] - radii[i - 2],
-                    };
-                    (r, -1.0)
-                }
-            };
-            radii.push(r);
-            columns.extend_from_slice(&[
-                r as f32,
-                period as f32,
-                polar.rows[i] as f32,
-                polar.period[i] as f32,
-            ]);
-        }
+    let pole = if mapping.layout_is_gaze_free() {
+        None
+    } else {
+        Some((polar.centre.x_px.to_bits(), polar.centre.y_px.to_bits()))
+    };
+    format!(
+        "{}|{pole:?}|{:?}|{}|{}x{}|{}",
+        mapping.method(),
+        plan.buffers,
+        mapping.params(),
+        plan.display.width_px,
+        plan.display.height_px,
+        plan.display.c_r().to_bits()
+    )
+}
+
+/// The column records of `plan`'s polar layout `polar` (ring radius, ring rows per turn, the
+/// layout's rows and period per column: 4 floats a column).
+fn column_table(plan: &FramePlan, polar: &PolarLayout, n: usize) -> Vec<f32> {
+    let mapping = plan.mapping();
+    let mut columns = Vec::with_capacity(4 * n);
+    let mut radii: Vec<f64> = Vec::with_capacity(n);
+    for i in 0..n {
+        let (r, period) = match mapping.ring(0, i as f64 + 0.5) {
+            Some(ring) => (ring.r_px, ring.period),
+            // Past the buffer's edge: the radius continued outwards (the forward map
+            // searches the radii), no ring (the texel's centre maps nowhere).
+            None => {
+                let r = match i {
+                    0 => 0.0,
+                    1 => 3.0 * radii[0],
+                    _ => 2.0 * radii[i - 1] - radii[i - 2],
+                };
+                (r, -1.0)
+            }
+        };
+        radii.push(r);
+        columns.extend_from_slice(&[
+            r as f32,
+            period as f32,
+            polar.rows[i] as f32,
+            polar.period[i] as f32,
+        ]);
     }
+    columns
+}
+
+/// The spacing table of `plan` (`SpacingLut::at` every 0.1° out to 1° beyond the gaze's
+/// farthest screen corner). A few microseconds: built every frame and compared with what the
+/// device holds.
+fn spacing_table(plan: &FramePlan) -> Vec<f32> {
     let e_max = plan.display.farthest_corner_eccentricity(&plan.eye.gaze).0 + 1.0;
     let len = ((e_max / SPACING_STEP_DEG).ceil() as usize + 2).clamp(2, SPACING_CAPACITY);
-    let spacing = (0..len)
+    (0..len)
         .map(|k| plan.spacing.at(k as f64 * SPACING_STEP_DEG))
-        .collect();
-    (columns, n, spacing)
+        .collect()
+}
+
+/// Whether `a` and `b` agree bit for bit where both have entries.
+fn agree(a: &[f32], b: &[f32]) -> bool {
+    a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
 }
 
 impl EyeTemporal {
@@ -367,6 +412,8 @@ impl EyeTemporal {
                 moments,
                 tables,
                 half,
+                held_columns: [None, None],
+                held_spacing: [Vec::new(), Vec::new()],
                 columns_capacity,
                 uniform,
                 bind_groups,
@@ -432,8 +479,8 @@ impl ResidentTemporal {
 
     /// Readies eye `eye`'s pass for `plan` seen by `camera`, after the sample side prepared
     /// the eye (`shade`): (re)builds the eye's histories where the sample side's buffers were
-    /// replaced or the columns outgrow the table, and writes the uniform block and this
-    /// frame's table. The history is forgotten where the method or the display changed (as
+    /// replaced or the columns outgrow the table, and writes the uniform block and, where no
+    /// half of the table holds them already, this frame's columns and spacing. The history is forgotten where the method or the display changed (as
     /// the CPU's accumulator does) or the buffers were rebuilt.
     pub fn prepare(
         &mut self,
@@ -452,7 +499,10 @@ impl ResidentTemporal {
                 plan.method()
             )));
         }
-        let (columns, n_columns, spacing) = frame_table(plan);
+        let polar = plan.mapping().polar_layout();
+        let n_columns = polar
+            .as_ref()
+            .map_or(0, |p| p.rows.len().min(plan.buffers[0].width as usize));
         let size = plan.buffers[0];
         let texels = u64::from(size.width) * u64::from(size.height);
         let keep = self.eyes[eye].as_ref().is_some_and(|e| {
@@ -480,10 +530,78 @@ impl ResidentTemporal {
             .first()
             .copied()
             .ok_or_else(|| GpuError::Input("a sample buffer without layers".into()))?;
-        let polar = plan.mapping().polar_layout();
         let (cx, cy) = camera.principal_point_px();
         let centre = polar.as_ref().map_or(plan.eye.gaze.point, |p| p.centre);
-        let base = e.next * e.half;
+        let display = (plan.display.width_px, plan.display.height_px);
+        let previous = e
+            .previous
+            .filter(|p| p.method == plan.method() && p.display == display);
+        // The halves the previous frame's view reads (this frame reads them as its previous).
+        let prev_half = previous.map(|p| {
+            (
+                p.view.table as usize / e.half,
+                p.view.spacing as usize / e.half,
+            )
+        });
+        let ctx = &self.ctx;
+        // The columns: a half that holds this layout's already, or the one the previous frame
+        // does not read, written anew.
+        let column_half = match &polar {
+            None => 0,
+            Some(polar) => {
+                let key = columns_key(plan, polar);
+                let held = (0..2).find(|&h| {
+                    e.held_columns[h]
+                        .as_ref()
+                        .is_some_and(|(k, n)| *k == key && *n == n_columns)
+                });
+                match held {
+                    Some(h) => h,
+                    None => {
+                        let h = prev_half.map_or(0, |p| 1 - p.0);
+                        let columns = column_table(plan, polar, n_columns);
+                        if !columns.is_empty() {
+                            ctx.write_buffer(
+                                &e.tables,
+                                (h * e.half * 4) as u64,
+                                bytemuck::cast_slice(&columns),
+                            );
+                        }
+                        e.held_columns[h] = Some((key, n_columns));
+                        h
+                    }
+                }
+            }
+        };
+        // The spacing table: a half whose entries agree with this frame's, extended where
+        // this frame's reach farther (entries past the previous frame's length are not read
+        // by it), else the one the previous frame does not read, written anew.
+        let spacing = spacing_table(plan);
+        let (half, columns_capacity) = (e.half, e.columns_capacity);
+        let spacing_at = |h: usize| ((h * half + 4 * columns_capacity) * 4) as u64;
+        let agreeing = (0..2)
+            .filter(|&h| agree(&e.held_spacing[h], &spacing))
+            .max_by_key(|&h| e.held_spacing[h].len().min(spacing.len()));
+        let spacing_half = match agreeing.filter(|&h| !e.held_spacing[h].is_empty()) {
+            Some(h) => {
+                let held = e.held_spacing[h].len();
+                if spacing.len() > held {
+                    ctx.write_buffer(
+                        &e.tables,
+                        spacing_at(h) + (held * 4) as u64,
+                        bytemuck::cast_slice(&spacing[held..]),
+                    );
+                    e.held_spacing[h].extend_from_slice(&spacing[held..]);
+                }
+                h
+            }
+            None => {
+                let h = prev_half.map_or(0, |p| 1 - p.1);
+                ctx.write_buffer(&e.tables, spacing_at(h), bytemuck::cast_slice(&spacing));
+                e.held_spacing[h] = spacing.clone();
+                h
+            }
+        };
         let view = TemporalViewGpu {
             camera: TemporalCameraGpu::of(camera),
             gaze: [
@@ -499,16 +617,12 @@ impl ResidentTemporal {
                 KIND_SCREEN
             },
             columns: n_columns as u32,
-            table: base as u32,
-            spacing: (base + 4 * e.columns_capacity) as u32,
+            table: (column_half * e.half) as u32,
+            spacing: (spacing_half * e.half + 4 * e.columns_capacity) as u32,
             spacing_len: spacing.len() as u32,
             steps_per_deg: (1.0 / SPACING_STEP_DEG) as f32,
             _pad0: 0,
         };
-        let display = (plan.display.width_px, plan.display.height_px);
-        let previous = e
-            .previous
-            .filter(|p| p.method == plan.method() && p.display == display);
         let groups_total = texels.div_ceil(u64::from(WORKGROUP_SIZE)).max(1);
         let gx = groups_total.min(u64::from(MAX_GROUPS));
         let gy = groups_total.div_ceil(gx);
@@ -533,16 +647,7 @@ impl ResidentTemporal {
             moments: u32::from(e.moments),
             albedo_floor: fovea_post::denoise::ALBEDO_FLOOR,
         };
-        let ctx = &self.ctx;
         ctx.write_buffer(&e.uniform, 0, bytemuck::bytes_of(&uniform));
-        if !columns.is_empty() {
-            ctx.write_buffer(&e.tables, (base * 4) as u64, bytemuck::cast_slice(&columns));
-        }
-        ctx.write_buffer(
-            &e.tables,
-            ((base + 4 * e.columns_capacity) * 4) as u64,
-            bytemuck::cast_slice(&spacing),
-        );
         e.copy = previous.map(|_| (u64::from(layer.offset), texels));
         e.previous = Some(Previous {
             view,
