@@ -61,7 +61,7 @@
 //! left as the sample side wrote it.
 
 use bytemuck::{Pod, Zeroable};
-use fovea_core::mapping::{Method, PolarLayout};
+use fovea_core::mapping::{BufferSize, Method, PolarLayout};
 use fovea_render::camera::EyeCamera;
 use fovea_render::plan::FramePlan;
 use fovea_render::temporal::TemporalSettings;
@@ -231,8 +231,8 @@ struct EyeTemporal {
     /// as its previous.
     tables: wgpu::Buffer,
     half: usize,
-    /// The key ([`columns_key`]) and column count of the columns each half holds.
-    held_columns: [Option<(String, usize)>; 2],
+    /// What the columns each half holds were made for.
+    held_columns: [Option<ColumnsKey>; 2],
     /// The spacing entries each half holds.
     held_spacing: [Vec<f32>; 2],
     columns_capacity: usize,
@@ -265,22 +265,34 @@ pub struct ResidentTemporal {
 /// the display — and the pole, unless the layout is the same at every gaze
 /// (`FoveationMapping::layout_is_gaze_free`: VaFR's `eq3-any-gaze` rings, Eq. 3's rings at a
 /// fixed `e_max`), whose columns a moving gaze leaves as they are.
-fn columns_key(plan: &FramePlan, polar: &PolarLayout) -> String {
-    let mapping = plan.mapping();
-    let pole = if mapping.layout_is_gaze_free() {
-        None
-    } else {
-        Some((polar.centre.x_px.to_bits(), polar.centre.y_px.to_bits()))
-    };
-    format!(
-        "{}|{pole:?}|{:?}|{}|{}x{}|{}",
-        mapping.method(),
-        plan.buffers,
-        mapping.params(),
-        plan.display.width_px,
-        plan.display.height_px,
-        plan.display.c_r().to_bits()
-    )
+#[derive(Clone, Debug, PartialEq)]
+struct ColumnsKey {
+    method: Method,
+    /// The pole's bits, where the layout follows the gaze.
+    pole: Option<(u64, u64)>,
+    buffers: Vec<BufferSize>,
+    params: serde_json::Value,
+    display: (u32, u32),
+    c_r_bits: u64,
+    /// The column count written.
+    columns: usize,
+}
+
+impl ColumnsKey {
+    fn of(plan: &FramePlan, polar: &PolarLayout, columns: usize) -> Self {
+        let mapping = plan.mapping();
+        let pole = (!mapping.layout_is_gaze_free())
+            .then(|| (polar.centre.x_px.to_bits(), polar.centre.y_px.to_bits()));
+        Self {
+            method: mapping.method(),
+            pole,
+            buffers: plan.buffers.clone(),
+            params: mapping.params(),
+            display: (plan.display.width_px, plan.display.height_px),
+            c_r_bits: plan.display.c_r().to_bits(),
+            columns,
+        }
+    }
 }
 
 /// The column records of `plan`'s polar layout `polar` (ring radius, ring rows per turn, the
@@ -480,8 +492,9 @@ impl ResidentTemporal {
     /// Readies eye `eye`'s pass for `plan` seen by `camera`, after the sample side prepared
     /// the eye (`shade`): (re)builds the eye's histories where the sample side's buffers were
     /// replaced or the columns outgrow the table, and writes the uniform block and, where no
-    /// half of the table holds them already, this frame's columns and spacing. The history is forgotten where the method or the display changed (as
-    /// the CPU's accumulator does) or the buffers were rebuilt.
+    /// half of the table holds them already, this frame's columns and spacing. The history is
+    /// forgotten where the method or the display changed (as the CPU's accumulator does) or
+    /// the buffers were rebuilt.
     pub fn prepare(
         &mut self,
         eye: usize,
@@ -549,12 +562,8 @@ impl ResidentTemporal {
         let column_half = match &polar {
             None => 0,
             Some(polar) => {
-                let key = columns_key(plan, polar);
-                let held = (0..2).find(|&h| {
-                    e.held_columns[h]
-                        .as_ref()
-                        .is_some_and(|(k, n)| *k == key && *n == n_columns)
-                });
+                let key = ColumnsKey::of(plan, polar, n_columns);
+                let held = (0..2).find(|&h| e.held_columns[h].as_ref() == Some(&key));
                 match held {
                     Some(h) => h,
                     None => {
@@ -567,7 +576,7 @@ impl ResidentTemporal {
                                 bytemuck::cast_slice(&columns),
                             );
                         }
-                        e.held_columns[h] = Some((key, n_columns));
+                        e.held_columns[h] = Some(key);
                         h
                     }
                 }
@@ -577,6 +586,7 @@ impl ResidentTemporal {
         // this frame's reach farther (entries past the previous frame's length are not read
         // by it), else the one the previous frame does not read, written anew.
         let spacing = spacing_table(plan);
+        let spacing_len = spacing.len();
         let (half, columns_capacity) = (e.half, e.columns_capacity);
         let spacing_at = |h: usize| ((h * half + 4 * columns_capacity) * 4) as u64;
         let agreeing = (0..2)
@@ -598,7 +608,7 @@ impl ResidentTemporal {
             None => {
                 let h = prev_half.map_or(0, |p| 1 - p.1);
                 ctx.write_buffer(&e.tables, spacing_at(h), bytemuck::cast_slice(&spacing));
-                e.held_spacing[h] = spacing.clone();
+                e.held_spacing[h] = spacing;
                 h
             }
         };
@@ -619,7 +629,7 @@ impl ResidentTemporal {
             columns: n_columns as u32,
             table: (column_half * e.half) as u32,
             spacing: (spacing_half * e.half + 4 * e.columns_capacity) as u32,
-            spacing_len: spacing.len() as u32,
+            spacing_len: spacing_len as u32,
             steps_per_deg: (1.0 / SPACING_STEP_DEG) as f32,
             _pad0: 0,
         };
